@@ -1,0 +1,606 @@
+"""RS-274X / Gerber X2 / X3 reader: text in, `Program` in integer nm out.
+
+The file is cut into statements by one regular expression: `%...%` extended
+commands and `...*` word commands. The common case, a coordinate block such as
+`X1500Y-200D01*`, takes a fast path (one fullmatch); everything else goes to a
+small method per command, found in a dispatch table.
+
+Graphics state follows the Gerber Layer Format Specification (2023.08): modal
+coordinates, modal interpolation and quadrant modes, D01/D02/D03, regions,
+step-and-repeat, aperture blocks. Deprecated commands that real CAD output still
+writes are accepted; the image transforms among them (AS, MI, SF, OF, IR) are
+applied to the coordinates at the end, the rest is recorded with a warning.
+"""
+
+from __future__ import annotations
+
+import re
+from array import array
+from collections import Counter
+
+import numpy as np
+
+from ..errors import GerberError, SourcePos
+from ..program import (COLUMNS, NO_TOOL, X, Y, I, J, KIND, Aperture, OpKind, Program,
+                       ProgramBuilder)
+from ..geometry import single_quadrant_centre
+from .apertures import define_aperture, parse_parameters
+from .image import ImageTransform
+from .macros import MacroError, MacroTemplate
+from .numbers import AxisFormat, parse_decimal
+
+# G04 comments get their own branch: EAGLE writes "%" inside them (G04 #@! %TF...).
+_STATEMENT = re.compile(r"\s*(?:G0?4[^*]*\*|%([^%]*)%|([^%*]*)\*)")
+_DATA = re.compile(
+    r"(?:G0*([123])(?!\d))?(?:X([+-]?\d+))?(?:Y([+-]?\d+))?(?:I([+-]?\d+))?(?:J([+-]?\d+))?(?:D0*([123])(?!\d))?")
+_WORD = re.compile(r"([A-Z])([+-]?(?:\d+\.?\d*|\.\d+))")
+_FS = re.compile(r"FS([LTD]?)([AI])(?:N\d+)?(?:G\d+)?X(\d)(\d)Y(\d)(\d)(?:Z\d\d)?(?:D\d+)?(?:M\d+)?$")
+_AD = re.compile(r"ADD(\d+)([A-Za-z_.$][^,]*)(?:,(.*))?$", re.S)
+_SR = re.compile(r"SR(?:X(\d+))?(?:Y(\d+))?(?:I([+-]?[\d.]+))?(?:J([+-]?[\d.]+))?$")
+
+MOVE, LINE, ARC_CW, ARC_CCW, FLASH = (int(OpKind.MOVE), int(OpKind.LINE), int(OpKind.ARC_CW),
+                                      int(OpKind.ARC_CCW), int(OpKind.FLASH))
+PEN_DOWN, SELECT = int(OpKind.PEN_DOWN), int(OpKind.SELECT)
+NCOL = len(COLUMNS)
+# X2/X3 attribute commands kept as metadata.
+_ATTRIBUTES = ("TF", "TA", "TO", "TD")
+# Deprecated commands with no geometric effect on a plot: accepted with a warning.
+_IGNORED_DEPRECATED = {"IJ": "image justify", "IO": "image offset", "IC": "input code",
+                       "KO": "knock out", "PF": "plot film", "IN": "image name",
+                       "LN": "level name", "SM": "symbol mirror", "RO": "rotate image",
+                       "PD": "plotter defaults", "FL": "film", "ICAS": "input code"}
+
+
+def read_gerber(source, text: str | None = None) -> Program:
+    """Read an RS-274X file (or `text`, with `source` naming it) into a Program."""
+    name = str(source)
+    if text is None:
+        with open(source, "rb") as handle:
+            text = handle.read().decode("utf-8", errors="replace")
+    return GerberReader(name, text).run()
+
+
+class GerberReader:
+    """Graphics state plus the statement loop. One instance reads one file."""
+
+    def __init__(self, name: str, text: str):
+        self.name = name
+        self.text = text
+        self.builder = ProgramBuilder(name)
+        self.rows = self.builder.rows  # where ops go now (an %AB block redirects it)
+        self.warning_counts: Counter[str] = Counter()
+        self.metadata: dict = {"attributes": {}, "deprecated": []}
+        self.apertures: dict[int, Aperture] = {}
+        self.macros: dict[str, MacroTemplate] = {}
+        self.blocks: dict[int, np.ndarray] = {}  # %AB aperture blocks, as op rows
+        self.block_stack: list[tuple[int, array]] = []
+        self.image = ImageTransform()
+        # Format and units.
+        self.units: str | None = None
+        self.fs: tuple | None = None  # (trailing, incremental, xi, xd, yi, yd)
+        self.fmt_x: AxisFormat | None = None
+        self.fmt_y: AxisFormat | None = None
+        self.incremental = False
+        # Graphics state.
+        self.x = self.y = 0
+        self.interpolation = 1
+        self.quadrant: int | None = None
+        self.dcode = 0
+        self.aperture = NO_TOOL
+        self.pen_down = False
+        self.in_region = False
+        self.step_repeat: tuple[int, int, int, int, int] | None = None  # nx, ny, dx, dy, first row
+        self.ended = False
+        self.line = 1
+        self.col = 1
+
+    # --- driver -----------------------------------------------------------------
+
+    def run(self) -> Program:
+        text = self.text
+        line, line_start, scanned = 1, 0, 0
+        end = 0
+        fast = _DATA.fullmatch
+        for m in _STATEMENT.finditer(text):
+            extended, word = m.groups()
+            if extended is None and word is None:
+                continue  # a G04 comment
+            start = m.start(2) if word is not None else m.start(1) - 1
+            newlines = text.count("\n", scanned, start)
+            if newlines:
+                line += newlines
+                line_start = text.rfind("\n", scanned, start) + 1
+            scanned = start
+            self.line, self.col = line, start - line_start + 1
+            end = m.end()
+            if word is not None:
+                d = fast(word)
+                if d is not None:
+                    self._data(*d.groups())
+                else:
+                    self._word(word)
+            else:
+                self._extended(extended)
+            if self.ended:
+                break
+        self._finish(end)
+        return self._program()
+
+    def error(self, message: str, text: str = "") -> GerberError:
+        return GerberError(SourcePos(self.name, self.line, self.col), message, text)
+
+    def warn(self, key: str, message: str, text: str = "") -> None:
+        """Count a tolerated oddity; the first of each kind is kept with its position."""
+        self.warning_counts[key] += 1
+        if self.warning_counts[key] == 1:
+            self.builder.warn(self.line, self.col, message, text)
+
+    def emit(self, kind: int, x: int = 0, y: int = 0, i: int = 0, j: int = 0,
+             tool: int = NO_TOOL, value: int = 0) -> None:
+        self.rows.extend((kind, x, y, i, j, tool, value, self.line, self.col))
+
+    # --- coordinate data --------------------------------------------------------
+
+    def _data(self, g, xs, ys, is_, js, d) -> None:
+        if g is not None:
+            self.interpolation = int(g)
+        if d is None:
+            if xs is None and ys is None and is_ is None and js is None:
+                return  # a bare G01/G02/G03 (or an empty statement)
+            if self.dcode:
+                self.warn("implicit-D", "coordinates without a D code repeat the last D code (deprecated)")
+                d = self.dcode
+            else:
+                self.warn("no-D", "coordinates before any D code: taken as a move (D02)")
+                d = 2
+        else:
+            d = int(d)
+            self.dcode = d
+        fmt_x, fmt_y = self.fmt_x, self.fmt_y
+        if fmt_x is None:
+            self._require_format()
+            fmt_x, fmt_y = self.fmt_x, self.fmt_y
+        x, y = self.x, self.y
+        if self.incremental:
+            if xs is not None:
+                x += fmt_x.to_nm(xs)
+            if ys is not None:
+                y += fmt_y.to_nm(ys)
+        else:
+            if xs is not None:
+                x = fmt_x.to_nm(xs)
+            if ys is not None:
+                y = fmt_y.to_nm(ys)
+        if d == 1:
+            self._interpolate(x, y, fmt_x.to_nm(is_) if is_ else 0, fmt_y.to_nm(js) if js else 0)
+        elif d == 2:
+            self.emit(MOVE, x, y)
+            self.pen_down = False
+        else:
+            self._flash(x, y)
+        self.x, self.y = x, y
+
+    def _require_format(self) -> None:
+        if self.fs is None:
+            # RS-274-D files and include fragments carry no header.
+            self.warn("no-fs", "no %FS before the first coordinate: assuming %FSLAX24Y24*")
+            self.fs = (False, 2, 4, 2, 4)
+        if self.units is None:
+            self.warn("no-units", "no %MO before the first coordinate: assuming inches")
+            self.units = "in"
+            self._update_formats()
+
+    def _interpolate(self, x: int, y: int, i: int, j: int) -> None:
+        if not self.pen_down:
+            self.emit(PEN_DOWN)
+            self.pen_down = True
+        tool = NO_TOOL if self.in_region else self.aperture
+        if not self.in_region and tool == NO_TOOL:
+            raise self.error("expected an aperture (Dnn) to be selected before drawing")
+        mode = self.interpolation
+        if mode == 1:
+            self.emit(LINE, x, y, tool=tool)
+            return
+        clockwise = mode == 2
+        if self.quadrant is None:
+            self.warn("no-quadrant-mode", "arc before any G74/G75: using single-quadrant mode")
+            self.quadrant = 74
+        if self.quadrant == 74:
+            if (x, y) == (self.x, self.y):
+                self.emit(LINE, x, y, tool=tool)  # a single-quadrant arc cannot close a circle
+                return
+            i, j = single_quadrant_centre(self.x, self.y, x, y, i, j, clockwise)
+        self.emit(ARC_CW if clockwise else ARC_CCW, x, y, i, j, tool=tool)
+
+    def _flash(self, x: int, y: int) -> None:
+        if self.in_region:
+            raise self.error("D03 (flash) is not allowed inside a region (G36/G37)")
+        if self.aperture == NO_TOOL:
+            raise self.error("expected an aperture (Dnn) to be selected before flashing")
+        self.pen_down = False
+        block = self.blocks.get(self.aperture)
+        if block is None:
+            self.emit(FLASH, x, y, tool=self.aperture)
+            return
+        copy = block.copy()
+        moving = np.isin(copy[:, KIND], (MOVE, LINE, ARC_CW, ARC_CCW, FLASH))
+        copy[moving, X] += x
+        copy[moving, Y] += y
+        self.rows.extend(copy.ravel().tolist())
+
+    # --- word commands ------------------------------------------------------------
+
+    def _word(self, word: str) -> None:
+        if word.lstrip().startswith("G04") or word.lstrip().startswith("G4 "):
+            return
+        compact = "".join(word.split())
+        if not compact:
+            return
+        if compact.startswith(("G04", "G4")) and not compact[2:3].isdigit():
+            return
+        handler = _WORD_COMMANDS.get(compact)
+        if handler is not None:
+            handler(self)
+            return
+        m = re.fullmatch(r"(?:G0*(54|55))?D0*(\d+)", compact)
+        if m and int(m.group(2)) >= 10:
+            if m.group(1):
+                self.warn("G54", f"G{m.group(1)} before an aperture select is deprecated")
+            self._select(int(m.group(2)))
+            return
+        d = _DATA.fullmatch(compact)
+        if d is not None:
+            self._data(*d.groups())
+            return
+        self._general_word(compact, word)
+
+    def _general_word(self, compact: str, original: str) -> None:
+        """Words in unusual order or with decimal points; G codes act before D codes."""
+        words = _WORD.findall(compact)
+        if sum(len(a) + len(b) for a, b in words) != len(compact):
+            raise self.error("expected a Gerber word command (letter followed by a number)", original)
+        values: dict[str, str] = {}
+        for letter, number in words:
+            if letter == "G":
+                code = int(float(number))
+                handler = _WORD_COMMANDS.get(f"G{code:02d}")
+                if code in (1, 2, 3):
+                    self.interpolation = code
+                elif handler is not None:
+                    handler(self)
+                elif code in (54, 55):
+                    self.warn("G54", f"G{code} before an aperture select is deprecated")
+                else:
+                    raise self.error(f"unknown G code G{number}", original)
+            elif letter in "XYIJD" and letter not in values:
+                values[letter] = number
+            elif letter == "M":
+                handler = _WORD_COMMANDS.get(f"M{int(float(number)):02d}")
+                if handler is None:
+                    raise self.error(f"unknown M code M{number}", original)
+                handler(self)
+            else:
+                raise self.error(f"unexpected word {letter}{number}", original)
+        d = values.pop("D", None)
+        if d is not None and int(float(d)) >= 10:
+            self._select(int(float(d)))
+            d = None
+        if not values and d is None:
+            return
+        if any("." in v for v in values.values()):
+            values = {k: self._decimal_coordinate(k, v) for k, v in values.items()}
+        self._data(None, values.get("X"), values.get("Y"), values.get("I"), values.get("J"),
+                   str(int(float(d))) if d is not None else None)
+
+    def _decimal_coordinate(self, axis: str, number: str) -> str:
+        """A coordinate written with a decimal point, re-expressed in %FS digits."""
+        self.warn("decimal-coordinate", "coordinate with a decimal point (not allowed by the spec)")
+        fmt = self.fmt_x if axis in "XI" else self.fmt_y
+        if fmt is None:
+            self._require_format()
+            fmt = self.fmt_x if axis in "XI" else self.fmt_y
+        value = parse_decimal(number) * 10 ** fmt.decimal_digits
+        if fmt.trailing_zeros_omitted:
+            raise self.error("decimal-point coordinates in a trailing-zero-omission file", number)
+        return str(round(value))
+
+    def _select(self, code: int) -> None:
+        if code not in self.apertures:
+            if self.apertures or self.macros:
+                raise self.error(f"aperture D{code} is used but not defined (%ADD{code}...)")
+            # RS-274-D: the aperture list lived outside the file; a pen draws anyway.
+            self.warn("rs274d", f"aperture D{code} is not defined and the file defines none "
+                                "(RS-274-D?): using a zero-size round aperture")
+            self.apertures[code] = Aperture(code, "circle", (0,))
+        self.aperture = code
+        self.emit(SELECT, self.x, self.y, tool=code)
+
+    def _region_begin(self) -> None:
+        if self.in_region:
+            raise self.error("G36 inside a region: expected G37 first")
+        self.in_region = True
+        self.pen_down = False
+        self.emit(int(OpKind.REGION_BEGIN), self.x, self.y)
+
+    def _region_end(self) -> None:
+        if not self.in_region:
+            raise self.error("G37 without a G36 before it")
+        self.in_region = False
+        self.pen_down = False
+        self.emit(int(OpKind.REGION_END), self.x, self.y)
+
+    def _set_quadrant(self, mode: int) -> None:
+        self.quadrant = mode
+
+    def _deprecated_units(self, units: str) -> None:
+        self.warn("G70/G71", "G70/G71 units are deprecated (use %MO)")
+        self._set_units(units)
+
+    def _deprecated_notation(self, incremental: bool) -> None:
+        self.warn("G90/G91", "G90/G91 notation is deprecated (use %FS)")
+        self.incremental = incremental
+
+    def _end(self) -> None:
+        self.ended = True
+
+    # --- extended commands --------------------------------------------------------
+
+    def _extended(self, content: str) -> None:
+        blocks = content.split("*")
+        if blocks[-1].strip():
+            self.warn("missing-star", "extended command without '*' before the closing '%'", content)
+        else:
+            blocks.pop()
+        if not blocks:
+            return
+        head = blocks[0].lstrip()
+        if head.startswith("AM"):
+            self._macro(head[2:].strip(), blocks[1:])
+            return
+        for block in blocks:
+            block = block.strip()
+            if block:
+                self._extended_block(block)
+
+    def _extended_block(self, block: str) -> None:
+        code = block[:2]
+        handler = _EXTENDED_COMMANDS.get(code)
+        if handler is not None:
+            handler(self, block)
+        elif code in _ATTRIBUTES:
+            self._attribute(block)
+        elif code in _IGNORED_DEPRECATED or block[:4] in _IGNORED_DEPRECATED:
+            self.metadata["deprecated"].append(block)
+            self.warn(code, f"%{code} ({_IGNORED_DEPRECATED.get(code) or _IGNORED_DEPRECATED[block[:4]]}) "
+                            "is deprecated and ignored", block)
+        elif block.startswith("G04") or block.startswith("G4"):
+            return
+        else:
+            raise self.error(f"unknown extended command %{code}", block)
+
+    def _format_spec(self, block: str) -> None:
+        m = _FS.match("".join(block.split()))
+        if not m:
+            raise self.error("expected %FS[L|T][A|I]XnnYnn* (coordinate format)", block)
+        zeros, notation, xi, xd, yi, yd = m.groups()
+        if zeros == "":
+            self.warn("fs-zeros", "%FS without L or T: assuming leading zeros are omitted", block)
+        if zeros == "T":
+            self.warn("fs-trailing", "trailing zero omission is deprecated", block)
+        if notation == "I":
+            self.warn("fs-incremental", "incremental notation is deprecated", block)
+        self.fs = (zeros == "T", int(xi), int(xd), int(yi), int(yd))
+        self.incremental = notation == "I"
+        self.metadata["format"] = f"{xi}.{xd}"
+        self._update_formats()
+
+    def _units_block(self, block: str) -> None:
+        units = {"MOMM": "mm", "MOIN": "in"}.get("".join(block.split()))
+        if units is None:
+            raise self.error("expected %MOMM* or %MOIN*", block)
+        self._set_units(units)
+
+    def _set_units(self, units: str) -> None:
+        self.units = units
+        self._update_formats()
+
+    def _update_formats(self) -> None:
+        if self.fs is None or self.units is None:
+            return
+        trailing, xi, xd, yi, yd = self.fs
+        self.fmt_x = AxisFormat.make(xi, xd, trailing, self.units)
+        self.fmt_y = AxisFormat.make(yi, yd, trailing, self.units)
+
+    def _aperture_definition(self, block: str) -> None:
+        m = _AD.match(block)
+        if not m:
+            raise self.error("expected %ADDnn<template>[,<parameters>]*", block)
+        code, template, parameters = int(m.group(1)), m.group(2).strip(), m.group(3)
+        if code < 10:
+            raise self.error(f"aperture numbers start at D10, got D{code}", block)
+        if self.units is None:
+            self.warn("no-units", "no %MO before the first aperture: assuming inches")
+            self._set_units("in")
+        try:
+            values, irregular = parse_parameters("".join((parameters or "").split()))
+            if irregular:
+                self.warn("ad-parameters", "irregular aperture parameter list "
+                                           "(glued numbers or a trailing 'X')", block)
+            aperture = define_aperture(code, template, values, self.units, self.macros)
+        except MacroError as problem:
+            raise self.error(str(problem), block) from None
+        if code in self.apertures:
+            self.warn("redefined-aperture", f"aperture D{code} defined again: the new one wins", block)
+        self.apertures[code] = aperture
+
+    def _macro(self, name: str, body: list[str]) -> None:
+        if not name:
+            raise self.error("expected a macro name after %AM")
+        try:
+            self.macros[name] = MacroTemplate.parse(name, body)
+        except MacroError as problem:
+            raise self.error(str(problem), "*".join(body)) from None
+
+    def _polarity(self, block: str) -> None:
+        value = {"LPD": 1, "LPC": 0}.get(block.strip())
+        if value is None:
+            raise self.error("expected %LPD* or %LPC*", block)
+        self.emit(int(OpKind.POLARITY), self.x, self.y, value=value)
+
+    def _step_repeat(self, block: str) -> None:
+        m = _SR.match("".join(block.split()))
+        if not m:
+            raise self.error("expected %SRXnYnIdJd* or %SR*", block)
+        self._close_step_repeat()
+        nx, ny, di, dj = m.groups()
+        nx, ny = int(nx or 1), int(ny or 1)
+        if nx < 1 or ny < 1:
+            raise self.error("step-and-repeat counts must be at least 1", block)
+        units = self.units or "in"
+        from .numbers import decimal_to_nm
+        dx = decimal_to_nm(di, units) if di else 0
+        dy = decimal_to_nm(dj, units) if dj else 0
+        if nx * ny > 1:
+            self.step_repeat = (nx, ny, dx, dy, len(self.rows) // NCOL)
+
+    def _close_step_repeat(self) -> None:
+        if self.step_repeat is None:
+            return
+        nx, ny, dx, dy, first = self.step_repeat
+        self.step_repeat = None
+        rows = np.frombuffer(self.rows, dtype=np.int64).reshape(-1, NCOL)[first:].copy()
+        moving = np.isin(rows[:, KIND], (MOVE, LINE, ARC_CW, ARC_CCW, FLASH, int(OpKind.SELECT),
+                                         int(OpKind.REGION_BEGIN), int(OpKind.REGION_END),
+                                         int(OpKind.POLARITY)))
+        for ix in range(nx):
+            for iy in range(ny):
+                if ix == 0 and iy == 0:
+                    continue
+                copy = rows.copy()
+                copy[moving, X] += ix * dx
+                copy[moving, Y] += iy * dy
+                # Each copy starts with the pen up at its first point.
+                self.rows.extend((MOVE, int(copy[0, X]), int(copy[0, Y]), 0, 0, NO_TOOL, 0,
+                                  int(copy[0, -2]), int(copy[0, -1])))
+                self.rows.extend(copy.ravel().tolist())
+        self.pen_down = False
+
+    def _aperture_block(self, block: str) -> None:
+        body = "".join(block.split())
+        if body == "AB":
+            if not self.block_stack:
+                raise self.error("%AB* closes a block that was never opened", block)
+            code, outer = self.block_stack.pop()
+            rows = np.frombuffer(self.rows, dtype=np.int64).reshape(-1, NCOL).copy()
+            self.blocks[code] = rows
+            self.apertures[code] = Aperture(code, "block", extent_nm=_rows_extent(rows))
+            self.rows = outer
+            self.pen_down = False
+            return
+        m = re.fullmatch(r"ABD(\d+)", body)
+        if not m:
+            raise self.error("expected %ABDnn* or %AB*", block)
+        self.block_stack.append((int(m.group(1)), self.rows))
+        self.rows = array("q")
+        self.pen_down = False
+
+    def _load_transform(self, block: str) -> None:
+        self.metadata.setdefault("load_transforms", []).append(block)
+        if block.strip() not in ("LMN", "LR0", "LS1", "LR0.0", "LS1.0"):
+            self.warn("LM/LR/LS", "%LM/%LR/%LS rotate, mirror or scale flashed apertures; "
+                                  "flash positions are exact, aperture outlines are not transformed", block)
+
+    def _attribute(self, block: str) -> None:
+        key, _, value = block[2:].partition(",")
+        if block[:2] == "TD":
+            self.metadata["attributes"].pop(key, None)
+        else:
+            self.metadata["attributes"][f"{block[:2]}{key}"] = value
+
+    def _image_parameter(self, block: str) -> None:
+        try:
+            changed = self.image.apply_command("".join(block.split()), self.units or "in")
+        except ValueError as problem:
+            raise self.error(str(problem), block) from None
+        self.metadata["deprecated"].append(block)
+        self.warn(block[:2], f"%{block[:2]} is deprecated"
+                  + ("; applied to the coordinates" if changed else "; has no effect here"), block)
+
+    # --- end ----------------------------------------------------------------------
+
+    def _finish(self, end: int) -> None:
+        rest = self.text[end:]
+        if self.ended:
+            if rest.strip():
+                self.warn("after-M02", "text after M02 is ignored", rest.strip())
+        else:
+            if rest.strip():
+                start = end + len(rest) - len(rest.lstrip())
+                self.line = self.text.count("\n", 0, start) + 1
+                self.col = start - (self.text.rfind("\n", 0, start) + 1) + 1
+                raise self.error("expected '*' or '%' to end the statement", rest.strip())
+            self.warn("no-M02", "file does not end with M02")
+        if self.in_region:
+            self.warn("open-region", "region (G36) not closed with G37 before the end")
+            self._region_end()
+        if self.block_stack:
+            raise self.error("aperture block (%AB) not closed before the end")
+        self._close_step_repeat()
+
+    def _program(self) -> Program:
+        table = self.builder.table()
+        if not self.image.is_identity():
+            self.image.apply(table)
+        self.metadata["warning_counts"] = dict(self.warning_counts)
+        self.metadata["image"] = self.image.describe()
+        self.metadata["incremental"] = self.incremental
+        return Program(self.name, "gerber", self.units or "in", table, apertures=self.apertures,
+                       metadata=self.metadata, warnings=self.builder.warnings,
+                       line_count=self.text.count("\n") + (0 if self.text.endswith("\n") else 1))
+
+
+def _rows_extent(rows: np.ndarray) -> tuple[int, int, int, int]:
+    drawn = rows[np.isin(rows[:, KIND], (MOVE, LINE, ARC_CW, ARC_CCW, FLASH))]
+    if not len(drawn):
+        return (0, 0, 0, 0)
+    return (int(drawn[:, X].min()), int(drawn[:, Y].min()), int(drawn[:, X].max()), int(drawn[:, Y].max()))
+
+
+_WORD_COMMANDS = {
+    "G01": lambda r: setattr(r, "interpolation", 1),
+    "G02": lambda r: setattr(r, "interpolation", 2),
+    "G03": lambda r: setattr(r, "interpolation", 3),
+    "G36": GerberReader._region_begin,
+    "G37": GerberReader._region_end,
+    "G74": lambda r: r._set_quadrant(74),
+    "G75": lambda r: r._set_quadrant(75),
+    "G70": lambda r: r._deprecated_units("in"),
+    "G71": lambda r: r._deprecated_units("mm"),
+    "G90": lambda r: r._deprecated_notation(False),
+    "G91": lambda r: r._deprecated_notation(True),
+    "M02": GerberReader._end,
+    "M00": GerberReader._end,
+    "M01": lambda r: None,
+}
+for _code in ("G1", "G2", "G3"):
+    _WORD_COMMANDS[_code] = _WORD_COMMANDS["G0" + _code[1]]
+_WORD_COMMANDS["M2"] = _WORD_COMMANDS["M02"]
+_WORD_COMMANDS["M0"] = _WORD_COMMANDS["M00"]
+
+_EXTENDED_COMMANDS = {
+    "FS": GerberReader._format_spec,
+    "MO": GerberReader._units_block,
+    "AD": GerberReader._aperture_definition,
+    "LP": GerberReader._polarity,
+    "SR": GerberReader._step_repeat,
+    "AB": GerberReader._aperture_block,
+    "LM": GerberReader._load_transform,
+    "LR": GerberReader._load_transform,
+    "LS": GerberReader._load_transform,
+    "IP": GerberReader._image_parameter,
+    "IR": GerberReader._image_parameter,
+    "MI": GerberReader._image_parameter,
+    "OF": GerberReader._image_parameter,
+    "SF": GerberReader._image_parameter,
+    "AS": GerberReader._image_parameter,
+}
