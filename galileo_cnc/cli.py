@@ -3,16 +3,40 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 
 from . import __version__
 from .errors import GalileoError
+from .program import NM_PER_MM
+
+
+def _run_info(args: argparse.Namespace) -> int:
+    from .info import format_summary, summarize
+    from .readers import read_file
+
+    program = read_file(args.file)
+    summary = summarize(program, margin_nm=round(args.margin * NM_PER_MM))
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        print(format_summary(summary))
+    return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="galileo-cnc", description=__doc__)
+    parser = argparse.ArgumentParser(
+        prog="galileo-cnc",
+        description="Plot Gerber RS-274X artwork and G-code drawings on a home-built CNC plotter.")
     parser.add_argument("--version", action="version", version=f"galileo-cnc {__version__}")
-    parser.add_subparsers(dest="command", metavar="COMMAND")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    info = commands.add_parser("info", help="describe a Gerber or G-code file")
+    info.add_argument("file", help="Gerber (RS-274X) or G-code file")
+    info.add_argument("--json", action="store_true", help="print machine-readable JSON")
+    info.add_argument("--margin", type=float, default=1.0, metavar="MM",
+                      help="margin kept from the origin by the proposed offset (default 1 mm)")
+    info.set_defaults(run=_run_info)
     return parser
 
 
@@ -27,3 +51,6 @@ def main(argv: list[str] | None = None) -> int:
     except GalileoError as error:
         print(f"galileo-cnc: {error}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:
+        print("galileo-cnc: interrupted", file=sys.stderr)
+        return 130

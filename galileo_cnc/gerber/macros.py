@@ -73,15 +73,13 @@ class MacroTemplate:
                 variables[statement.assign_to] = evaluate_expression(statement.expressions[0], variables)
                 continue
             values = [evaluate_expression(e, variables) for e in statement.expressions]
-            builder = _PRIMITIVES.get(statement.code)
+            builder, minimum = _PRIMITIVES.get(statement.code, (None, 0))
             if builder is None:
                 raise MacroError(f"unknown primitive code {statement.code} in macro {self.name}")
-            try:
-                shapes.extend(builder(values, units))
-            except IndexError:
-                raise MacroError(
-                    f"primitive {statement.code} in macro {self.name} has too few parameters "
-                    f"({len(values)})") from None
+            if len(values) < minimum or (statement.code == 4 and len(values) < 2 * int(values[1]) + 4):
+                raise MacroError(f"primitive {statement.code} in macro {self.name} has too few "
+                                 f"parameters ({len(values)})")
+            shapes.extend(builder(values, units))
         return tuple(shapes)
 
 
@@ -230,8 +228,6 @@ def _lower_left_line(v, units):
 def _outline(v, units):
     exposure, count = v[0], int(v[1])
     coordinates = v[2:2 + 2 * (count + 1)]
-    if len(coordinates) < 2 * (count + 1):
-        raise IndexError
     rotation = v[2 + 2 * (count + 1)] if len(v) > 2 + 2 * (count + 1) else Fraction(0)
     points = list(zip(coordinates[0::2], coordinates[1::2]))
     return [("polygon", _dark(exposure), _place(points, rotation, units))]
@@ -299,9 +295,11 @@ def _moire(v, units):
     return shapes
 
 
+# Primitive code -> (builder, fewest parameters it needs).
 _PRIMITIVES = {
-    1: _circle, 2: _vector_line, 20: _vector_line, 21: _center_line, 22: _lower_left_line,
-    4: _outline, 5: _regular_polygon, 6: _moire, 7: _thermal,
+    1: (_circle, 4), 2: (_vector_line, 7), 20: (_vector_line, 7), 21: (_center_line, 5),
+    22: (_lower_left_line, 5), 4: (_outline, 2), 5: (_regular_polygon, 5), 6: (_moire, 8),
+    7: (_thermal, 5),
 }
 
 

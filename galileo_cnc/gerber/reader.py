@@ -102,6 +102,9 @@ class GerberReader:
         end = 0
         fast = _DATA.fullmatch
         for m in _STATEMENT.finditer(text):
+            if m.start() != end:
+                self._unparsed(end)  # finditer skipped text that starts no statement
+            end = m.end()
             extended, word = m.groups()
             if extended is None and word is None:
                 continue  # a G04 comment
@@ -112,7 +115,6 @@ class GerberReader:
                 line_start = text.rfind("\n", scanned, start) + 1
             scanned = start
             self.line, self.col = line, start - line_start + 1
-            end = m.end()
             if word is not None:
                 d = fast(word)
                 if d is not None:
@@ -188,11 +190,11 @@ class GerberReader:
         if self.units is None:
             self.warn("no-units", "no %MO before the first coordinate: assuming inches")
             self.units = "in"
-            self._update_formats()
+        self._update_formats()
 
     def _interpolate(self, x: int, y: int, i: int, j: int) -> None:
         if not self.pen_down:
-            self.emit(PEN_DOWN)
+            self.emit(PEN_DOWN, self.x, self.y)
             self.pen_down = True
         tool = NO_TOOL if self.in_region else self.aperture
         if not self.in_region and tool == NO_TOOL:
@@ -469,6 +471,8 @@ class GerberReader:
         nx, ny, dx, dy, first = self.step_repeat
         self.step_repeat = None
         rows = np.frombuffer(self.rows, dtype=np.int64).reshape(-1, NCOL)[first:].copy()
+        if not len(rows):
+            return
         moving = np.isin(rows[:, KIND], (MOVE, LINE, ARC_CW, ARC_CCW, FLASH, int(OpKind.SELECT),
                                          int(OpKind.REGION_BEGIN), int(OpKind.REGION_END),
                                          int(OpKind.POLARITY)))
@@ -512,8 +516,11 @@ class GerberReader:
 
     def _attribute(self, block: str) -> None:
         key, _, value = block[2:].partition(",")
+        attributes = self.metadata["attributes"]
         if block[:2] == "TD":
-            self.metadata["attributes"].pop(key, None)
+            # %TD deletes aperture and object attributes (all of them without a name).
+            for name in [n for n in attributes if n[:2] in ("TA", "TO") and (not key or n[2:] == key)]:
+                del attributes[name]
         else:
             self.metadata["attributes"][f"{block[:2]}{key}"] = value
 
@@ -535,10 +542,7 @@ class GerberReader:
                 self.warn("after-M02", "text after M02 is ignored", rest.strip())
         else:
             if rest.strip():
-                start = end + len(rest) - len(rest.lstrip())
-                self.line = self.text.count("\n", 0, start) + 1
-                self.col = start - (self.text.rfind("\n", 0, start) + 1) + 1
-                raise self.error("expected '*' or '%' to end the statement", rest.strip())
+                self._unparsed(end)
             self.warn("no-M02", "file does not end with M02")
         if self.in_region:
             self.warn("open-region", "region (G36) not closed with G37 before the end")
@@ -546,6 +550,15 @@ class GerberReader:
         if self.block_stack:
             raise self.error("aperture block (%AB) not closed before the end")
         self._close_step_repeat()
+
+    def _unparsed(self, end: int) -> None:
+        rest = self.text[end:]
+        start = end + len(rest) - len(rest.lstrip())
+        self.line = self.text.count("\n", 0, start) + 1
+        self.col = start - (self.text.rfind("\n", 0, start) + 1) + 1
+        if rest.lstrip().startswith("%"):
+            raise self.error("extended command not closed: expected '%'", rest.strip())
+        raise self.error("expected '*' or '%' to end the statement", rest.strip())
 
     def _program(self) -> Program:
         table = self.builder.table()

@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Install what the test suite needs, then run it. Safe to run again: it only
+# installs what is missing. Used by the README and by .ci/run.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+# Debian packages for the firmware build and the simavr firmware-in-the-loop tests.
+DEBIAN_PACKAGES="gcc-avr avr-libc arduino-core-avr arduino-mk simavr libsimavr-dev"
+missing=""
+for package in $DEBIAN_PACKAGES; do
+    dpkg -s "$package" >/dev/null 2>&1 || missing="$missing $package"
+done
+if [ -n "$missing" ]; then
+    if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+        echo "installing Debian packages:$missing"
+        export DEBIAN_FRONTEND=noninteractive
+        apt-get update -qq
+        apt-get install -y -qq $missing >/dev/null
+    else
+        echo "warning: missing Debian packages:$missing (firmware tests will say so)" >&2
+    fi
+fi
+
+python3 -m pip install --quiet --disable-pip-version-check -e '.[test]'
+exec python3 -m pytest "$@"
