@@ -29,13 +29,27 @@ class MacroError(ValueError):
     """A macro that cannot be parsed or evaluated; the reader adds the position."""
 
 
+_PLAIN_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)$")
+
+
 @dataclass(frozen=True, slots=True)
 class MacroStatement:
-    """One block of a macro body: either `$n=expr` or a primitive with expressions."""
+    """One block of a macro body: either `$n=expr` or a primitive with expressions.
+
+    Expressions that are plain numbers (most of them: outlines list hundreds of
+    coordinates) are parsed once, as Fractions; the rest stay text.
+    """
 
     assign_to: int | None
     code: int | None
-    expressions: tuple[str, ...]
+    expressions: tuple[str | Fraction, ...]
+
+
+def _compile(expression: str) -> str | Fraction:
+    if _PLAIN_NUMBER.match(expression):
+        return parse_decimal(expression)
+    _check_expression(expression)
+    return expression
 
 
 @dataclass(frozen=True, slots=True)
@@ -54,15 +68,12 @@ class MacroTemplate:
                 target, sep, expression = block[1:].partition("=")
                 if not sep or not target.isdigit():
                     raise MacroError(f"expected '$n=expression' in macro {name}, got {block!r}")
-                _check_expression(expression)
-                statements.append(MacroStatement(int(target), None, (expression,)))
+                statements.append(MacroStatement(int(target), None, (_compile(expression),)))
                 continue
             code_text, *expressions = block.split(",")
             if not code_text.isdigit():
                 raise MacroError(f"expected a primitive code in macro {name}, got {block!r}")
-            for expression in expressions:
-                _check_expression(expression)
-            statements.append(MacroStatement(None, int(code_text), tuple(expressions)))
+            statements.append(MacroStatement(None, int(code_text), tuple(_compile(e) for e in expressions)))
         return cls(name, tuple(statements))
 
     def evaluate(self, parameters: list[Fraction], units: str) -> tuple:
@@ -88,12 +99,14 @@ def _check_expression(text: str) -> None:
     evaluate_expression(text, {}, default=Fraction(1))
 
 
-def evaluate_expression(text: str, variables: dict[int, Fraction],
+def evaluate_expression(text: str | Fraction, variables: dict[int, Fraction],
                         default: Fraction = Fraction(0)) -> Fraction:
     """Evaluate +, -, x (or X), /, parentheses, numbers and $n exactly.
 
     Undefined variables are 0 (what older CAD output relies on).
     """
+    if isinstance(text, Fraction):
+        return text
     tokens: list[tuple[str, object]] = []
     position = 0
     text = text.strip()
@@ -173,9 +186,12 @@ def _dark(exposure: Fraction) -> bool:
 
 
 def _place(points, rotation_deg: Fraction, units: str) -> tuple[tuple[int, int], ...]:
-    """Rotate points (in file units) about the macro origin and convert to nm."""
-    if rotation_deg % 360 == 0:
-        return tuple((to_nm(Fraction(x), units), to_nm(Fraction(y), units)) for x, y in points)
+    """Rotate points (in file units) about the macro origin and convert to nm.
+
+    Unrotated Fraction points convert exactly; computed (float) points round.
+    """
+    if rotation_deg % 360 == 0 and all(isinstance(v, Fraction) for p in points for v in p):
+        return tuple((to_nm(x, units), to_nm(y, units)) for x, y in points)
     angle = math.radians(float(rotation_deg))
     c, s = math.cos(angle), math.sin(angle)
     scale = to_nm(Fraction(1), units)
@@ -208,7 +224,6 @@ def _vector_line(v, units):
     ny = float(xe - xs) / length * float(width) / 2
     corners = [(float(xs) + nx, float(ys) + ny), (float(xe) + nx, float(ye) + ny),
                (float(xe) - nx, float(ye) - ny), (float(xs) - nx, float(ys) - ny)]
-    corners = [(Fraction(x), Fraction(y)) for x, y in corners]
     return [("polygon", _dark(exposure), _place(corners, rotation, units))]
 
 
@@ -240,8 +255,8 @@ def _regular_polygon(v, units):
     if n < 3:
         raise MacroError(f"polygon primitive needs at least 3 vertices, got {n}")
     r = float(diameter) / 2
-    points = [(Fraction(float(cx) + r * math.cos(2 * math.pi * k / n)),
-               Fraction(float(cy) + r * math.sin(2 * math.pi * k / n))) for k in range(n)]
+    points = [(float(cx) + r * math.cos(2 * math.pi * k / n),
+               float(cy) + r * math.sin(2 * math.pi * k / n)) for k in range(n)]
     return [("polygon", _dark(exposure), _place(points, rotation, units))]
 
 
@@ -252,7 +267,7 @@ def _ring_sector(cx, cy, r_out, r_in, start, end):
               cy + r_out * math.sin(start + (end - start) * k / steps)) for k in range(steps + 1)]
     inner = [(cx + r_in * math.cos(end - (end - start) * k / steps),
               cy + r_in * math.sin(end - (end - start) * k / steps)) for k in range(steps + 1)]
-    return [(Fraction(x), Fraction(y)) for x, y in outer + inner]
+    return outer + inner
 
 
 def _thermal(v, units):

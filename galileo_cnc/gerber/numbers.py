@@ -41,8 +41,7 @@ def parse_decimal(text: str) -> Fraction:
 
 def to_nm(value: Fraction, units: str) -> int:
     """A length in `units` as integer nanometres (round half away from zero)."""
-    scaled = value * NM_PER_UNIT[units]
-    return round_div(scaled.numerator, scaled.denominator)
+    return round_div(value.numerator * NM_PER_UNIT[units], value.denominator)
 
 
 def decimal_to_nm(text: str, units: str) -> int:
@@ -62,11 +61,13 @@ class AxisFormat:
     trailing_zeros_omitted: bool
     numerator: int
     denominator: int
+    plain: bool  # nm = int(digits) * numerator exactly: no padding, no rounding
 
     @classmethod
     def make(cls, integer_digits: int, decimal_digits: int, trailing: bool, units: str):
         scale = Fraction(NM_PER_UNIT[units], 10 ** decimal_digits)
-        return cls(integer_digits, decimal_digits, trailing, scale.numerator, scale.denominator)
+        return cls(integer_digits, decimal_digits, trailing, scale.numerator, scale.denominator,
+                   not trailing and scale.denominator == 1)
 
     def to_nm(self, digits: str) -> int:
         if self.trailing_zeros_omitted:

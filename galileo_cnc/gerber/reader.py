@@ -21,8 +21,9 @@ from collections import Counter
 import numpy as np
 
 from ..errors import GerberError, SourcePos
-from ..program import (COLUMNS, NO_TOOL, X, Y, I, J, KIND, Aperture, OpKind, Program,
-                       ProgramBuilder)
+from ..program import COL as COL_COL
+from ..program import LINE as LINE_COL
+from ..program import COLUMNS, KIND, NO_TOOL, X, Y, Aperture, OpKind, Program, ProgramBuilder
 from ..geometry import single_quadrant_centre
 from .apertures import define_aperture, parse_parameters
 from .image import ImageTransform
@@ -33,6 +34,8 @@ from .numbers import AxisFormat, parse_decimal
 _STATEMENT = re.compile(r"\s*(?:G0?4[^*]*\*|%([^%]*)%|([^%*]*)\*)")
 _DATA = re.compile(
     r"(?:G0*([123])(?!\d))?(?:X([+-]?\d+))?(?:Y([+-]?\d+))?(?:I([+-]?\d+))?(?:J([+-]?\d+))?(?:D0*([123])(?!\d))?")
+_SPACED_DATA = re.compile(r"\s*" + _DATA.pattern)
+_PERCENT_IN_COMMENT = re.compile(r"G0?4[^*%]*%")
 _WORD = re.compile(r"([A-Z])([+-]?(?:\d+\.?\d*|\.\d+))")
 _FS = re.compile(r"FS([LTD]?)([AI])(?:N\d+)?(?:G\d+)?X(\d)(\d)Y(\d)(\d)(?:Z\d\d)?(?:D\d+)?(?:M\d+)?$")
 _AD = re.compile(r"ADD(\d+)([A-Za-z_.$][^,]*)(?:,(.*))?$", re.S)
@@ -85,65 +88,109 @@ class GerberReader:
         self.x = self.y = 0
         self.interpolation = 1
         self.quadrant: int | None = None
-        self.dcode = 0
+        self.dcode = ""  # the last D01/D02/D03, as text
         self.aperture = NO_TOOL
         self.pen_down = False
         self.in_region = False
         self.step_repeat: tuple[int, int, int, int, int] | None = None  # nx, ny, dx, dy, first row
         self.ended = False
-        self.line = 1
-        self.col = 1
+        # Rows store the statement's character offset in the `line` column while
+        # reading; offsets become line and column once, at the end.
+        self.offset = 0
 
     # --- driver -----------------------------------------------------------------
 
     def run(self) -> Program:
-        text = self.text
-        line, line_start, scanned = 1, 0, 0
         end = 0
-        fast = _DATA.fullmatch
-        for m in _STATEMENT.finditer(text):
-            if m.start() != end:
-                self._unparsed(end)  # finditer skipped text that starts no statement
-            end = m.end()
-            extended, word = m.groups()
-            if extended is None and word is None:
-                continue  # a G04 comment
-            start = m.start(2) if word is not None else m.start(1) - 1
-            newlines = text.count("\n", scanned, start)
-            if newlines:
-                line += newlines
-                line_start = text.rfind("\n", scanned, start) + 1
-            scanned = start
-            self.line, self.col = line, start - line_start + 1
-            if word is not None:
-                d = fast(word)
-                if d is not None:
-                    self._data(*d.groups())
-                else:
-                    self._word(word)
+        fast = _SPACED_DATA.fullmatch
+        data = self._data
+        for extended, content, start, end in self._statements():
+            if extended:
+                self.offset = start
+                self._extended(content)
             else:
-                self._extended(extended)
+                self.offset = start
+                d = fast(content)
+                if d is not None:
+                    data(d)
+                else:
+                    self._word(content)
             if self.ended:
                 break
         self._finish(end)
         return self._program()
 
+    def _statements(self):
+        """(extended?, content, start offset, end offset) for each statement.
+
+        Splitting on '%' and '*' with str.split is several times faster than a
+        regular expression; files where a G04 comment holds a '%' (EAGLE writes
+        'G04 #@! %TF...') or where a '%' is left open take the regex.
+        """
+        text = self.text
+        parts = text.split("%")
+        if len(parts) % 2 == 0 or _PERCENT_IN_COMMENT.search(text):
+            yield from self._statements_by_regex()
+            return
+        offset = 0
+        for index, part in enumerate(parts):
+            if index % 2:
+                yield True, part, offset - 1, offset + len(part) + 1
+                offset += len(part) + 1
+                continue
+            pieces = part.split("*")
+            for piece in pieces[:-1]:
+                if piece.lstrip()[:3] not in ("G04", "G4 "):
+                    yield False, piece, offset, offset + len(piece) + 1
+                offset += len(piece) + 1
+            tail = pieces[-1]
+            if tail.strip() and index + 1 < len(parts):
+                # Text between a '*' and a '%' that ends no statement.
+                self._unparsed(offset)
+            offset += len(tail) + 1
+
+    def _statements_by_regex(self):
+        end = 0
+        for m in _STATEMENT.finditer(self.text):
+            if m.start() != end:
+                self._unparsed(end)  # finditer skipped text that starts no statement
+            end = m.end()
+            extended, word = m.groups()
+            if word is not None:
+                yield False, word, m.start(2), end
+            elif extended is not None:
+                yield True, extended, m.start(1) - 1, end
+
+    def _position(self) -> tuple[int, int]:
+        """(line, column), 1-based, of the statement being read (after leading blanks)."""
+        text, offset = self.text, self.offset
+        while offset < len(text) - 1 and text[offset].isspace():
+            offset += 1
+        line = text.count("\n", 0, offset) + 1
+        return line, offset - (text.rfind("\n", 0, offset) + 1) + 1
+
     def error(self, message: str, text: str = "") -> GerberError:
-        return GerberError(SourcePos(self.name, self.line, self.col), message, text)
+        return GerberError(SourcePos(self.name, *self._position()), message, text)
 
     def warn(self, key: str, message: str, text: str = "") -> None:
         """Count a tolerated oddity; the first of each kind is kept with its position."""
         self.warning_counts[key] += 1
         if self.warning_counts[key] == 1:
-            self.builder.warn(self.line, self.col, message, text)
+            self.builder.warn(*self._position(), message, text)
 
     def emit(self, kind: int, x: int = 0, y: int = 0, i: int = 0, j: int = 0,
              tool: int = NO_TOOL, value: int = 0) -> None:
-        self.rows.extend((kind, x, y, i, j, tool, value, self.line, self.col))
+        self.rows.extend((kind, x, y, i, j, tool, value, self.offset, 0))
 
     # --- coordinate data --------------------------------------------------------
 
-    def _data(self, g, xs, ys, is_, js, d) -> None:
+    def _data(self, match: re.Match) -> None:
+        """One coordinate block (a match of _DATA; the operation d is '1', '2' or '3').
+
+        The hot path of the reader: straight draws, moves and flashes are written
+        out inline, everything else goes through _interpolate and _flash.
+        """
+        g, xs, ys, is_, js, d = match.groups()
         if g is not None:
             self.interpolation = int(g)
         if d is None:
@@ -154,33 +201,37 @@ class GerberReader:
                 d = self.dcode
             else:
                 self.warn("no-D", "coordinates before any D code: taken as a move (D02)")
-                d = 2
+                d = "2"
         else:
-            d = int(d)
             self.dcode = d
         fmt_x, fmt_y = self.fmt_x, self.fmt_y
         if fmt_x is None:
             self._require_format()
             fmt_x, fmt_y = self.fmt_x, self.fmt_y
         x, y = self.x, self.y
-        if self.incremental:
-            if xs is not None:
-                x += fmt_x.to_nm(xs)
-            if ys is not None:
-                y += fmt_y.to_nm(ys)
-        else:
-            if xs is not None:
-                x = fmt_x.to_nm(xs)
-            if ys is not None:
-                y = fmt_y.to_nm(ys)
-        if d == 1:
-            self._interpolate(x, y, fmt_x.to_nm(is_) if is_ else 0, fmt_y.to_nm(js) if js else 0)
-        elif d == 2:
-            self.emit(MOVE, x, y)
+        if xs is not None:
+            value = int(xs) * fmt_x.numerator if fmt_x.plain else fmt_x.to_nm(xs)
+            x = x + value if self.incremental else value
+        if ys is not None:
+            value = int(ys) * fmt_y.numerator if fmt_y.plain else fmt_y.to_nm(ys)
+            y = y + value if self.incremental else value
+        if d == "1":
+            if self.interpolation == 1 and not self.in_region and self.aperture != NO_TOOL:
+                if self.pen_down:
+                    self.rows.extend((LINE, x, y, 0, 0, self.aperture, 0, self.offset, 0))
+                else:
+                    self.rows.extend((PEN_DOWN, self.x, self.y, 0, 0, NO_TOOL, 0, self.offset, 0,
+                                      LINE, x, y, 0, 0, self.aperture, 0, self.offset, 0))
+                    self.pen_down = True
+            else:
+                self._interpolate(x, y, fmt_x.to_nm(is_) if is_ else 0, fmt_y.to_nm(js) if js else 0)
+        elif d == "2":
+            self.rows.extend((MOVE, x, y, 0, 0, NO_TOOL, 0, self.offset, 0))
             self.pen_down = False
         else:
             self._flash(x, y)
-        self.x, self.y = x, y
+        self.x = x
+        self.y = y
 
     def _require_format(self) -> None:
         if self.fs is None:
@@ -252,7 +303,7 @@ class GerberReader:
             return
         d = _DATA.fullmatch(compact)
         if d is not None:
-            self._data(*d.groups())
+            self._data(d)
             return
         self._general_word(compact, word)
 
@@ -291,8 +342,13 @@ class GerberReader:
             return
         if any("." in v for v in values.values()):
             values = {k: self._decimal_coordinate(k, v) for k, v in values.items()}
-        self._data(None, values.get("X"), values.get("Y"), values.get("I"), values.get("J"),
-                   str(int(float(d))) if d is not None else None)
+        words = "".join(f"{axis}{values[axis]}" for axis in "XYIJ" if axis in values)
+        if d is not None:
+            words += f"D{int(float(d))}"
+        match = _DATA.fullmatch(words)
+        if match is None:
+            raise self.error("expected coordinates and D01, D02 or D03", original)
+        self._data(match)
 
     def _decimal_coordinate(self, axis: str, number: str) -> str:
         """A coordinate written with a decimal point, re-expressed in %FS digits."""
@@ -553,15 +609,14 @@ class GerberReader:
 
     def _unparsed(self, end: int) -> None:
         rest = self.text[end:]
-        start = end + len(rest) - len(rest.lstrip())
-        self.line = self.text.count("\n", 0, start) + 1
-        self.col = start - (self.text.rfind("\n", 0, start) + 1) + 1
+        self.offset = end + len(rest) - len(rest.lstrip())
         if rest.lstrip().startswith("%"):
             raise self.error("extended command not closed: expected '%'", rest.strip())
         raise self.error("expected '*' or '%' to end the statement", rest.strip())
 
     def _program(self) -> Program:
         table = self.builder.table()
+        _offsets_to_positions(table, self.text)
         if not self.image.is_identity():
             self.image.apply(table)
         self.metadata["warning_counts"] = dict(self.warning_counts)
@@ -570,6 +625,23 @@ class GerberReader:
         return Program(self.name, "gerber", self.units or "in", table, apertures=self.apertures,
                        metadata=self.metadata, warnings=self.builder.warnings,
                        line_count=self.text.count("\n") + (0 if self.text.endswith("\n") else 1))
+
+
+def _offsets_to_positions(table: np.ndarray, text: str) -> None:
+    """Replace the character offsets in the line column by 1-based line and column."""
+    if not len(table):
+        return
+    codes = np.frombuffer(text.encode("utf-32-le"), dtype=np.uint32)
+    # Rows point at the start of their statement's text, blanks before it included.
+    printable = np.flatnonzero(~np.isin(codes, (9, 10, 11, 12, 13, 32)))
+    at = np.minimum(np.searchsorted(printable, table[:, LINE_COL]), max(len(printable) - 1, 0))
+    offsets = printable[at] if len(printable) else table[:, LINE_COL].copy()
+    # Position -1 stands for the start of line 1, so line k starts after entry k-1.
+    newlines = np.concatenate(([-1], np.flatnonzero(codes == 10)))
+    before = np.searchsorted(newlines, offsets) - 1  # newlines before each offset
+    line_start = newlines[before] + 1
+    table[:, LINE_COL] = before + 1
+    table[:, COL_COL] = offsets - line_start + 1
 
 
 def _rows_extent(rows: np.ndarray) -> tuple[int, int, int, int]:
