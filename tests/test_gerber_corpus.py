@@ -2,6 +2,8 @@
 
 import warnings
 
+import numpy as np
+
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -61,15 +63,29 @@ def _mutate(text: str, mutations) -> str:
 
 
 @pytest.mark.skipif(not FUZZ_SOURCES, reason="corpus missing")
-@settings(max_examples=1500, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(source=st.sampled_from(FUZZ_SOURCES or ["-"]), mutations=st.lists(_mutation, min_size=1, max_size=4))
 def test_mutated_corpus_files_raise_only_gerber_errors(source, mutations):
     text = _mutate((CORPUS / source).read_text(errors="replace"), mutations)
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # no Python warnings leak out either
         try:
-            program = read_gerber(source, text)
+            program = read_gerber(source, text, min_run=1)
         except GerberError as error:
             assert error.pos.line >= 1 and error.pos.col >= 1
+            # The statement-by-statement reader finds the same first error.
+            with pytest.raises(GerberError) as reference:
+                read_gerber(source, text, min_run=10**9)
+            assert str(reference.value) == str(error)
             return
     summarize(program)
+    assert np.array_equal(program.table, read_gerber(source, text, min_run=10**9).table)
+
+
+@pytest.mark.parametrize("path", READABLE)
+def test_vectorised_runs_give_the_same_program_as_statement_by_statement(path):
+    text = (CORPUS / path).read_text(errors="replace")
+    fast, reference = read_gerber(path, text, min_run=1), read_gerber(path, text, min_run=10**9)
+    assert np.array_equal(fast.table, reference.table)
+    assert [str(w) for w in fast.warnings] == [str(w) for w in reference.warnings]
+    assert fast.metadata == reference.metadata

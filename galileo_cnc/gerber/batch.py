@@ -1,0 +1,206 @@
+"""Vectorised reading of runs of plain coordinate blocks.
+
+Most of a real Gerber file is long runs of `X…Y…D01*` / `D02*` / `D03*` with one
+aperture and linear interpolation. Two things make those runs fast:
+
+1. `scan_words` parses all word statements of a stretch of text at once with numpy:
+   it finds the letters G X Y I J D, the signed integers after them, and marks the
+   statements that are exactly what the reader's `_DATA` pattern accepts (optional
+   leading blanks, then G, X, Y, I, J, D in that order, G and D in 1..3, D present). Everything
+   else ("other": comments, aperture selects, G36, M02, blanks inside a statement)
+   stays with the statement-by-statement path.
+2. `read_run` computes the graphics state of a run in one go: modal X/Y are a forward
+   fill (a cumulative sum in incremental notation), and a PEN_DOWN row precedes every
+   D01 that follows a move or a flash.
+
+Anything less plain (arcs, implicit D codes, regions with flashes, block apertures,
+formats that need padding or rounding) is left to the statement-by-statement path,
+which this module must match row for row: a test compares both on the whole corpus.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..program import COLUMNS, NO_TOOL, OpKind
+
+MIN_RUN = 32  # shorter runs are cheaper statement by statement
+LETTERS = "GXYIJD"  # the order _DATA accepts
+G, X, Y, I, J, D = range(len(LETTERS))
+MAX_DIGITS = 18  # int64 holds any 18-digit number
+_KIND_OF_OPERATION = np.array([0, int(OpKind.LINE), int(OpKind.MOVE), int(OpKind.FLASH)], dtype=np.int64)
+
+# Character classes for code points below 128; everything else is "other".
+_CLASS = np.full(128, 0, dtype=np.int8)  # 0 other, 1 digit, 2 sign, 3 letter, 4 blank
+_CLASS[ord("0"):ord("9") + 1] = 1
+_CLASS[[ord("+"), ord("-")]] = 2
+_CLASS[[ord(c) for c in LETTERS]] = 3
+_CLASS[[9, 10, 11, 12, 13, 32]] = 4
+_RANK = np.full(128, -1, dtype=np.int64)
+_RANK[[ord(c) for c in LETTERS]] = np.arange(len(LETTERS))
+OTHER, DIGIT, SIGN, LETTER, BLANK = range(5)
+
+
+@dataclass(slots=True)
+class Words:
+    """Per statement: is it a plain coordinate block, its letters and their values."""
+
+    plain: np.ndarray    # bool (n,)
+    present: np.ndarray  # bool (n, 6), columns in LETTERS order
+    value: np.ndarray    # int64 (n, 6), signed integers as written (0 when absent)
+
+
+def scan_words(pieces_text: str, count: int) -> Words:
+    """Scan `count` statements: the text of pieces joined by '*' (each piece ends at one)."""
+    codes = np.frombuffer(pieces_text.encode("utf-32-le"), dtype=np.uint32)
+    stars = codes == ord("*")
+    statement = np.cumsum(stars) - stars  # the statement each character belongs to
+    small = codes < 128
+    kind = np.where(small, _CLASS[np.where(small, codes, 0)], OTHER)
+    kind[stars] = BLANK  # the terminator itself is harmless
+    bad = np.zeros(count + 1, dtype=bool)
+
+    # Characters outside the alphabet, and blanks after the statement has begun.
+    first_seen = _first_per_statement((kind != BLANK) & ~stars, statement, count)
+    blank_inside = (kind == BLANK) & ~stars & (np.arange(len(codes)) > first_seen[statement])
+    np.logical_or.at(bad, statement[(kind == OTHER) | blank_inside], True)
+
+    letters = np.flatnonzero(kind == LETTER)
+    after = np.append(kind, BLANK)[letters + 1]
+    signed = after == SIGN
+    digit_start = letters + 1 + signed
+    # Each letter needs a digit right after it (after the sign, if any) ...
+    ok = np.append(kind, BLANK)[np.minimum(digit_start, len(codes))] == DIGIT
+    ok &= ~(signed & np.isin(_RANK[codes[letters]], (G, D)))  # G and D take no sign
+    np.logical_or.at(bad, statement[letters[~ok]], True)
+    # ... and signs only stand right after a letter.
+    signs = np.flatnonzero(kind == SIGN)
+    before_sign = kind[np.maximum(signs - 1, 0)]
+    np.logical_or.at(bad, statement[signs[(before_sign != LETTER) | (signs == 0)]], True)
+
+    # ... and digits only follow a letter, a sign or another digit.
+    digits = np.flatnonzero(kind == DIGIT)
+    before_digit = np.where(digits > 0, kind[np.maximum(digits - 1, 0)], BLANK)
+    np.logical_or.at(bad, statement[digits[~np.isin(before_digit, (LETTER, SIGN, DIGIT))]], True)
+
+    # Digits of token k run from digit_start[k] to the next non-digit.
+    not_digit = np.flatnonzero(np.append(kind, OTHER) != DIGIT)
+    digit_end = not_digit[np.searchsorted(not_digit, digit_start)]  # exclusive
+    lengths = digit_end - digit_start
+    too_long = lengths > MAX_DIGITS
+    np.logical_or.at(bad, statement[letters[too_long | (lengths <= 0)]], True)
+    values = _token_values(codes, digit_start, np.where(too_long | (lengths <= 0), digit_start, digit_end))
+    values = np.where(signed & (codes[np.minimum(letters + 1, len(codes) - 1)] == ord("-")), -values, values)
+
+    # Letters in order G X Y I J D, each at most once, in one statement.
+    rank = _RANK[codes[letters]]
+    owner = statement[letters]
+    same = owner[1:] == owner[:-1]
+    np.logical_or.at(bad, owner[1:][same & (rank[1:] <= rank[:-1])], True)
+
+    present = np.zeros((count + 1, len(LETTERS)), dtype=bool)
+    value = np.zeros((count + 1, len(LETTERS)), dtype=np.int64)
+    present[owner, rank] = True
+    value[owner, rank] = values
+    # _DATA takes G and D only as 1, 2 or 3: G36, D10 and the like are other statements.
+    for column in (G, D):
+        out_of_range = present[:, column] & ((value[:, column] < 1) | (value[:, column] > 3))
+        bad |= out_of_range
+    # Without a D code the statement is a bare G01 or relies on the deprecated
+    # implicit D code; with G02/G03 or I/J it is an arc: all of those are left to
+    # the statement-by-statement path.
+    plain = (~bad & present[:, D] & ~present[:, I] & ~present[:, J]
+             & (~present[:, G] | (value[:, G] == 1)))
+    return Words(plain[:count], present[:count], value[:count])
+
+
+def _first_per_statement(mask: np.ndarray, statement: np.ndarray, count: int) -> np.ndarray:
+    """Position of the first True of `mask` in each statement (huge if none)."""
+    first = np.full(count + 1, np.iinfo(np.int64).max, dtype=np.int64)
+    positions = np.flatnonzero(mask)
+    np.minimum.at(first, statement[positions], positions)
+    return first
+
+
+def _token_values(codes: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """Integer value of the digit strings codes[starts[k]:ends[k]] (0 when empty)."""
+    lengths = ends - starts
+    total = int(lengths.sum())
+    if total == 0:
+        return np.zeros(len(starts), dtype=np.int64)
+    owner = np.repeat(np.arange(len(starts)), lengths)
+    offset_in_token = np.arange(total) - np.repeat(np.cumsum(lengths) - lengths, lengths)
+    positions = np.repeat(starts, lengths) + offset_in_token
+    exponent = np.repeat(lengths, lengths) - 1 - offset_in_token
+    digits = codes[positions].astype(np.int64) - ord("0")
+    values = np.zeros(len(starts), dtype=np.int64)
+    np.add.at(values, owner, digits * 10 ** exponent)
+    return values
+
+
+def read_run(reader, words: Words, first: int, stop: int, starts: np.ndarray) -> bool:
+    """Emit the rows of statements first..stop-1 (all plain); False if not possible."""
+    fmt_x, fmt_y = reader.fmt_x, reader.fmt_y
+    if fmt_x is None or not (fmt_x.plain and fmt_y.plain):
+        return False
+    present = words.present[first:stop]
+    value = words.value[first:stop]
+    operations = value[:, D]
+    linear_from = 0 if reader.interpolation == 1 else int(np.argmax(present[:, G])) if present[:, G].any() \
+        else len(operations)
+    if (operations[:linear_from] == 1).any():
+        return False  # a draw while circular interpolation is still in force
+    flashes = operations == 3
+    if reader.in_region:
+        if flashes.any():
+            return False
+        tool = NO_TOOL
+    else:
+        tool = reader.aperture
+        if tool == NO_TOOL and (operations != 2).any():
+            return False
+        if tool in reader.blocks and flashes.any():
+            return False
+
+    x = _modal(present[:, X], value[:, X] * fmt_x.numerator, reader.x, reader.incremental)
+    y = _modal(present[:, Y], value[:, Y] * fmt_y.numerator, reader.y, reader.incremental)
+    draws = operations == 1
+    # The pen is down before a D01 only if the previous operation was a D01 too.
+    was_drawing = np.concatenate(([reader.pen_down], draws[:-1]))
+    pen_down_first = draws & ~was_drawing
+    previous_x = np.concatenate(([reader.x], x[:-1]))
+    previous_y = np.concatenate(([reader.y], y[:-1]))
+
+    count = len(operations)
+    main = np.arange(count) + np.cumsum(pen_down_first)  # row of each statement's own op
+    rows = np.zeros((count + int(pen_down_first.sum()), len(COLUMNS)), dtype=np.int64)
+    rows[main, 0] = _KIND_OF_OPERATION[operations]
+    rows[main, 1] = x
+    rows[main, 2] = y
+    rows[main, 5] = np.where(operations == 2, NO_TOOL, tool)
+    rows[main, 7] = starts
+    pen_rows = main[pen_down_first] - 1
+    rows[pen_rows, 0] = int(OpKind.PEN_DOWN)
+    rows[pen_rows, 1] = previous_x[pen_down_first]
+    rows[pen_rows, 2] = previous_y[pen_down_first]
+    rows[pen_rows, 5] = NO_TOOL
+    rows[pen_rows, 7] = starts[pen_down_first]
+    reader.rows.frombytes(rows.tobytes())
+
+    reader.offset = int(starts[-1])
+    reader.x, reader.y = int(x[-1]), int(y[-1])
+    reader.pen_down = bool(draws[-1])
+    if present[:, G].any():
+        reader.interpolation = 1
+    reader.dcode = str(int(operations[-1]))
+    return True
+
+
+def _modal(given: np.ndarray, numbers: np.ndarray, current: int, incremental: bool) -> np.ndarray:
+    """Coordinates in nm after each statement; a missing value keeps the last one."""
+    if incremental:
+        return current + np.cumsum(np.where(given, numbers, 0))
+    last = np.maximum.accumulate(np.where(given, np.arange(len(given)), -1))
+    return np.where(last >= 0, numbers[np.maximum(last, 0)], current)
