@@ -1,0 +1,185 @@
+"""The vectorised reference: closed forms over whole jobs with numpy.
+
+Geometry (which axes step at each event) and timing (when each event fires) are
+separate: a feed hold only changes the timing, never the steps (§6).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Sequence
+
+import numpy as np
+
+from .arcs import arc_points
+from .lines import bresenham_points, fill_line_steps
+from .moves import ArcMove, Hold, Item, LineMove, Pause, SeekMove
+from .ramps import Run, run_ticks
+
+
+def build_events(items: Sequence[Item]) -> tuple[np.ndarray, np.ndarray, list[Run], int]:
+    """Step table (N x 3 int8, dir * (axis + 1)), cruise interval per event, runs, tail."""
+    motions: list = []
+    runs: list[Run] = []
+    pause = 0
+    offset = 0
+    for item in items:
+        if isinstance(item, Pause):
+            pause += item.ticks
+            continue
+        if item.n == 0:
+            continue
+        motions.append((offset, item))
+        runs.append(Run(offset, offset + item.n - 1, item.ramp, item.step_sub, pause))
+        pause = 0
+        offset += item.n
+    n_events = offset
+    count = len(motions)
+    is_arc = np.fromiter((isinstance(it, ArcMove) for _o, it in motions), bool, count)
+    base_move = np.fromiter((0 if isinstance(it, ArcMove) else it.base_sub
+                             for _o, it in motions), np.int64, count)
+    n_move = np.fromiter((it.n for _o, it in motions), np.int64, count)
+    first = np.fromiter((o for o, _it in motions), np.int64, count)
+    delta = np.array([(0, 0, 0) if isinstance(it, ArcMove) else _delta(it)
+                      for _o, it in motions], dtype=np.int64).reshape(-1, 3)
+    base = np.repeat(base_move, n_move)
+    table = np.empty((n_events, 3), dtype=np.int8)
+    # Major axes step at every event of their line: one repeat per column.
+    for axis in range(3):
+        d = delta[:, axis]
+        major = (np.abs(d) == n_move) & ~is_arc
+        code = (np.sign(d) * major * (axis + 1)).astype(np.int8)
+        table[:, axis] = np.repeat(code, n_move)
+    lines = ~is_arc
+    fill_line_steps(table, first[lines], n_move[lines], delta[lines])
+    for o, it in motions:
+        if isinstance(it, ArcMove):
+            _fill_arc(table, base, o, it)
+    return table, base, runs, pause
+
+
+def _delta(item: LineMove | SeekMove) -> tuple[int, int, int]:
+    if isinstance(item, SeekMove):
+        d = [0, 0, 0]
+        d[item.axis] = item.direction * item.n
+        return d[0], d[1], d[2]
+    return item.delta
+
+
+def _fill_arc(table: np.ndarray, base: np.ndarray, offset: int, move: ArcMove) -> None:
+    g = move.geom
+    pts, keys = arc_points(g)
+    corr = bresenham_points(g.p_star, g.correction)
+    allp = np.empty((g.n + 1, 2), dtype=np.int64)
+    allp[0] = g.start
+    allp[1:g.n_arc + 1] = pts
+    allp[g.n_arc + 1:] = corr
+    steps = np.diff(allp, axis=0)
+    steps[:, 1] *= 2
+    table[offset:offset + g.n, :2] = steps
+    table[offset:offset + g.n, 2] = 0
+    bases = np.asarray(move.band_base_sub, dtype=np.int64)
+    if g.n_arc:
+        band = np.searchsorted(np.asarray(g.band_v), keys, side="right") - 1
+        base[offset:offset + g.n_arc] = bases[band]
+        last = int(band[-1])
+    else:
+        last = 0
+    base[offset + g.n_arc:offset + g.n] = bases[last]
+
+
+def apply_holds(base: np.ndarray, runs: list[Run], tail: int, t0: int,
+                holds: Sequence[Hold], abort_at_tick: int | None):
+    """Timing with holds and an abort (§6). Returns ticks, runs, end, stop event."""
+    runs = list(runs)
+    events: list[tuple[int, int, int]] = [(h.at_tick, 0, h.resume_after_ticks) for h in holds]
+    if abort_at_tick is not None:
+        events.append((abort_at_tick, 1, 0))
+    events.sort()
+    for at_tick, is_abort, resume in events:
+        ticks, starts, end = run_ticks(base, runs, t0, tail)
+        last_ticks = np.array([ticks[r.last] for r in runs], dtype=np.int64)
+        r = int(np.searchsorted(last_ticks, at_tick, side="left"))
+        if r == len(runs):
+            continue  # after the last step: nothing left to hold
+        run = runs[r]
+        start = int(starts[r])
+        if at_tick <= start:  # before the run began: stop at its start
+            stop_tick = start
+            if is_abort:
+                return _abort(base, runs[:r], t0, stop_tick)
+            runs[r] = replace(run, pause_ticks=run.pause_ticks + resume)
+            continue
+        seg = ticks[run.first:run.last + 1]
+        k = run.first + int(np.searchsorted(seg, at_tick, side="left"))
+        m = min(k - run.first, run.last - k, run.ramp)
+        j = k + m
+        if j >= run.last:  # the run's own deceleration ends first
+            if is_abort:
+                return _abort(base, runs[:r + 1], t0, int(ticks[run.last]))
+            if r + 1 < len(runs):
+                nxt = runs[r + 1]
+                runs[r + 1] = replace(nxt, pause_ticks=nxt.pause_ticks + resume)
+            continue
+        head = replace(run, last=j)
+        if is_abort:
+            t2, _s, _e = run_ticks(base, runs[:r] + [head], t0, 0)
+            return _abort(base, runs[:r] + [head], t0, int(t2[j]))
+        runs[r:r + 1] = [head, Run(j + 1, run.last, run.ramp, run.step_sub, resume)]
+    ticks, _starts, end = run_ticks(base, runs, t0, tail)
+    return ticks, runs, end, len(base)
+
+
+def _abort(base, runs, t0, stop_tick):
+    n_done = runs[-1].last + 1 if runs else 0
+    ticks, _s, _e = run_ticks(base[:n_done], runs, t0, 0)
+    return ticks, runs, stop_tick, n_done
+
+
+#: Events per chunk: the working arrays of a chunk stay in the CPU cache.
+CHUNK_EVENTS = 1 << 20
+
+
+def execute(items: Sequence[Item], t0: int = 0, holds: Sequence[Hold] = (),
+            abort_at_tick: int | None = None):
+    """Run planned items; returns (tick, axis, dir, end_tick, aborted_early)."""
+    if holds or abort_at_tick is not None:
+        table, base, runs, tail = build_events(items)
+        ticks, runs, end, n_done = apply_holds(base, runs, tail, t0, holds, abort_at_tick)
+        tick, axis, direction = _rows(table[:n_done], ticks[:n_done])
+        return tick, axis, direction, end, n_done < len(base)
+    parts = []
+    end = t0
+    for chunk in _chunks(items):
+        table, base, runs, tail = build_events(chunk)
+        ticks, _starts, end = run_ticks(base, runs, end, tail, inplace=True)
+        parts.append(_rows(table, ticks))
+    if not parts:
+        empty = np.zeros(0, dtype=np.int8)
+        return np.zeros(0, dtype=np.int64), empty, empty, end, False
+    if len(parts) == 1:
+        return (*parts[0], end, False)
+    return (np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]),
+            np.concatenate([p[2] for p in parts]), end, False)
+
+
+def _chunks(items: Sequence[Item]):
+    start, events = 0, 0
+    for i, item in enumerate(items):
+        if not isinstance(item, Pause):
+            events += item.n
+            if events >= CHUNK_EVENTS:
+                yield items[start:i + 1]
+                start, events = i + 1, 0
+    if start < len(items):
+        yield items[start:]
+
+
+def _rows(table: np.ndarray, ticks: np.ndarray):
+    """Rows in (event, axis) order: tick, axis, dir."""
+    stepped = table != 0
+    codes = table[stepped]
+    per_event = stepped.view(np.uint8)
+    count = per_event[:, 0] + per_event[:, 1] + per_event[:, 2]
+    tick = np.repeat(ticks, count)
+    return tick, np.abs(codes) - 1, np.sign(codes)
