@@ -176,9 +176,11 @@ class ProgramBuilder:
         return len(self.rows) // len(COLUMNS)
 
     def table(self) -> np.ndarray:
+        """The rows as an (N, 9) table sharing the builder's memory (no copy, so a
+        million-op file does not need twice its size); call it once, at the end."""
         if not self.rows:
             return np.zeros((0, len(COLUMNS)), dtype=np.int64)
-        return np.frombuffer(self.rows, dtype=np.int64).reshape(-1, len(COLUMNS)).copy()
+        return np.frombuffer(self.rows, dtype=np.int64).reshape(-1, len(COLUMNS))
 
     def build(self, fmt: str, units: str, **kwargs) -> Program:
         return Program(self.source, fmt, units, self.table(), warnings=self.warnings, **kwargs)

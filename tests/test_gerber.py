@@ -265,6 +265,7 @@ def test_content_sniffing():
     ("%FSLAX46Y46*%\n%MOMM*%\n%LPD*\nM02*\n", 3, 1, "not closed: expected '%'"),
     ("%FSLAX46Y46*%\n%MOMM*%\n%XY12*%\n", 3, 1, "unknown extended command %XY"),
     ("%FSLAX46Y46*%\n%MOMM*%\nG37*\n", 3, 1, "G37 without a G36"),
+    ("%FSLAX46Y46*%\n%MOMM*%\nX1Y12175000750000750000D02*\n", 3, 1, "more than 12 digits"),
 ])
 def test_bad_input_names_line_column_and_what_was_expected(text, line, col, message):
     with pytest.raises(GerberError) as caught:
@@ -279,3 +280,33 @@ def test_table_is_compact():
     # A million draws must fit comfortably: 9 int64 columns per op, nothing else per row.
     program = read(HEADER_MM + "".join(f"X{k}Y{k}D01*" for k in range(1000)) + "M02*")
     assert program.table.dtype == np.int64 and program.table.nbytes == len(program) * 9 * 8
+
+
+# --- fuzzing the macro language ------------------------------------------------------
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+_expression = st.one_of(
+    st.sampled_from(["0", "1", "-1", ".5", "12", "999999999999", "1E30", "1E-30", "$1", "$2", "$9",
+                     "-$1", "$1x2", "($1+1)/2", "1/0", "(", "1+", "x", "3.14.15", "", "90", "360"]),
+    st.text(alphabet="0123456789.$+-x/()E", max_size=8))
+_primitive = st.builds(lambda code, args: ",".join([code] + args),
+                       st.sampled_from(["0", "1", "2", "4", "5", "6", "7", "20", "21", "22", "3", "99"]),
+                       st.lists(_expression, max_size=14))
+
+
+@settings(max_examples=400, deadline=None)
+@given(body=st.lists(st.one_of(_primitive, st.builds(lambda n, e: f"${n}={e}", st.integers(0, 12), _expression)),
+                     min_size=1, max_size=5),
+       parameters=st.lists(st.sampled_from(["0.5", "1", "-2", "1E3", "0", "99999999"]), max_size=4))
+def test_random_macros_raise_only_gerber_errors(body, parameters):
+    macro = "*".join(body)
+    text = (f"%FSLAX46Y46*%%MOMM*%%AMM*{macro}*%%ADD10M{(',' + 'X'.join(parameters)) if parameters else ''}*%"
+            "D10*X0Y0D03*M02*")
+    try:
+        program = read(text)
+    except GerberError as error:
+        assert error.pos.line == 1
+        return
+    assert program.apertures[10].shape == "macro"

@@ -29,7 +29,7 @@ from ..program import COLUMNS, NO_TOOL, OpKind
 MIN_RUN = 32  # shorter runs are cheaper statement by statement
 LETTERS = "GXYIJD"  # the order _DATA accepts
 G, X, Y, I, J, D = range(len(LETTERS))
-MAX_DIGITS = 18  # int64 holds any 18-digit number
+MAX_DIGITS = 12  # a 6.6 format has 12 digits; 12 digits times any nm scale fit int64
 _KIND_OF_OPERATION = np.array([0, int(OpKind.LINE), int(OpKind.MOVE), int(OpKind.FLASH)], dtype=np.int64)
 
 # Character classes for code points below 128; everything else is "other".

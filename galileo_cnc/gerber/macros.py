@@ -19,10 +19,11 @@ import re
 from dataclasses import dataclass
 from fractions import Fraction
 
-from .numbers import parse_decimal, to_nm
+from .numbers import MAX_NM, parse_decimal, to_nm
 
 _TOKEN = re.compile(r"\s*(?:(\d+\.?\d*(?:[eE][+-]?\d+)?|\.\d+(?:[eE][+-]?\d+)?)|\$(\d+)|([-+xX/()]))")
 ARC_SEGMENTS_PER_QUARTER = 8
+MAX_MOIRE_RINGS = 100
 
 
 class MacroError(ValueError):
@@ -90,7 +91,11 @@ class MacroTemplate:
             if len(values) < minimum or (statement.code == 4 and len(values) < 2 * int(values[1]) + 4):
                 raise MacroError(f"primitive {statement.code} in macro {self.name} has too few "
                                  f"parameters ({len(values)})")
-            shapes.extend(builder(values, units))
+            try:
+                shapes.extend(builder(values, units))
+            except (OverflowError, ZeroDivisionError):
+                raise MacroError(f"primitive {statement.code} in macro {self.name}: "
+                                 "a parameter is out of range") from None
         return tuple(shapes)
 
 
@@ -198,7 +203,10 @@ def _place(points, rotation_deg: Fraction, units: str) -> tuple[tuple[int, int],
     placed = []
     for x, y in points:
         fx, fy = float(x), float(y)
-        placed.append((round((fx * c - fy * s) * scale), round((fx * s + fy * c) * scale)))
+        px, py = (fx * c - fy * s) * scale, (fx * s + fy * c) * scale
+        if not (abs(px) <= MAX_NM and abs(py) <= MAX_NM):  # also catches inf and nan
+            raise MacroError(f"macro point ({fx:g}, {fy:g}) is out of range")
+        placed.append((round(px), round(py)))
     return tuple(placed)
 
 
@@ -252,8 +260,8 @@ def _regular_polygon(v, units):
     exposure, vertices, cx, cy, diameter = v[:5]
     rotation = v[5] if len(v) > 5 else Fraction(0)
     n = int(vertices)
-    if n < 3:
-        raise MacroError(f"polygon primitive needs at least 3 vertices, got {n}")
+    if not 3 <= n <= 12:
+        raise MacroError(f"polygon primitive needs 3 to 12 vertices, got {n}")
     r = float(diameter) / 2
     points = [(float(cx) + r * math.cos(2 * math.pi * k / n),
                float(cy) + r * math.sin(2 * math.pi * k / n)) for k in range(n)]
@@ -295,6 +303,8 @@ def _moire(v, units):
     rotation = v[8] if len(v) > 8 else Fraction(0)
     shapes = []
     diameter = outer
+    if not 0 <= rings <= MAX_MOIRE_RINGS:
+        raise MacroError(f"moire primitive with {rings} rings (at most {MAX_MOIRE_RINGS})")
     for _ in range(int(rings)):
         if diameter <= 0:
             break

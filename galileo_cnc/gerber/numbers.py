@@ -15,6 +15,7 @@ from fractions import Fraction
 from ..program import NM_PER_INCH, NM_PER_MM
 
 NM_PER_UNIT = {"mm": NM_PER_MM, "in": NM_PER_INCH}
+MAX_NM = 10**12  # a kilometre: anything larger is a broken file, and must not overflow int64
 
 _DECIMAL = re.compile(r"\s*([+-]?)(\d*)(?:\.(\d*))?(?:[eE]([+-]?\d+))?\s*$")
 
@@ -35,13 +36,21 @@ def parse_decimal(text: str) -> Fraction:
     frac = frac or ""
     value = Fraction(int((whole or "0") + frac), 10 ** len(frac))
     if exp:
+        if abs(int(exp)) > 30:
+            raise ValueError(f"exponent out of range in {text!r}")
         value *= Fraction(10) ** int(exp)
     return -value if sign == "-" else value
 
 
 def to_nm(value: Fraction, units: str) -> int:
     """A length in `units` as integer nanometres (round half away from zero)."""
-    return round_div(value.numerator * NM_PER_UNIT[units], value.denominator)
+    return checked_nm(round_div(value.numerator * NM_PER_UNIT[units], value.denominator))
+
+
+def checked_nm(nm: int) -> int:
+    if abs(nm) > MAX_NM:
+        raise ValueError(f"length of {nm / 1e9:g} m is out of range (at most 1 km)")
+    return nm
 
 
 def decimal_to_nm(text: str, units: str) -> int:

@@ -28,8 +28,8 @@ from ..geometry import single_quadrant_centre
 from . import batch as batch_reader
 from .apertures import define_aperture, parse_parameters
 from .image import ImageTransform
-from .macros import MacroError, MacroTemplate
-from .numbers import AxisFormat, parse_decimal
+from .macros import MacroTemplate
+from .numbers import AxisFormat, decimal_to_nm, parse_decimal
 
 # G04 comments get their own branch: EAGLE writes "%" inside them (G04 #@! %TF...).
 _STATEMENT = re.compile(r"\s*(?:G0?4[^*]*\*|%([^%]*)%|([^%*]*)\*)")
@@ -46,6 +46,8 @@ MOVE, LINE, ARC_CW, ARC_CCW, FLASH = (int(OpKind.MOVE), int(OpKind.LINE), int(Op
                                       int(OpKind.ARC_CCW), int(OpKind.FLASH))
 PEN_DOWN, SELECT = int(OpKind.PEN_DOWN), int(OpKind.SELECT)
 NCOL = len(COLUMNS)
+MAX_DIGITS = batch_reader.MAX_DIGITS  # a 6.6 format has 12; more is a broken file
+MAX_COORDINATE_CHARS = MAX_DIGITS + 1  # and a sign
 # X2/X3 attribute commands kept as metadata.
 _ATTRIBUTES = ("TF", "TA", "TO", "TD")
 # Deprecated commands with no geometric effect on a plot: accepted with a warning.
@@ -239,6 +241,8 @@ class GerberReader:
             self._require_format()
             fmt_x, fmt_y = self.fmt_x, self.fmt_y
         x, y = self.x, self.y
+        if any(v is not None and len(v) > MAX_COORDINATE_CHARS for v in (xs, ys, is_, js)):
+            raise self.error(f"coordinate with more than {MAX_DIGITS} digits", match.string.strip())
         if xs is not None:
             value = int(xs) * fmt_x.numerator if fmt_x.plain else fmt_x.to_nm(xs)
             x = x + value if self.incremental else value
@@ -515,7 +519,7 @@ class GerberReader:
                 self.warn("ad-parameters", "irregular aperture parameter list "
                                            "(glued numbers or a trailing 'X')", block)
             aperture = define_aperture(code, template, values, self.units, self.macros)
-        except MacroError as problem:
+        except ValueError as problem:  # MacroError, or a number out of range
             raise self.error(str(problem), block) from None
         if code in self.apertures:
             self.warn("redefined-aperture", f"aperture D{code} defined again: the new one wins", block)
@@ -526,7 +530,7 @@ class GerberReader:
             raise self.error("expected a macro name after %AM")
         try:
             self.macros[name] = MacroTemplate.parse(name, body)
-        except MacroError as problem:
+        except ValueError as problem:  # MacroError, or a number out of range
             raise self.error(str(problem), "*".join(body)) from None
 
     def _polarity(self, block: str) -> None:
@@ -545,9 +549,11 @@ class GerberReader:
         if nx < 1 or ny < 1:
             raise self.error("step-and-repeat counts must be at least 1", block)
         units = self.units or "in"
-        from .numbers import decimal_to_nm
-        dx = decimal_to_nm(di, units) if di else 0
-        dy = decimal_to_nm(dj, units) if dj else 0
+        try:
+            dx = decimal_to_nm(di, units) if di else 0
+            dy = decimal_to_nm(dj, units) if dj else 0
+        except ValueError as problem:
+            raise self.error(str(problem), block) from None
         if nx * ny > 1:
             self.step_repeat = (nx, ny, dx, dy, len(self.rows) // NCOL)
 
