@@ -186,6 +186,18 @@ def test_aperture_block_is_replayed_at_each_flash():
                                              (7_000_000, 5_000_000), (8_000_000, 5_000_000)]
 
 
+def test_load_transforms_mirror_then_rotate_aperture_blocks_and_the_point_survives_the_block():
+    program = read("%FSLAX46Y46*%%MOMM*%%ADD10C,0.1*%X0Y7000000D02*"
+                   "%ABD20*%D10*X0Y0D02*X1000000Y0D01*G75*G03X1000000Y0I-500000J0D01*%AB*%"
+                   "%LMX*%%LR90*%D20*X5000000D03*M02*")
+    # (1, 0) mirrored in X is (-1, 0), turned a quarter is (0, -1); the flash is at
+    # (5, 7): the missing Y comes from before the block, not from inside it.
+    assert points(program, OpKind.MOVE, OpKind.LINE) == [(0, 7_000_000), (5_000_000, 7_000_000),
+                                                         (5_000_000, 6_000_000)]
+    (kind, _, _, i, j, _), = ops(program, OpKind.ARC_CW, OpKind.ARC_CCW)
+    assert (OpKind(kind), i, j) == (OpKind.ARC_CW, 0, 500_000)  # one mirror reverses arcs
+
+
 def test_load_transforms_and_attributes_are_kept():
     program = read("%TF.FileFunction,Copper,L1,Top*%%FSLAX46Y46*%%MOMM*%%TA.AperFunction,SMDPad*%"
                    "%ADD10C,0.1*%%TD.AperFunction*%%LMXY*%%LR45*%%LS0.5*%D10*X0Y0D03*M02*")

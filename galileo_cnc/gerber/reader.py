@@ -28,6 +28,7 @@ from ..geometry import single_quadrant_centre
 from . import batch as batch_reader
 from .apertures import define_aperture, parse_parameters
 from .image import ImageTransform
+from .load import LoadTransform
 from .macros import MacroTemplate
 from .numbers import AxisFormat, decimal_to_nm, parse_decimal
 
@@ -85,6 +86,7 @@ class GerberReader:
         self.blocks: dict[int, np.ndarray] = {}  # %AB aperture blocks, as op rows
         self.block_stack: list[tuple[int, array]] = []
         self.image = ImageTransform()
+        self.load = LoadTransform()
         # Format and units.
         self.units: str | None = None
         self.fs: tuple | None = None  # (trailing, incremental, xi, xd, yi, yd)
@@ -309,7 +311,7 @@ class GerberReader:
         if block is None:
             self.emit(FLASH, x, y, tool=self.aperture)
             return
-        copy = block.copy()
+        copy = self.load.transform_rows(block)
         moving = np.isin(copy[:, KIND], (MOVE, LINE, ARC_CW, ARC_CCW, FLASH))
         copy[moving, X] += x
         copy[moving, Y] += y
@@ -586,7 +588,7 @@ class GerberReader:
         if body == "AB":
             if not self.block_stack:
                 raise self.error("%AB* closes a block that was never opened", block)
-            code, outer = self.block_stack.pop()
+            code, outer, (self.x, self.y) = self.block_stack.pop()
             rows = np.frombuffer(self.rows, dtype=np.int64).reshape(-1, NCOL).copy()
             self.blocks[code] = rows
             self.apertures[code] = Aperture(code, "block", extent_nm=_rows_extent(rows))
@@ -596,15 +598,20 @@ class GerberReader:
         m = re.fullmatch(r"ABD(\d+)", body)
         if not m:
             raise self.error("expected %ABDnn* or %AB*", block)
-        self.block_stack.append((int(m.group(1)), self.rows))
+        # A block is a definition: the current point after it is the one before it.
+        self.block_stack.append((int(m.group(1)), self.rows, (self.x, self.y)))
         self.rows = array("q")
         self.pen_down = False
 
     def _load_transform(self, block: str) -> None:
         self.metadata.setdefault("load_transforms", []).append(block)
-        if block.strip() not in ("LMN", "LR0", "LS1", "LR0.0", "LS1.0"):
-            self.warn("LM/LR/LS", "%LM/%LR/%LS rotate, mirror or scale flashed apertures; "
-                                  "flash positions are exact, aperture outlines are not transformed", block)
+        try:
+            self.load.apply_command("".join(block.split()))
+        except ValueError as problem:
+            raise self.error(str(problem), block) from None
+        if not self.load.is_identity():
+            self.warn("LM/LR/LS", "%LM/%LR/%LS transform flashed apertures: aperture blocks are "
+                                  "transformed, standard and macro aperture outlines are not yet", block)
 
     def _attribute(self, block: str) -> None:
         key, _, value = block[2:].partition(",")
