@@ -27,6 +27,7 @@ import numpy as np
 from ..program import COLUMNS, NO_TOOL, OpKind
 
 MIN_RUN = 32  # shorter runs are cheaper statement by statement
+CHUNK_STATEMENTS = 8192  # statements scanned at once: bounds the per-character arrays
 LETTERS = "GXYIJD"  # the order _DATA accepts
 G, X, Y, I, J, D = range(len(LETTERS))
 MAX_DIGITS = 12  # a 6.6 format has 12 digits; 12 digits times any nm scale fit int64
@@ -50,21 +51,23 @@ class Words:
     plain: np.ndarray    # bool (n,)
     present: np.ndarray  # bool (n, 6), columns in LETTERS order
     value: np.ndarray    # int64 (n, 6), signed integers as written (0 when absent)
+    leading_blanks: np.ndarray  # int64 (n,): blanks before each statement's first character
 
 
 def scan_words(pieces_text: str, count: int) -> Words:
     """Scan `count` statements: the text of pieces joined by '*' (each piece ends at one)."""
-    codes = np.frombuffer(pieces_text.encode("utf-32-le"), dtype=np.uint32)
+    # One byte per character; anything beyond Latin-1 becomes '?', "other" either way.
+    codes = np.frombuffer(pieces_text.encode("latin-1", errors="replace"), dtype=np.uint8)
     stars = codes == ord("*")
-    statement = np.cumsum(stars) - stars  # the statement each character belongs to
-    small = codes < 128
-    kind = np.where(small, _CLASS[np.where(small, codes, 0)], OTHER)
+    statement = np.cumsum(stars, dtype=np.int32) - stars  # the statement of each character
+    kind = _CLASS[np.minimum(codes, 127)]
+    kind[codes > 127] = OTHER
     kind[stars] = BLANK  # the terminator itself is harmless
     bad = np.zeros(count + 1, dtype=bool)
 
     # Characters outside the alphabet, and blanks after the statement has begun.
     first_seen = _first_per_statement((kind != BLANK) & ~stars, statement, count)
-    blank_inside = (kind == BLANK) & ~stars & (np.arange(len(codes)) > first_seen[statement])
+    blank_inside = (kind == BLANK) & ~stars & (np.arange(len(codes), dtype=np.int32) > first_seen[statement])
     np.logical_or.at(bad, statement[(kind == OTHER) | blank_inside], True)
 
     letters = np.flatnonzero(kind == LETTER)
@@ -113,7 +116,9 @@ def scan_words(pieces_text: str, count: int) -> Words:
     # the statement-by-statement path.
     plain = (~bad & present[:, D] & ~present[:, I] & ~present[:, J]
              & (~present[:, G] | (value[:, G] == 1)))
-    return Words(plain[:count], present[:count], value[:count])
+    statement_start = np.concatenate(([0], np.flatnonzero(stars)[:-1] + 1))[:count]
+    leading = np.where(first_seen[:count] < len(codes), first_seen[:count] - statement_start, 0)
+    return Words(plain[:count], present[:count], value[:count], leading)
 
 
 def _first_per_statement(mask: np.ndarray, statement: np.ndarray, count: int) -> np.ndarray:

@@ -126,23 +126,32 @@ class GerberReader:
         return self._program()
 
     def _words(self, pieces: list[str], starts: np.ndarray, min_run: int) -> None:
-        """Word statements (the text between two '*', blanks included) in order.
+        """Word statements (the text between two '*', blanks included) in order,
+        scanned in chunks so memory stays small whatever the file size."""
+        for chunk in range(0, len(pieces), batch_reader.CHUNK_STATEMENTS):
+            end = chunk + batch_reader.CHUNK_STATEMENTS
+            self._word_chunk(pieces[chunk:end], starts[chunk:end], min_run)
+            if self.ended:
+                return
 
-        Runs of at least `min_run` plain coordinate blocks are read vectorised
-        (gerber/batch.py); the rest, and any run batch declines, one by one.
-        """
+    def _word_chunk(self, pieces: list[str], starts: np.ndarray, min_run: int) -> None:
+        """Runs of at least `min_run` plain coordinate blocks are read vectorised
+        (gerber/batch.py); the rest, and any run batch declines, one by one."""
         if len(pieces) >= min_run:
             words = batch_reader.scan_words("*".join(pieces) + "*", len(pieces))
             breaks = np.flatnonzero(~words.plain).tolist()
+            content_starts = starts + words.leading_blanks
         else:
-            words, breaks = None, list(range(len(pieces)))
+            words, breaks, content_starts = None, list(range(len(pieces))), starts
         first = 0
         for stop in breaks + [len(pieces)]:
-            if stop - first >= min_run and batch_reader.read_run(self, words, first, stop, starts[first:stop]):
+            if stop - first >= min_run and batch_reader.read_run(self, words, first, stop,
+                                                                 content_starts[first:stop]):
                 first = stop
             for k in range(first, min(stop + 1, len(pieces))):
-                self.offset = int(starts[k])
-                match = _SPACED_DATA.fullmatch(pieces[k])
+                piece = pieces[k]
+                self.offset = int(starts[k]) + len(piece) - len(piece.lstrip())
+                match = _SPACED_DATA.fullmatch(piece)
                 if match is not None:
                     self._data(match)
                 else:
@@ -196,10 +205,8 @@ class GerberReader:
                 yield True, extended, m.start(1) - 1, end
 
     def _position(self) -> tuple[int, int]:
-        """(line, column), 1-based, of the statement being read (after leading blanks)."""
+        """(line, column), 1-based, of the statement being read."""
         text, offset = self.text, self.offset
-        while offset < len(text) - 1 and text[offset].isspace():
-            offset += 1
         line = text.count("\n", 0, offset) + 1
         return line, offset - (text.rfind("\n", 0, offset) + 1) + 1
 
@@ -674,11 +681,9 @@ def _offsets_to_positions(table: np.ndarray, text: str) -> None:
     """Replace the character offsets in the line column by 1-based line and column."""
     if not len(table):
         return
-    codes = np.frombuffer(text.encode("utf-32-le"), dtype=np.uint32)
-    # Rows point at the start of their statement's text, blanks before it included.
-    printable = np.flatnonzero(~np.isin(codes, (9, 10, 11, 12, 13, 32)))
-    at = np.minimum(np.searchsorted(printable, table[:, LINE_COL]), max(len(printable) - 1, 0))
-    offsets = printable[at] if len(printable) else table[:, LINE_COL].copy()
+    # One byte per character ('?' for anything beyond Latin-1): offsets stay valid.
+    codes = np.frombuffer(text.encode("latin-1", errors="replace"), dtype=np.uint8)
+    offsets = table[:, LINE_COL].copy()
     # Position -1 stands for the start of line 1, so line k starts after entry k-1.
     newlines = np.concatenate(([-1], np.flatnonzero(codes == 10)))
     before = np.searchsorted(newlines, offsets) - 1  # newlines before each offset
