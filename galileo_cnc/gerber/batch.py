@@ -6,16 +6,18 @@ aperture and linear interpolation. Two things make those runs fast:
 1. `scan_words` parses all word statements of a stretch of text at once with numpy:
    it finds the letters G X Y I J D, the signed integers after them, and marks the
    statements that are exactly what the reader's `_DATA` pattern accepts (optional
-   leading blanks, then G, X, Y, I, J, D in that order, G and D in 1..3, D present). Everything
+   leading blanks, then G, X, Y, I, J, D in that order, G and D in 1..3). Everything
    else ("other": comments, aperture selects, G36, M02, blanks inside a statement)
    stays with the statement-by-statement path.
-2. `read_run` computes the graphics state of a run in one go: modal X/Y are a forward
-   fill (a cumulative sum in incremental notation), and a PEN_DOWN row precedes every
-   D01 that follows a move or a flash.
+2. `read_run` computes the graphics state of a run in one go: the interpolation
+   mode, the D code (repeated where omitted) and X/Y are forward fills (X/Y a
+   cumulative sum in incremental notation), trailing-zero digits are padded, and a
+   PEN_DOWN row precedes every D01 that follows a move or a flash.
 
-Anything less plain (arcs, implicit D codes, regions with flashes, block apertures,
-formats that need padding or rounding) is left to the statement-by-statement path,
-which this module must match row for row: a test compares both on the whole corpus.
+Runs it cannot do exactly (single-quadrant arcs, coordinates before any D code,
+flashes in regions or of block apertures, scales that need rounding) are left to
+the statement-by-statement path, which this module must match row for row: a test
+compares both on the whole corpus and on fuzzed files.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ CHUNK_STATEMENTS = 8192  # statements scanned at once: bounds the per-character 
 LETTERS = "GXYIJD"  # the order _DATA accepts
 G, X, Y, I, J, D = range(len(LETTERS))
 MAX_DIGITS = 12  # a 6.6 format has 12 digits; 12 digits times any nm scale fit int64
+ARC_CW, ARC_CCW = int(OpKind.ARC_CW), int(OpKind.ARC_CCW)
 _KIND_OF_OPERATION = np.array([0, int(OpKind.LINE), int(OpKind.MOVE), int(OpKind.FLASH)], dtype=np.int64)
 
 # Character classes for code points below 128; everything else is "other".
@@ -51,6 +54,7 @@ class Words:
     plain: np.ndarray    # bool (n,)
     present: np.ndarray  # bool (n, 6), columns in LETTERS order
     value: np.ndarray    # int64 (n, 6), signed integers as written (0 when absent)
+    digits: np.ndarray   # int64 (n, 6), how many digits were written (for trailing-zero formats)
     leading_blanks: np.ndarray  # int64 (n,): blanks before each statement's first character
 
 
@@ -105,20 +109,18 @@ def scan_words(pieces_text: str, count: int) -> Words:
 
     present = np.zeros((count + 1, len(LETTERS)), dtype=bool)
     value = np.zeros((count + 1, len(LETTERS)), dtype=np.int64)
+    digits = np.zeros((count + 1, len(LETTERS)), dtype=np.int64)
     present[owner, rank] = True
     value[owner, rank] = values
+    digits[owner, rank] = lengths
     # _DATA takes G and D only as 1, 2 or 3: G36, D10 and the like are other statements.
     for column in (G, D):
         out_of_range = present[:, column] & ((value[:, column] < 1) | (value[:, column] > 3))
         bad |= out_of_range
-    # Without a D code the statement is a bare G01 or relies on the deprecated
-    # implicit D code; with G02/G03 or I/J it is an arc: all of those are left to
-    # the statement-by-statement path.
-    plain = (~bad & present[:, D] & ~present[:, I] & ~present[:, J]
-             & (~present[:, G] | (value[:, G] == 1)))
+    plain = ~bad & present.any(axis=1)
     statement_start = np.concatenate(([0], np.flatnonzero(stars)[:-1] + 1))[:count]
     leading = np.where(first_seen[:count] < len(codes), first_seen[:count] - statement_start, 0)
-    return Words(plain[:count], present[:count], value[:count], leading)
+    return Words(plain[:count], present[:count], value[:count], digits[:count], leading)
 
 
 def _first_per_statement(mask: np.ndarray, statement: np.ndarray, count: int) -> np.ndarray:
@@ -148,15 +150,30 @@ def _token_values(codes: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np
 def read_run(reader, words: Words, first: int, stop: int, starts: np.ndarray) -> bool:
     """Emit the rows of statements first..stop-1 (all plain); False if not possible."""
     fmt_x, fmt_y = reader.fmt_x, reader.fmt_y
-    if fmt_x is None or not (fmt_x.plain and fmt_y.plain):
+    if fmt_x is None or fmt_x.denominator != 1 or fmt_y.denominator != 1:
         return False
-    present = words.present[first:stop]
-    value = words.value[first:stop]
-    operations = value[:, D]
-    linear_from = 0 if reader.interpolation == 1 else int(np.argmax(present[:, G])) if present[:, G].any() \
-        else len(operations)
-    if (operations[:linear_from] == 1).any():
-        return False  # a draw while circular interpolation is still in force
+    present, value = words.present[first:stop], words.value[first:stop]
+    digits = words.digits[first:stop]
+    everywhere = np.arange(stop - first)
+    # Interpolation mode in force at each statement (G01/G02/G03 are modal).
+    last_g = np.maximum.accumulate(np.where(present[:, G], everywhere, -1))
+    mode = np.where(last_g >= 0, value[np.maximum(last_g, 0), G], reader.interpolation)
+    # A bare G0n statement only sets the mode; the others make one operation each.
+    active = np.flatnonzero(present[:, X:].any(axis=1))
+    if not len(active):
+        return False
+    present, value, digits, mode, starts = present[active], value[active], digits[active], \
+        mode[active], starts[active]
+    implicit = ~present[:, D]
+    if implicit[0] and not reader.dcode:
+        return False  # coordinates before any D code: the one-by-one path warns
+    # Coordinates without a D code repeat the last one (deprecated, counted).
+    last_d = np.maximum.accumulate(np.where(present[:, D], np.arange(len(value)), -1))
+    operations = np.where(last_d >= 0, value[np.maximum(last_d, 0), D], int(reader.dcode or 0))
+    draws = operations == 1
+    arcs = draws & (mode != 1)
+    if arcs.any() and reader.quadrant != 75:
+        return False  # single-quadrant arcs choose their centre one by one
     flashes = operations == 3
     if reader.in_region:
         if flashes.any():
@@ -169,9 +186,8 @@ def read_run(reader, words: Words, first: int, stop: int, starts: np.ndarray) ->
         if tool in reader.blocks and flashes.any():
             return False
 
-    x = _modal(present[:, X], value[:, X] * fmt_x.numerator, reader.x, reader.incremental)
-    y = _modal(present[:, Y], value[:, Y] * fmt_y.numerator, reader.y, reader.incremental)
-    draws = operations == 1
+    x = _modal(present[:, X], _scaled(value[:, X], digits[:, X], fmt_x), reader.x, reader.incremental)
+    y = _modal(present[:, Y], _scaled(value[:, Y], digits[:, Y], fmt_y), reader.y, reader.incremental)
     # The pen is down before a D01 only if the previous operation was a D01 too.
     was_drawing = np.concatenate(([reader.pen_down], draws[:-1]))
     pen_down_first = draws & ~was_drawing
@@ -181,9 +197,11 @@ def read_run(reader, words: Words, first: int, stop: int, starts: np.ndarray) ->
     count = len(operations)
     main = np.arange(count) + np.cumsum(pen_down_first)  # row of each statement's own op
     rows = np.zeros((count + int(pen_down_first.sum()), len(COLUMNS)), dtype=np.int64)
-    rows[main, 0] = _KIND_OF_OPERATION[operations]
+    rows[main, 0] = np.where(arcs, np.where(mode == 2, ARC_CW, ARC_CCW), _KIND_OF_OPERATION[operations])
     rows[main, 1] = x
     rows[main, 2] = y
+    rows[main, 3] = np.where(arcs, _scaled(value[:, I], digits[:, I], fmt_x), 0)
+    rows[main, 4] = np.where(arcs, _scaled(value[:, J], digits[:, J], fmt_y), 0)
     rows[main, 5] = np.where(operations == 2, NO_TOOL, tool)
     rows[main, 7] = starts
     pen_rows = main[pen_down_first] - 1
@@ -193,14 +211,26 @@ def read_run(reader, words: Words, first: int, stop: int, starts: np.ndarray) ->
     rows[pen_rows, 5] = NO_TOOL
     rows[pen_rows, 7] = starts[pen_down_first]
     reader.rows.frombytes(rows.tobytes())
+    if implicit.any():
+        reader.offset = int(starts[np.argmax(implicit)])
+        reader.warn_many("implicit-D", int(implicit.sum()),
+                         "coordinates without a D code repeat the last D code (deprecated)")
 
     reader.offset = int(starts[-1])
     reader.x, reader.y = int(x[-1]), int(y[-1])
     reader.pen_down = bool(draws[-1])
-    if present[:, G].any():
-        reader.interpolation = 1
+    reader.interpolation = int(np.where(last_g[-1] >= 0, words.value[first + last_g[-1], G],
+                                        reader.interpolation))
     reader.dcode = str(int(operations[-1]))
     return True
+
+
+def _scaled(numbers: np.ndarray, written: np.ndarray, fmt) -> np.ndarray:
+    """Digits as written -> nm, padding on the right where trailing zeros are omitted."""
+    if fmt.trailing_zeros_omitted:
+        width = fmt.integer_digits + fmt.decimal_digits
+        numbers = numbers * 10 ** np.maximum(width - written, 0)
+    return numbers * fmt.numerator
 
 
 def _modal(given: np.ndarray, numbers: np.ndarray, current: int, incremental: bool) -> np.ndarray:

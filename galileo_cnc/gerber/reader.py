@@ -215,9 +215,13 @@ class GerberReader:
 
     def warn(self, key: str, message: str, text: str = "") -> None:
         """Count a tolerated oddity; the first of each kind is kept with its position."""
-        self.warning_counts[key] += 1
-        if self.warning_counts[key] == 1:
+        self.warn_many(key, 1, message, text)
+
+    def warn_many(self, key: str, count: int, message: str, text: str = "") -> None:
+        """`count` oddities of one kind, the first of them at the current statement."""
+        if not self.warning_counts[key]:
             self.builder.warn(*self._position(), message, text)
+        self.warning_counts[key] += count
 
     def emit(self, kind: int, x: int = 0, y: int = 0, i: int = 0, j: int = 0,
              tool: int = NO_TOOL, value: int = 0) -> None:
@@ -250,7 +254,7 @@ class GerberReader:
             self._require_format()
             fmt_x, fmt_y = self.fmt_x, self.fmt_y
         x, y = self.x, self.y
-        if any(v is not None and len(v) > MAX_COORDINATE_CHARS for v in (xs, ys, is_, js)):
+        if len(match.string) > MAX_COORDINATE_CHARS and _too_long(xs, ys, is_, js):
             raise self.error(f"coordinate with more than {MAX_DIGITS} digits", match.string.strip())
         if xs is not None:
             value = int(xs) * fmt_x.numerator if fmt_x.plain else fmt_x.to_nm(xs)
@@ -675,6 +679,10 @@ class GerberReader:
         return Program(self.name, "gerber", self.units or "in", table, apertures=self.apertures,
                        metadata=self.metadata, warnings=self.builder.warnings,
                        line_count=self.text.count("\n") + (0 if self.text.endswith("\n") else 1))
+
+
+def _too_long(*numbers: str | None) -> bool:
+    return any(n is not None and len(n) > MAX_COORDINATE_CHARS for n in numbers)
 
 
 def _offsets_to_positions(table: np.ndarray, text: str) -> None:
