@@ -1,0 +1,159 @@
+/*
+ * Pin edges with their exact cycle, and end-stops driven from counted steps.
+ *
+ * simavr raises a port's pin IRQs on every write to PORTx/DDRx/PINx, changed
+ * or not, so each hook keeps the last level and acts on changes only.
+ */
+#include "pins.h"
+
+#include <string.h>
+
+#include <avr_ioport.h>
+#include <sim_io.h>
+#include <sim_irq.h>
+
+static const struct {
+	uint8_t step, dir;
+} axis_pins[AXES] = {
+	{11, 10}, /* X: PB3 step, PB2 dir */
+	{9, 8},   /* Y: PB1 step, PB0 dir */
+	{13, 12}, /* Z: PB5 step, PB4 dir */
+};
+
+int pins_arduino(int pin, char *port, int *bit)
+{
+	if (pin >= 0 && pin <= 7) {
+		*port = 'D';
+		*bit = pin;
+	} else if (pin >= 8 && pin <= 13) {
+		*port = 'B';
+		*bit = pin - 8;
+	} else if (pin >= 14 && pin <= 19) {
+		*port = 'C';
+		*bit = pin - 14;
+	} else {
+		return -1;
+	}
+	return 0;
+}
+
+void pins_axis_default(int axis, uint8_t *step_pin, uint8_t *dir_pin)
+{
+	*step_pin = axis_pins[axis].step;
+	*dir_pin = axis_pins[axis].dir;
+}
+
+static avr_irq_t *pin_irq(avr_t *avr, int pin)
+{
+	char port;
+	int bit;
+	if (pins_arduino(pin, &port, &bit) < 0)
+		return NULL;
+	return avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(port), bit);
+}
+
+static void record(pins_t *p, uint8_t pin, uint8_t level)
+{
+	uint64_t cycle = p->avr->cycle;
+	uint8_t rec[TRACE_RECORD_BYTES];
+	for (int i = 0; i < 8; i++)
+		rec[i] = (uint8_t)(cycle >> (8 * i));
+	rec[8] = pin;
+	rec[9] = level;
+	fwrite(rec, sizeof(rec), 1, p->trace);
+	p->records++;
+}
+
+static void drive_home(pins_t *p, endstop_t *e)
+{
+	int level = e->position_steps <= e->trip_steps ? 0 : 1;
+	if (level == e->home_level)
+		return;
+	e->home_level = level;
+	char port = 'B';
+	int bit = 0;
+	pins_arduino(e->home_pin, &port, &bit);
+	int k = port - 'B';
+	p->ext_mask[k] |= (uint8_t)(1u << bit);
+	p->ext_value[k] = (uint8_t)((p->ext_value[k] & ~(1u << bit)) | ((unsigned)level << bit));
+	/* The "external" value is what simavr re-raises on an input pin at every
+	 * PORTx/DDRx write; without it the firmware's pull-up (PORT bit 1) would
+	 * overwrite the switch on the next write to that port. */
+	avr_ioport_external_t ext = {.name = (unsigned)port, .mask = p->ext_mask[k], .value = p->ext_value[k]};
+	avr_ioctl(p->avr, AVR_IOCTL_IOPORT_SET_EXTERNAL(port), &ext);
+	avr_raise_irq(pin_irq(p->avr, e->home_pin), (uint32_t)level);
+}
+
+static void pin_hook(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+	pin_state_t *s = param;
+	pins_t *p = s->pins;
+	uint8_t level = value & 1;
+	(void)irq;
+	if (level == s->level)
+		return;
+	s->level = level;
+	if (s->traced)
+		record(p, s->arduino, level);
+	if (!level)
+		return;
+	for (int a = 0; a < AXES; a++) {
+		endstop_t *e = &p->axis[a];
+		if (e->active && e->step_pin == s->arduino) {
+			e->position_steps += p->pin[e->dir_pin].level ? 1 : -1;
+			drive_home(p, e);
+		}
+	}
+}
+
+int pins_add_endstop(pins_t *p, int axis, int home_pin, int64_t trip_steps)
+{
+	char port;
+	int bit;
+	if (axis < 0 || axis >= AXES || pins_arduino(home_pin, &port, &bit) < 0)
+		return -1;
+	endstop_t *e = &p->axis[axis];
+	e->active = 1;
+	e->step_pin = axis_pins[axis].step;
+	e->dir_pin = axis_pins[axis].dir;
+	e->home_pin = (uint8_t)home_pin;
+	e->trip_steps = trip_steps;
+	e->position_steps = 0;
+	e->home_level = -1;
+	return 0;
+}
+
+static void hook(pins_t *p, int pin)
+{
+	pin_state_t *s = &p->pin[pin];
+	if (s->hooked)
+		return;
+	s->hooked = 1;
+	avr_irq_register_notify(pin_irq(p->avr, pin), pin_hook, s);
+}
+
+int pins_attach(pins_t *p, avr_t *avr, FILE *trace, const uint8_t *traced, int ntraced)
+{
+	p->avr = avr;
+	p->trace = trace;
+	for (int i = 0; i < PINS_MAX; i++) {
+		p->pin[i].pins = p;
+		p->pin[i].arduino = (uint8_t)i;
+	}
+	for (int i = 0; i < ntraced; i++) {
+		if (traced[i] >= PINS_MAX)
+			return -1;
+		p->pin[traced[i]].traced = trace != NULL;
+		hook(p, traced[i]);
+	}
+	for (int a = 0; a < AXES; a++) {
+		endstop_t *e = &p->axis[a];
+		if (!e->active)
+			continue;
+		hook(p, e->step_pin);
+		hook(p, e->dir_pin);
+		hook(p, e->home_pin);
+		drive_home(p, e);
+	}
+	return 0;
+}

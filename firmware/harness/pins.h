@@ -1,0 +1,54 @@
+/*
+ * Arduino Uno pins in simavr: the edge trace and the simulated end-stops.
+ */
+#ifndef PINS_H
+#define PINS_H
+
+#include <stdint.h>
+#include <stdio.h>
+
+#include <sim_avr.h>
+
+#define PINS_MAX 20 /* Uno digital pins 0..13 and A0..A5 as 14..19 */
+#define AXES 3      /* X, Y, Z */
+
+/* One trace record on disk: little-endian u64 cycle, u8 pin, u8 level. */
+#define TRACE_RECORD_BYTES 10
+
+struct pins_t;
+
+typedef struct pin_state_t {
+	struct pins_t *pins;
+	uint8_t arduino;
+	uint8_t level;  /* last level seen (every pin is low at reset) */
+	uint8_t traced;
+	uint8_t hooked;
+} pin_state_t;
+
+typedef struct endstop_t {
+	int active;
+	uint8_t step_pin, dir_pin, home_pin;
+	int64_t trip_steps;     /* home pin low while position <= trip */
+	int64_t position_steps; /* from power-up, + when dir is high */
+	int home_level;         /* -1 until first driven */
+} endstop_t;
+
+typedef struct pins_t {
+	avr_t *avr;
+	FILE *trace;
+	uint64_t records;
+	pin_state_t pin[PINS_MAX];
+	endstop_t axis[AXES];
+	uint8_t ext_mask[3], ext_value[3]; /* driven inputs of ports B, C, D */
+} pins_t;
+
+/* The AVR port ('B', 'C', 'D') and bit of an Uno pin; -1 if there is none. */
+int pins_arduino(int pin, char *port, int *bit);
+/* Default step/dir pins of an axis (0 = X, 1 = Y, 2 = Z). */
+void pins_axis_default(int axis, uint8_t *step_pin, uint8_t *dir_pin);
+/* Before pins_attach(): drive `home_pin` from the axis' step count. */
+int pins_add_endstop(pins_t *p, int axis, int home_pin, int64_t trip_steps);
+/* Hooks the traced pins and the end-stop axes' pins; drives the home pins. */
+int pins_attach(pins_t *p, avr_t *avr, FILE *trace, const uint8_t *traced, int ntraced);
+
+#endif

@@ -1,0 +1,275 @@
+"""Firmware in the loop: the project's simavr harness as a serial port.
+
+`SimulatedBoard` starts `galileo-simavr` (built by `make -C firmware/harness`,
+see docs/harness.md) on a firmware ELF. The board's UART0 appears as a
+pseudo-terminal that pyserial opens like a real port; every edge of the traced
+pins is recorded with its exact simulated cycle and comes back as numpy arrays.
+`step_trace` turns those edges into the reference machine's step trace
+(tick, axis, dir), so firmware and reference can be compared step for step.
+"""
+
+from __future__ import annotations
+
+import os
+import queue
+import re
+import shutil
+import signal
+import subprocess
+import tempfile
+import threading
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .errors import GalileoError
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+HARNESS_RELATIVE = Path("firmware/harness/build/galileo-simavr")
+HARNESS_ENV = "GALILEO_SIMAVR"
+
+F_CPU_HZ = 16_000_000
+CYCLES_PER_TICK = 8  # Timer1 at clk/8: one tick is 0.5 us
+
+# One record of the harness's --trace file.
+TRACE_DTYPE = np.dtype([("cycle", "<u8"), ("pin", "u1"), ("level", "u1")])
+
+# (step pin, dir pin) of X, Y, Z on the Uno: the seed's pin map.
+DEFAULT_AXIS_PINS: tuple[tuple[int, int], ...] = ((11, 10), (9, 8), (13, 12))
+DEFAULT_TRACE_PINS = (8, 9, 10, 11, 12, 13)
+
+# What each Debian package provides that the harness, its tests or the firmware
+# build need: (package, file it installs or command it puts on PATH).
+_DEBIAN_MARKERS: dict[str, str] = {
+    "gcc": "cc",
+    "make": "make",
+    "libsimavr-dev": "/usr/include/simavr/sim_avr.h",
+    "simavr": "simavr",
+    "gcc-avr": "avr-gcc",
+    "avr-libc": "/usr/lib/avr/include/avr/io.h",
+    "arduino-core-avr": "/usr/share/arduino/hardware/arduino/avr/cores/arduino/Arduino.h",
+    "arduino-mk": "/usr/share/arduino/Arduino.mk",
+}
+HARNESS_PACKAGES = ("gcc", "make", "libsimavr-dev")
+TESTFW_PACKAGES = ("gcc-avr", "avr-libc")
+FIRMWARE_PACKAGES = ("gcc-avr", "avr-libc", "arduino-core-avr", "arduino-mk")
+
+_SUMMARY = re.compile(r"galileo-simavr: stop: (?P<reason>[^;]*); (?P<fields>.*)")
+
+
+class SimulatedBoardError(GalileoError):
+    """The harness is missing, would not start, or stopped unexpectedly."""
+
+
+def missing_debian_packages(packages: Iterable[str] = tuple(_DEBIAN_MARKERS)) -> list[str]:
+    """The Debian packages among `packages` whose files or commands are absent."""
+    missing = []
+    for package in packages:
+        marker = _DEBIAN_MARKERS[package]
+        present = Path(marker).exists() if marker.startswith("/") else shutil.which(marker)
+        if not present:
+            missing.append(package)
+    return missing
+
+
+def harness_path() -> Path:
+    """$GALILEO_SIMAVR, or the harness built in this checkout."""
+    override = os.environ.get(HARNESS_ENV)
+    return Path(override) if override else REPO_ROOT / HARNESS_RELATIVE
+
+
+def harness_available() -> bool:
+    path = harness_path()
+    return path.is_file() and os.access(path, os.X_OK)
+
+
+def read_trace(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(cycle int64, pin int8, level int8) from a --trace file; a record cut
+    short by a flush still under way is left out."""
+    raw = Path(path).read_bytes() if Path(path).exists() else b""
+    whole = len(raw) - len(raw) % TRACE_DTYPE.itemsize
+    records = np.frombuffer(raw[:whole], dtype=TRACE_DTYPE)
+    return (records["cycle"].astype(np.int64), records["pin"].astype(np.int8),
+            records["level"].astype(np.int8))
+
+
+def step_trace(edges: tuple[np.ndarray, np.ndarray, np.ndarray],
+               pins: Sequence[tuple[int, int]] = DEFAULT_AXIS_PINS,
+               cycles_per_tick: int = CYCLES_PER_TICK) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Step-pin rising edges as the reference machine's trace: (tick, axis, dir).
+
+    `pins[axis]` is that axis' (step pin, dir pin). A step's direction is the
+    level of its dir pin as last recorded before the step edge (+1 high, -1
+    low; low until first recorded, as after reset), so a dir change written in
+    the same instruction as the step counts. Steps sharing a tick are ordered
+    X, Y, Z, as in the reference trace.
+    """
+    cycle, pin, level = (np.asarray(a) for a in edges)
+    index = np.arange(len(cycle))
+    ticks, axes, dirs = [], [], []
+    for axis, (step_pin, dir_pin) in enumerate(pins):
+        steps = index[(pin == step_pin) & (level == 1)]
+        dir_at = index[pin == dir_pin]
+        last = np.searchsorted(dir_at, steps) - 1
+        dir_level = np.where(last >= 0, level[dir_at[np.maximum(last, 0)]] if len(dir_at) else 0, 0)
+        ticks.append(cycle[steps].astype(np.int64) // cycles_per_tick)
+        axes.append(np.full(len(steps), axis, dtype=np.int8))
+        dirs.append(np.where(dir_level == 1, 1, -1).astype(np.int8))
+    tick = np.concatenate(ticks) if ticks else np.zeros(0, np.int64)
+    axis = np.concatenate(axes) if axes else np.zeros(0, np.int8)
+    direction = np.concatenate(dirs) if dirs else np.zeros(0, np.int8)
+    order = np.lexsort((axis, tick))
+    return tick[order], axis[order], direction[order]
+
+
+class SimulatedBoard:
+    """A firmware ELF running in the harness, its UART0 on a pseudo-terminal.
+
+        with SimulatedBoard("firmware/build-uno/galileo_.elf") as board:
+            port = serial.Serial(board.port, 115200, timeout=2)
+            ...
+        cycle, pin, level = board.trace()
+
+    `endstops` takes ("X", 7, -100)-style tuples or "X:7:-100" strings (see
+    docs/harness.md). Nothing is built here: run `make -C firmware/harness`.
+    """
+
+    def __init__(self, elf: str | os.PathLike, *, trace: bool = True,
+                 pins: Iterable[int] | None = None,
+                 endstops: Iterable[tuple[str, int, int] | str] = (),
+                 max_seconds: float | None = None, realtime: bool = False,
+                 freq_hz: int = F_CPU_HZ, extra_args: Sequence[str] = (),
+                 binary: str | os.PathLike | None = None, start_timeout: float = 10.0):
+        self.elf = Path(elf)
+        self.binary = Path(binary) if binary else harness_path()
+        self.start_timeout = start_timeout
+        self._want_trace = trace
+        self._args = ["--freq", str(freq_hz)]
+        if pins is not None:
+            self._args += ["--pins", ",".join(str(p) for p in pins)]
+        for stop in endstops:
+            spec = stop if isinstance(stop, str) else ":".join(str(part) for part in stop)
+            self._args += ["--endstop", spec]
+        if max_seconds is not None:
+            self._args += ["--max-seconds", repr(float(max_seconds))]
+        if realtime:
+            self._args.append("--realtime")
+        self._args += list(extra_args)
+        self._dir: Path | None = None
+        self._process: subprocess.Popen | None = None
+        self._lines: queue.Queue[str | None] = queue.Queue()
+        self._reader: threading.Thread | None = None
+        self._edges: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self.port: str | None = None    # path for pyserial (a symlink to the slave)
+        self.slave: str | None = None   # /dev/pts/N
+        self.log = ""                   # the harness's stderr, after stop()
+        self.summary: dict[str, str] = {}  # its exit summary, after stop()
+        self.returncode: int | None = None
+
+    # -- lifetime -----------------------------------------------------------
+
+    def __enter__(self) -> "SimulatedBoard":
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def start(self) -> "SimulatedBoard":
+        if self._process is not None:
+            raise SimulatedBoardError("the simulated board is already started")
+        if not os.access(self.binary, os.X_OK):
+            raise SimulatedBoardError(
+                f"simavr harness not found at {self.binary}: build it with "
+                f"`make -C firmware/harness` or set {HARNESS_ENV}")
+        if not self.elf.is_file():
+            raise SimulatedBoardError(f"firmware ELF not found: {self.elf}")
+        self._dir = Path(tempfile.mkdtemp(prefix="galileo-simavr-"))
+        link = self._dir / "ttyGALILEO"
+        args = [str(self.binary), "--pty", str(link)]
+        if self._want_trace:
+            args += ["--trace", str(self._dir / "trace.bin")]
+        args += self._args + [str(self.elf)]
+        with open(self._dir / "harness.log", "wb") as log:
+            self._process = subprocess.Popen(args, stdin=subprocess.DEVNULL,
+                                             stdout=subprocess.PIPE, stderr=log)
+        self._reader = threading.Thread(target=self._read_stdout, daemon=True)
+        self._reader.start()
+        try:
+            line = self._lines.get(timeout=self.start_timeout)
+        except queue.Empty:
+            self.close()
+            raise SimulatedBoardError(
+                f"harness gave no 'pty:' line within {self.start_timeout} s") from None
+        if line is None or not line.startswith("pty: "):
+            self.close()
+            raise SimulatedBoardError(f"harness did not start: {self.log.strip() or line}")
+        self.slave = line[len("pty: "):].strip()
+        self.port = str(link)
+        return self
+
+    def _read_stdout(self) -> None:
+        assert self._process is not None and self._process.stdout is not None
+        for raw in self._process.stdout:
+            self._lines.put(raw.decode(errors="replace"))
+        self._lines.put(None)
+
+    @property
+    def running(self) -> bool:
+        return self._process is not None and self._process.poll() is None
+
+    def wait(self, timeout: float | None = None) -> int:
+        """Waits for the harness to stop by itself (--max-seconds, a crash,
+        sleep with interrupts off) and collects its results."""
+        assert self._process is not None
+        self._process.wait(timeout)
+        return self._finish()
+
+    def stop(self, timeout: float = 10.0) -> int:
+        """SIGTERM, then the exit code; the trace and log stay readable."""
+        if self._process is None:
+            return self.returncode if self.returncode is not None else 0
+        if self._process.poll() is None:
+            self._process.send_signal(signal.SIGTERM)
+            try:
+                self._process.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self._process.kill()
+                self._process.wait()
+        return self._finish()
+
+    def _finish(self) -> int:
+        assert self._process is not None and self._dir is not None
+        self.returncode = self._process.returncode
+        if self._reader is not None:
+            self._reader.join(timeout=5)  # it ends at the pipe's EOF
+        if self._process.stdout:
+            self._process.stdout.close()
+        self.log = (self._dir / "harness.log").read_text(errors="replace")
+        match = _SUMMARY.search(self.log)
+        if match:
+            self.summary = {"reason": match["reason"]}
+            self.summary.update(re.findall(r"(\w+)=(\S+)", match["fields"]))
+        if self._want_trace:
+            self._edges = read_trace(self._dir / "trace.bin")
+        self._process = None
+        return self.returncode
+
+    def close(self) -> None:
+        self.stop()
+        if self._dir is not None:
+            shutil.rmtree(self._dir, ignore_errors=True)
+            self._dir = None
+
+    # -- results ------------------------------------------------------------
+
+    def trace(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(cycle int64, pin int8, level int8) of every traced edge so far."""
+        if self._edges is not None:
+            return self._edges
+        if not self._want_trace or self._dir is None:
+            raise SimulatedBoardError("this board was started without a trace")
+        return read_trace(self._dir / "trace.bin")
+
+    def step_trace(self, pins: Sequence[tuple[int, int]] = DEFAULT_AXIS_PINS):
+        return step_trace(self.trace(), pins)
