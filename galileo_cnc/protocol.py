@@ -1,0 +1,390 @@
+"""The wire protocol between host and firmware, defined once (docs/protocol.md).
+
+Everything both sides must agree on lives in this module: the protocol version,
+the line format and its CRC-8, the command mnemonics with their argument kinds,
+the numbered error codes with their texts, the machine states and the real-time
+bytes. The firmware's `firmware/galileo/protocol.h` is generated from it
+(`python -m galileo_cnc.protocol --header firmware/galileo/protocol.h`) and a
+test keeps the committed header equal to the generated text.
+
+Host -> firmware, one command per line (at most MAX_LINE_BYTES with the newline):
+
+    N<seq> <mnemonic>[ <int>]*<crc8 as two upper-case hex digits>\\n
+
+Firmware -> host, exactly one reply per line (`ok`, `error:`, `rs`), plus the
+unsolicited banner, `status:`, `alarm:` and `msg:` lines.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Optional
+
+from .errors import GalileoError
+from .machine.commands import (ArcTo, Dwell, EndJob, Flash, Home, Jog, LineTo,
+                               Motors, PenDown, PenUp, Rapid, SetFeed, SetOrigin)
+
+PROTOCOL_VERSION = 1
+FIRMWARE_VERSION = "0.1.0"
+BANNER_NAME = "galileo-cnc"
+MAX_LINE_BYTES = 64          # including the newline
+RX_BUFFER_BYTES = 128        # the firmware's receive ring; the host counts characters against it
+QUEUE_BLOCKS = 8             # planned blocks the firmware queues (a Rapid is two, a Flash three)
+SEQ_MAX = 65535              # after SEQ_MAX comes 1; N0 is always accepted and restarts at 1
+CRC8_POLY = 0x07             # CRC-8/SMBUS: x^8 + x^2 + x + 1, init 0, no reflection
+
+# Real-time bytes: acted on in the receive interrupt, never part of a line.
+RT_STATUS = b"?"
+RT_HOLD = b"!"
+RT_RESUME = b"~"
+RT_ABORT = b"\x18"
+REALTIME_BYTES = {"STATUS": RT_STATUS, "HOLD": RT_HOLD, "RESUME": RT_RESUME, "ABORT": RT_ABORT}
+
+STATES = ("idle", "run", "hold", "alarm", "homing")
+
+
+@dataclass(frozen=True, slots=True)
+class ArgKind:
+    """An integer argument's accepted range (checked before any meaning is applied)."""
+
+    name: str
+    lo: int
+    hi: int
+
+
+COORD = ArgKind("COORD", -9_999_999, 9_999_999)     # steps
+MS = ArgKind("MS", 0, 2_000_000)                    # milliseconds (2000 ticks each)
+FEED = ArgKind("FEED", 0, 9_999_999)                # steps/s (the firmware checks 10..F_MAX)
+FLAG = ArgKind("FLAG", 0, 1)
+ARG_KINDS = (COORD, MS, FEED, FLAG)
+
+
+# ---- protocol-only commands (no motion) ---------------------------------------------
+@dataclass(frozen=True, slots=True)
+class QueryStatus:
+    """`S`: the reply is `ok N<seq> status:...`."""
+
+
+@dataclass(frozen=True, slots=True)
+class QueryVersion:
+    """`V`: the reply is `ok N<seq> <banner>` (for hosts that missed the reset banner)."""
+
+
+@dataclass(frozen=True, slots=True)
+class Unlock:
+    """`U`: leave the alarm state and start a new job after `E` (EndJob)."""
+
+
+@dataclass(frozen=True, slots=True)
+class CommandSpec:
+    """One mnemonic: the command class, its fields in wire order with their kinds.
+
+    Fields from `optional_from` on may be omitted (None in the command object).
+    `fixed` holds fields implied by the mnemonic (CW / CCW set ArcTo.cw).
+    """
+
+    name: str
+    mnemonic: str
+    cls: type
+    args: tuple[tuple[str, ArgKind], ...] = ()
+    optional_from: Optional[int] = None
+    fixed: tuple[tuple[str, object], ...] = ()
+
+    @property
+    def min_args(self) -> int:
+        return len(self.args) if self.optional_from is None else self.optional_from
+
+
+_XY = (("x_steps", COORD), ("y_steps", COORD))
+COMMANDS = (
+    CommandSpec("RAPID", "R", Rapid, _XY),
+    CommandSpec("LINE", "L", LineTo, _XY + (("z_steps", COORD),), optional_from=2),
+    CommandSpec("ARC_CW", "CW", ArcTo, _XY + (("i_steps", COORD), ("j_steps", COORD)),
+                fixed=(("cw", True),)),
+    CommandSpec("ARC_CCW", "CCW", ArcTo, _XY + (("i_steps", COORD), ("j_steps", COORD)),
+                fixed=(("cw", False),)),
+    CommandSpec("PEN_UP", "PU", PenUp),
+    CommandSpec("PEN_DOWN", "PD", PenDown),
+    CommandSpec("FLASH", "FL", Flash, (("dwell_ms", MS),), optional_from=0),
+    CommandSpec("DWELL", "DW", Dwell, (("ms", MS),)),
+    CommandSpec("FEED", "F", SetFeed, (("feed_steps_per_s", FEED),)),
+    CommandSpec("JOG", "J", Jog, (("dx_steps", COORD), ("dy_steps", COORD),
+                                  ("dz_steps", COORD))),
+    CommandSpec("ORIGIN", "O", SetOrigin),
+    CommandSpec("HOME", "H", Home),
+    CommandSpec("MOTORS", "M", Motors, (("on", FLAG),)),
+    CommandSpec("END_JOB", "E", EndJob),
+    CommandSpec("STATUS", "S", QueryStatus),
+    CommandSpec("VERSION", "V", QueryVersion),
+    CommandSpec("UNLOCK", "U", Unlock),
+)
+_BY_MNEMONIC = {spec.mnemonic: spec for spec in COMMANDS}
+
+
+@dataclass(frozen=True, slots=True)
+class ErrorSpec:
+    """A numbered error. `alarm` errors arrive as `alarm:CODE` and lock the machine."""
+
+    code: int
+    name: str
+    text: str
+    alarm: bool = False
+
+
+ERRORS = (
+    ErrorSpec(1, "BAD_LINE", "malformed line"),
+    ErrorSpec(2, "LINE_TOO_LONG", "line too long"),
+    ErrorSpec(3, "UNKNOWN_COMMAND", "unknown command"),
+    ErrorSpec(4, "BAD_ARGUMENT", "bad argument"),
+    ErrorSpec(5, "SOFT_LIMIT", "soft limit"),
+    ErrorSpec(6, "FEED_RANGE", "feed out of range"),
+    ErrorSpec(7, "ARC_TOO_LARGE", "arc radius too large"),
+    ErrorSpec(8, "JOB_ENDED", "job has ended, send U"),
+    ErrorSpec(9, "LOCKED", "alarm, send U"),
+    ErrorSpec(10, "HOME_SWITCH_ACTIVE", "end-stop already active, jog away", alarm=True),
+    ErrorSpec(11, "HOME_NOT_FOUND", "end-stop not found", alarm=True),
+    ErrorSpec(12, "HOME_PULLOFF", "end-stop still active after pull-off", alarm=True),
+    ErrorSpec(13, "STEP_OVERRUN", "step interrupt overrun, timing slipped"),
+    ErrorSpec(14, "ABORTED", "aborted", alarm=True),
+)
+ERROR_BY_CODE = {e.code: e for e in ERRORS}
+ERROR_BY_NAME = {e.name: e for e in ERRORS}
+
+
+# ---- errors on the host ---------------------------------------------------------------
+class ProtocolError(GalileoError):
+    """A line or reply that does not follow docs/protocol.md."""
+
+
+class ProtocolVersionError(ProtocolError):
+    """The firmware speaks a different protocol version: the host refuses it."""
+
+
+class LineRejected(ProtocolError):
+    """A command line the machine side refuses: `code` set, or a resend request."""
+
+    def __init__(self, message: str, code: int | None = None, resend: bool = False):
+        self.code = code
+        self.resend = resend
+        super().__init__(message)
+
+
+# ---- CRC-8 and framing -------------------------------------------------------------------
+def _crc8_table() -> tuple[int, ...]:
+    table = []
+    for byte in range(256):
+        crc = byte
+        for _ in range(8):
+            crc = ((crc << 1) ^ CRC8_POLY) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+        table.append(crc)
+    return tuple(table)
+
+
+CRC8_TABLE = _crc8_table()
+
+
+def crc8(data: bytes) -> int:
+    crc = 0
+    for byte in data:
+        crc = CRC8_TABLE[crc ^ byte]
+    return crc
+
+
+def next_seq(seq: int) -> int:
+    """The sequence number after `seq` (1 .. SEQ_MAX, then 1 again)."""
+    return 1 if seq >= SEQ_MAX else seq + 1
+
+
+def frame_line(seq: int, text: str) -> bytes:
+    """`N<seq> <text>*HH\\n`; raises ProtocolError if it would exceed MAX_LINE_BYTES."""
+    if not 0 <= seq <= SEQ_MAX:
+        raise ProtocolError(f"sequence number {seq} outside 0..{SEQ_MAX}")
+    body = f"N{seq} {text}".encode("ascii")
+    line = body + b"*%02X\n" % crc8(body)
+    if len(line) > MAX_LINE_BYTES:
+        raise ProtocolError(f"line of {len(line)} bytes exceeds {MAX_LINE_BYTES}: {line!r}")
+    return line
+
+
+def _spec_of(cmd: object) -> CommandSpec:
+    for spec in COMMANDS:
+        if type(cmd) is spec.cls and all(getattr(cmd, f) == v for f, v in spec.fixed):
+            return spec
+    raise ProtocolError(f"no wire form for {cmd!r}")
+
+
+def command_text(cmd: object) -> str:
+    """The mnemonic and arguments of a command, without framing: `L 100 -20`."""
+    spec = _spec_of(cmd)
+    parts = [spec.mnemonic]
+    for i, (field, kind) in enumerate(spec.args):
+        value = getattr(cmd, field)
+        if value is None:
+            if spec.optional_from is None or i < spec.optional_from:
+                raise ProtocolError(f"{cmd!r}: {field} is required on the wire")
+            break
+        value = int(value)
+        if not kind.lo <= value <= kind.hi:
+            raise ProtocolError(f"{cmd!r}: {field}={value} outside {kind.lo}..{kind.hi}")
+        parts.append(str(value))
+    return " ".join(parts)
+
+
+def encode_command(cmd: object, seq: int) -> bytes:
+    """A complete framed line for a machine (or protocol-only) command."""
+    return frame_line(seq, command_text(cmd))
+
+
+_LINE_RE = re.compile(rb"^N(\d{1,5}) ([A-Z]{1,3})((?: -?\d{1,9})*)$")
+
+
+def decode_line(line: bytes, expected_seq: int | None = None) -> tuple[int, object]:
+    """Parse one received line (the firmware's rules, for the simulated machine and tests).
+
+    Returns (seq, command). Raises LineRejected: `resend=True` for a missing or bad
+    checksum or a sequence mismatch (reply `rs N<expected>`), else with an error code.
+    """
+    line = line.rstrip(b"\n").replace(b"\r", b"")
+    if len(line) + 1 > MAX_LINE_BYTES:
+        raise LineRejected("line too long", code=2)
+    star = line.rfind(b"*")
+    body, check = line[:star], line[star + 1:]
+    if star < 0 or not re.fullmatch(rb"[0-9A-F]{2}", check) or int(check, 16) != crc8(body):
+        raise LineRejected("checksum", resend=True)
+    match = _LINE_RE.match(body)
+    if match is None:
+        raise LineRejected("malformed line", code=1)
+    seq = int(match.group(1))
+    if seq > SEQ_MAX:
+        raise LineRejected("malformed line", code=1)
+    if expected_seq is not None and seq != 0 and seq != expected_seq:
+        raise LineRejected(f"expected N{expected_seq}", resend=True)
+    spec = _BY_MNEMONIC.get(match.group(2).decode())
+    if spec is None:
+        raise LineRejected("unknown command", code=3)
+    values = [int(v) for v in match.group(3).split()]
+    if not spec.min_args <= len(values) <= len(spec.args):
+        raise LineRejected("bad argument", code=4)
+    kwargs = dict(spec.fixed)
+    for (field, kind), value in zip(spec.args, values):
+        if not kind.lo <= value <= kind.hi:
+            raise LineRejected("bad argument", code=4)
+        kwargs[field] = bool(value) if kind is FLAG else value
+    return seq, spec.cls(**kwargs)
+
+
+# ---- replies --------------------------------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class Status:
+    state: str
+    x_steps: int          # work position
+    y_steps: int
+    z_steps: int
+    queue_blocks: int
+    last_seq: int         # last line the firmware accepted
+
+    def text(self) -> str:
+        return (f"status:{self.state} X{self.x_steps} Y{self.y_steps} Z{self.z_steps} "
+                f"Q{self.queue_blocks} N{self.last_seq}")
+
+
+@dataclass(frozen=True, slots=True)
+class Banner:
+    firmware_version: str
+    protocol_version: int
+    rx_buffer_bytes: int
+    queue_blocks: int
+
+    def text(self) -> str:
+        return (f"{BANNER_NAME} {self.firmware_version} proto {self.protocol_version} "
+                f"rx {self.rx_buffer_bytes} queue {self.queue_blocks}")
+
+
+@dataclass(frozen=True, slots=True)
+class Reply:
+    """One line from the firmware. `kind`: ok, error, rs, status, alarm, msg, banner."""
+
+    kind: str
+    seq: int | None = None
+    code: int | None = None
+    text: str = ""
+    status: Status | None = None
+    banner: Banner | None = None
+
+    @property
+    def error(self) -> ErrorSpec | None:
+        return ERROR_BY_CODE.get(self.code) if self.code is not None else None
+
+
+_STATUS_RE = re.compile(r"^status:([a-z]+) X(-?\d+) Y(-?\d+) Z(-?\d+) Q(\d+) N(\d+)$")
+_BANNER_RE = re.compile(rf"^{BANNER_NAME} (\S+) proto (\d+) rx (\d+) queue (\d+)$")
+_CODE_RE = re.compile(r"^(error|alarm|msg):(\d+)(?: N(\d+))?(?: (.*))?$")
+_OK_RE = re.compile(r"^ok N(\d+)(?: (.*))?$")
+
+
+def _status(text: str) -> Status | None:
+    m = _STATUS_RE.match(text)
+    if m is None or m.group(1) not in STATES:
+        return None
+    return Status(m.group(1), *(int(g) for g in m.group(2, 3, 4, 5, 6)))
+
+
+def _banner(text: str) -> Banner | None:
+    m = _BANNER_RE.match(text)
+    return None if m is None else Banner(m.group(1), *(int(g) for g in m.group(2, 3, 4)))
+
+
+def parse_reply(line: bytes | str) -> Reply:
+    """Decode one firmware line; raises ProtocolError for anything undocumented."""
+    text = line.decode("ascii", "replace") if isinstance(line, bytes) else line
+    text = text.rstrip("\r\n")
+    if (m := _OK_RE.match(text)) is not None:
+        payload = m.group(2) or ""
+        return Reply("ok", int(m.group(1)), text=payload, status=_status(payload),
+                     banner=_banner(payload))
+    if (m := _CODE_RE.match(text)) is not None:
+        return Reply(m.group(1), None if m.group(3) is None else int(m.group(3)),
+                     int(m.group(2)), m.group(4) or "")
+    if text.startswith("rs N") and text[4:].isdigit():
+        return Reply("rs", int(text[4:]))
+    if (status := _status(text)) is not None:
+        return Reply("status", status.last_seq, text=text, status=status)
+    if (banner := _banner(text)) is not None:
+        return Reply("banner", text=text, banner=banner)
+    raise ProtocolError(f"unexpected reply from the machine: {text!r}")
+
+
+def check_banner(banner: Banner) -> Banner:
+    """Refuse firmware whose protocol version differs from ours."""
+    if banner.protocol_version != PROTOCOL_VERSION:
+        raise ProtocolVersionError(
+            f"firmware {banner.firmware_version} speaks protocol {banner.protocol_version}, "
+            f"this host speaks {PROTOCOL_VERSION}: update the firmware (make -C firmware) "
+            f"or the host")
+    return banner
+
+
+def format_error(code: int, seq: int | None = None, detail: str = "") -> str:
+    """The firmware's error reply text for `code` (used by the simulated machine)."""
+    spec = ERROR_BY_CODE[code]
+    prefix = "alarm" if spec.alarm else "error"
+    where = "" if seq is None else f" N{seq}"
+    return f"{prefix}:{code}{where} {spec.text}{(': ' + detail) if detail else ''}"
+
+
+def main(argv: list[str] | None = None) -> int:
+    import argparse
+
+    from .firmware_headers import write_if_changed, protocol_header
+    parser = argparse.ArgumentParser(prog="python -m galileo_cnc.protocol",
+                                     description="Generate the firmware's protocol header.")
+    parser.add_argument("--header", required=True, metavar="PATH",
+                        help="write the C header here (firmware/galileo/protocol.h)")
+    args = parser.parse_args(argv)
+    write_if_changed(args.header, protocol_header())
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

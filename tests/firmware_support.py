@@ -1,0 +1,135 @@
+"""Shared by the firmware tests: build once, skip or fail on missing packages,
+and stream a job to the firmware running in the simavr harness.
+
+Outside CI a missing Debian package skips the firmware tests with its name;
+under CI=true it fails them (tests must not pass by skipping there).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+from galileo_cnc import protocol as P
+from galileo_cnc import simavr
+
+REPO = Path(__file__).resolve().parents[1]
+FIRMWARE_DIR = REPO / "firmware"
+ELF = FIRMWARE_DIR / "build-uno" / "galileo.elf"
+BAUD = 115200
+
+UNO_FLASH_BYTES = 32 * 1024 - 512   # minus the optiboot boot loader
+UNO_RAM_BYTES = 2048
+STACK_MARGIN_BYTES = 512            # left free for the stack (estimated peak ~300 bytes)
+
+
+def require_packages(packages) -> None:
+    missing = simavr.missing_debian_packages(packages)
+    if missing:
+        message = f"missing Debian packages: {' '.join(missing)}"
+        if os.environ.get("CI"):
+            pytest.fail(message)
+        pytest.skip(message)
+
+
+_built: dict = {}
+
+
+def build_firmware() -> dict:
+    """`make -C firmware` once per session; returns the parsed avr-size figures."""
+    require_packages(simavr.FIRMWARE_PACKAGES)
+    if not _built:
+        result = subprocess.run(["make", "-C", str(FIRMWARE_DIR)], capture_output=True,
+                                text=True)
+        _built["output"] = result.stdout + result.stderr
+        _built["returncode"] = result.returncode
+        flash = re.search(r"Program:\s+(\d+) bytes", result.stdout)
+        ram = re.search(r"Data:\s+(\d+) bytes", result.stdout)
+        _built["flash_bytes"] = int(flash.group(1)) if flash else None
+        _built["ram_bytes"] = int(ram.group(1)) if ram else None
+    assert _built["returncode"] == 0, _built["output"][-3000:]
+    return _built
+
+
+def build_harness() -> None:
+    require_packages(simavr.HARNESS_PACKAGES)
+    if not simavr.harness_available():
+        result = subprocess.run(["make", "-C", str(FIRMWARE_DIR / "harness"), "harness"],
+                                capture_output=True, text=True)
+        assert result.returncode == 0, result.stdout + result.stderr
+
+
+class FirmwareLink:
+    """A pyserial link to the firmware that streams framed lines with character
+    counting against the advertised RX buffer (docs/protocol.md)."""
+
+    def __init__(self, port: str, timeout: float = 60.0):
+        import serial
+        self.port = serial.Serial(port, BAUD, timeout=timeout)
+        self.banner = P.parse_reply(self.port.readline())
+        assert self.banner.kind == "banner", self.banner
+        P.check_banner(self.banner.banner)
+        self.seq = 0
+        self.unsolicited: list[P.Reply] = []
+
+    def close(self) -> None:
+        self.port.close()
+
+    def read_reply(self) -> P.Reply:
+        raw = self.port.readline()
+        assert raw.endswith(b"\n"), f"no reply (got {raw!r})"
+        return P.parse_reply(raw)
+
+    def _line_reply(self) -> P.Reply:
+        while True:
+            reply = self.read_reply()
+            if reply.kind in ("ok", "error", "rs"):
+                return reply
+            self.unsolicited.append(reply)
+
+    def send_raw(self, raw: bytes) -> P.Reply:
+        self.port.write(raw)
+        return self._line_reply()
+
+    def send(self, cmd) -> P.Reply:
+        line = P.encode_command(cmd, self.seq)
+        self.seq = P.next_seq(self.seq)
+        return self.send_raw(line)
+
+    def stream(self, commands) -> list[P.Reply]:
+        """Send every command, keeping the RX buffer full; one reply each, in order."""
+        lines = []
+        for cmd in commands:
+            lines.append(P.encode_command(cmd, self.seq))
+            self.seq = P.next_seq(self.seq)
+        replies, in_flight, i = [], [], 0
+        while i < len(lines) or in_flight:
+            while i < len(lines) and sum(map(len, in_flight)) + len(lines[i]) <= P.RX_BUFFER_BYTES:
+                self.port.write(lines[i])
+                in_flight.append(lines[i])
+                i += 1
+            replies.append(self._line_reply())
+            in_flight.pop(0)
+        return replies
+
+    def status(self) -> P.Status:
+        self.port.write(P.RT_STATUS)
+        while True:
+            reply = self.read_reply()
+            if reply.kind == "status":
+                return reply.status
+            self.unsolicited.append(reply)
+
+    def wait_idle(self, timeout_s: float = 300.0) -> P.Status:
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            status = self.status()
+            if status.state in ("idle", "alarm") and status.queue_blocks == 0:
+                return status
+            time.sleep(0.02)
+        raise AssertionError(f"machine still busy after {timeout_s} s: {status}")
