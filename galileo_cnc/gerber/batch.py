@@ -150,7 +150,7 @@ def _token_values(codes: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np
 def read_run(reader, words: Words, first: int, stop: int, starts: np.ndarray) -> bool:
     """Emit the rows of statements first..stop-1 (all plain); False if not possible."""
     fmt_x, fmt_y = reader.fmt_x, reader.fmt_y
-    if fmt_x is None or fmt_x.denominator != 1 or fmt_y.denominator != 1:
+    if fmt_x is None:
         return False
     present, value = words.present[first:stop], words.value[first:stop]
     digits = words.digits[first:stop]
@@ -172,8 +172,8 @@ def read_run(reader, words: Words, first: int, stop: int, starts: np.ndarray) ->
     operations = np.where(last_d >= 0, value[np.maximum(last_d, 0), D], int(reader.dcode or 0))
     draws = operations == 1
     arcs = draws & (mode != 1)
-    if arcs.any() and reader.quadrant != 75:
-        return False  # single-quadrant arcs choose their centre one by one
+    if arcs.any() and reader.quadrant is None:
+        return False  # arcs before G74/G75: the one-by-one path warns
     flashes = operations == 3
     if reader.in_region:
         if flashes.any():
@@ -197,11 +197,17 @@ def read_run(reader, words: Words, first: int, stop: int, starts: np.ndarray) ->
     count = len(operations)
     main = np.arange(count) + np.cumsum(pen_down_first)  # row of each statement's own op
     rows = np.zeros((count + int(pen_down_first.sum()), len(COLUMNS)), dtype=np.int64)
-    rows[main, 0] = np.where(arcs, np.where(mode == 2, ARC_CW, ARC_CCW), _KIND_OF_OPERATION[operations])
+    i = np.where(arcs, _scaled(value[:, I], digits[:, I], fmt_x), 0)
+    j = np.where(arcs, _scaled(value[:, J], digits[:, J], fmt_y), 0)
+    kinds = np.where(arcs, np.where(mode == 2, ARC_CW, ARC_CCW), _KIND_OF_OPERATION[operations])
+    if arcs.any() and reader.quadrant == 74:
+        if not _single_quadrant(kinds, i, j, arcs, previous_x, previous_y, x, y):
+            return False
+    rows[main, 0] = kinds
     rows[main, 1] = x
     rows[main, 2] = y
-    rows[main, 3] = np.where(arcs, _scaled(value[:, I], digits[:, I], fmt_x), 0)
-    rows[main, 4] = np.where(arcs, _scaled(value[:, J], digits[:, J], fmt_y), 0)
+    rows[main, 3] = i
+    rows[main, 4] = j
     rows[main, 5] = np.where(operations == 2, NO_TOOL, tool)
     rows[main, 7] = starts
     pen_rows = main[pen_down_first] - 1
@@ -225,12 +231,48 @@ def read_run(reader, words: Words, first: int, stop: int, starts: np.ndarray) ->
     return True
 
 
+def _single_quadrant(kinds, i, j, arcs, sx, sy, ex, ey) -> bool:
+    """Resolve G74 arcs in place, exactly as geometry.single_quadrant_centre does:
+    of the four signed centres, those spanning at most 90 degrees in the arc's
+    direction, and among them the best radius match (first on ties). An arc that
+    ends where it starts is a zero-length draw. False if the numbers are too big
+    for int64 products (the one-by-one path uses Python integers)."""
+    k = np.flatnonzero(arcs)
+    ai, aj = np.abs(i[k]), np.abs(j[k])
+    dx, dy = ex[k] - sx[k], ey[k] - sy[k]
+    if max(ai.max(), aj.max(), np.abs(dx).max(), np.abs(dy).max()) >= 2**30:
+        return False
+    ci = np.stack([ai, -ai, ai, -ai])  # candidates in single_quadrant_centre's order
+    cj = np.stack([aj, aj, -aj, -aj])
+    bx, by = dx - ci, dy - cj  # end relative to each candidate centre; start is -c
+    cross = (-ci) * by - (-cj) * bx
+    dot = (-ci) * bx + (-cj) * by
+    clockwise = kinds[k] == ARC_CW
+    within = (dot >= 0) & np.where(clockwise, cross <= 0, cross >= 0)
+    mismatch = np.abs((ci * ci + cj * cj) - (bx * bx + by * by))
+    best = np.where(within.any(axis=0),
+                    np.argmin(np.where(within, mismatch, np.iinfo(np.int64).max), axis=0),
+                    np.argmin(mismatch, axis=0))
+    columns = np.arange(len(k))
+    i[k], j[k] = ci[best, columns], cj[best, columns]
+    closed = (dx == 0) & (dy == 0)
+    kinds[k[closed]] = int(OpKind.LINE)
+    i[k[closed]] = 0
+    j[k[closed]] = 0
+    return True
+
+
 def _scaled(numbers: np.ndarray, written: np.ndarray, fmt) -> np.ndarray:
-    """Digits as written -> nm, padding on the right where trailing zeros are omitted."""
+    """Digits as written -> nm, padding on the right where trailing zeros are omitted,
+    rounding half away from zero where the scale is not a whole number of nm."""
     if fmt.trailing_zeros_omitted:
         width = fmt.integer_digits + fmt.decimal_digits
         numbers = numbers * 10 ** np.maximum(width - written, 0)
-    return numbers * fmt.numerator
+    scaled = numbers * fmt.numerator
+    if fmt.denominator == 1:
+        return scaled
+    twice, d = 2 * np.abs(scaled), fmt.denominator
+    return np.sign(scaled) * ((twice + d) // (2 * d))
 
 
 def _modal(given: np.ndarray, numbers: np.ndarray, current: int, incremental: bool) -> np.ndarray:

@@ -254,7 +254,11 @@ class GerberReader:
             self._require_format()
             fmt_x, fmt_y = self.fmt_x, self.fmt_y
         x, y = self.x, self.y
-        if len(match.string) > MAX_COORDINATE_CHARS and _too_long(xs, ys, is_, js):
+        if len(match.string) > MAX_COORDINATE_CHARS and (
+                (xs is not None and len(xs) > MAX_COORDINATE_CHARS)
+                or (ys is not None and len(ys) > MAX_COORDINATE_CHARS)
+                or (is_ is not None and len(is_) > MAX_COORDINATE_CHARS)
+                or (js is not None and len(js) > MAX_COORDINATE_CHARS)):
             raise self.error(f"coordinate with more than {MAX_DIGITS} digits", match.string.strip())
         if xs is not None:
             value = int(xs) * fmt_x.numerator if fmt_x.plain else fmt_x.to_nm(xs)
@@ -679,10 +683,6 @@ class GerberReader:
         return Program(self.name, "gerber", self.units or "in", table, apertures=self.apertures,
                        metadata=self.metadata, warnings=self.builder.warnings,
                        line_count=self.text.count("\n") + (0 if self.text.endswith("\n") else 1))
-
-
-def _too_long(*numbers: str | None) -> bool:
-    return any(n is not None and len(n) > MAX_COORDINATE_CHARS for n in numbers)
 
 
 def _offsets_to_positions(table: np.ndarray, text: str) -> None:
