@@ -109,7 +109,8 @@ def run_reader(name: str, files: list[str], sizes: dict[str, tuple[int, int]]) -
                 print(f"\r  {name:10s} {done}/{len(files)}", end="", file=sys.stderr, flush=True)
         else:
             res.update(rec)
-    print(file=sys.stderr)
+    if sys.stderr.isatty():
+        print(file=sys.stderr)
     if proc.wait() != 0:
         res["crashed"] = proc.returncode
     return res
