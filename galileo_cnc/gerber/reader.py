@@ -38,6 +38,7 @@ _DATA = re.compile(
     r"(?:G0*([123])(?!\d))?(?:X([+-]?\d+))?(?:Y([+-]?\d+))?(?:I([+-]?\d+))?(?:J([+-]?\d+))?(?:D0*([123])(?!\d))?")
 _SPACED_DATA = re.compile(r"\s*" + _DATA.pattern)
 _PERCENT_IN_COMMENT = re.compile(r"G0?4[^*%]*%")
+_SELECT = re.compile(r"(?:G0*(54|55))?D0*(\d+)")
 _WORD = re.compile(r"([A-Z])([+-]?(?:\d+\.?\d*|\.\d+))")
 _FS = re.compile(r"FS([LTD]?)([AI])(?:N\d+)?(?:G\d+)?X(\d)(\d)Y(\d)(\d)(?:Z\d\d)?(?:D\d+)?(?:M\d+)?$")
 _AD = re.compile(r"ADD(\d+)([A-Za-z_.$][^,]*)(?:,(.*))?$", re.S)
@@ -55,7 +56,7 @@ _ATTRIBUTES = ("TF", "TA", "TO", "TD")
 _IGNORED_DEPRECATED = {"IJ": "image justify", "IO": "image offset", "IC": "input code",
                        "KO": "knock out", "PF": "plot film", "IN": "image name",
                        "LN": "level name", "SM": "symbol mirror", "RO": "rotate image",
-                       "PD": "plotter defaults", "FL": "film", "ICAS": "input code"}
+                       "PD": "plotter defaults", "FL": "film"}
 
 
 def read_gerber(source, text: str | None = None, min_run: int = batch_reader.MIN_RUN) -> Program:
@@ -335,18 +336,15 @@ class GerberReader:
     # --- word commands ------------------------------------------------------------
 
     def _word(self, word: str) -> None:
-        if word.lstrip().startswith("G04") or word.lstrip().startswith("G4 "):
-            return
         compact = "".join(word.split())
-        if not compact:
-            return
-        if compact.startswith(("G04", "G4")) and not compact[2:3].isdigit():
-            return
+        if not compact or compact.startswith("G04") or (compact.startswith("G4")
+                                                         and not compact[2:3].isdigit()):
+            return  # empty, or a G04 comment
         handler = _WORD_COMMANDS.get(compact)
         if handler is not None:
             handler(self)
             return
-        m = re.fullmatch(r"(?:G0*(54|55))?D0*(\d+)", compact)
+        m = _SELECT.fullmatch(compact)
         if m and int(m.group(2)) >= 10:
             if m.group(1):
                 self.warn("G54", f"G{m.group(1)} before an aperture select is deprecated")
@@ -478,10 +476,9 @@ class GerberReader:
             handler(self, block)
         elif code in _ATTRIBUTES:
             self._attribute(block)
-        elif code in _IGNORED_DEPRECATED or block[:4] in _IGNORED_DEPRECATED:
+        elif code in _IGNORED_DEPRECATED:
             self.metadata["deprecated"].append(block)
-            self.warn(code, f"%{code} ({_IGNORED_DEPRECATED.get(code) or _IGNORED_DEPRECATED[block[:4]]}) "
-                            "is deprecated and ignored", block)
+            self.warn(code, f"%{code} ({_IGNORED_DEPRECATED[code]}) is deprecated and ignored", block)
         elif block.startswith("G04") or block.startswith("G4"):
             return
         else:
