@@ -88,9 +88,9 @@ def scan_words(pieces_text: str, count: int) -> Words:
     np.logical_or.at(bad, statement[signs[(before_sign != LETTER) | (signs == 0)]], True)
 
     # ... and digits only follow a letter, a sign or another digit.
-    digits = np.flatnonzero(kind == DIGIT)
-    before_digit = np.where(digits > 0, kind[np.maximum(digits - 1, 0)], BLANK)
-    np.logical_or.at(bad, statement[digits[~np.isin(before_digit, (LETTER, SIGN, DIGIT))]], True)
+    digit_positions = np.flatnonzero(kind == DIGIT)
+    before_digit = np.where(digit_positions > 0, kind[np.maximum(digit_positions - 1, 0)], BLANK)
+    np.logical_or.at(bad, statement[digit_positions[~np.isin(before_digit, (LETTER, SIGN, DIGIT))]], True)
 
     # Digits of token k run from digit_start[k] to the next non-digit.
     not_digit = np.flatnonzero(np.append(kind, OTHER) != DIGIT)
