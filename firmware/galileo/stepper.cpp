@@ -14,10 +14,15 @@
  * accounts the event, and prepares the next one (directions are written then,
  * one full interval before their step).
  *
- * Budget (measured in simavr with `make PROFILE=1`, docs/protocol.md): ~330
- * cycles of computation for a one-axis line event, ~360 for two axes, ~770 for
- * an arc event, plus ~120 for entry, register saving and exit; 50 ticks (the
- * fastest interval) are 400 cycles. A compare match that would already be in
+ * Two bodies: the stub jumps to stepper_fast_isr when the previous event set
+ * st_fast (a line event that is neither the first nor the last of its run,
+ * intervals below 2^24 subticks, n < 2^15: 16- and 24-bit arithmetic, no
+ * calls, so a short prologue), else to stepper_event_isr (everything else).
+ * Budget (bench/bench_firmware.py, simavr, `make PROFILE=1`): a fast two-axis
+ * line event costs ~320 cycles in all (~200 of computation, entry and exit
+ * included: 364 at most), a one-axis one ~290; the general body ~500 for a
+ * line event and ~900 for an arc event. 50 ticks (the fastest interval) are
+ * 400 cycles. A compare match that would already be in
  * the past is moved 8 ticks ahead and counted in st_overruns (reported as
  * msg:13): the rate is clamped, never skipped. The interrupt never re-enables
  * interrupts, so it cannot nest.
@@ -53,7 +58,14 @@ volatile uint8_t st_alarm_code;
 volatile uint8_t st_hold_request, st_abort_request;
 volatile uint16_t st_overruns;
 
-static volatile int32_t st_pos[3];    /* live machine position, steps */
+/* Live machine position, steps; the fast path updates the low half and carries. */
+static volatile union {
+    int32_t v;
+    struct {
+        uint16_t lo, hi;
+    } h;
+} st_pos_u[3];
+#define st_pos(a) (st_pos_u[a].v)
 static volatile int32_t st_origin[3]; /* live work origin, machine steps */
 
 extern "C" {
@@ -72,18 +84,53 @@ static struct block *cur;
 /* 24-bit counters (avr-gcc's __uint24): R <= 80 000 and n < 2^24 events. */
 typedef __uint24 events_t;
 #define EVENTS_UNKNOWN ((events_t)0xFFFFFF) /* a seek's length until the switch trips */
-static events_t up_sat;   /* min(k - first, R) */
-static events_t down;     /* last - k */
-static events_t m_ramp;   /* min(up, down, R) */
+/* up_sat, down and m_ramp, also as their low 16 bits: the fast path's runs
+ * have fewer than 2^15 events, so the high byte stays 0 there. */
+typedef union {
+    events_t v;
+    uint16_t lo;
+} events_u;
+static events_u up_u;     /* up_sat = min(k - first, R) */
+static events_u down_u;   /* down = last - k */
+static events_u m_u;      /* m_ramp = min(up, down, R) */
+#define up_sat (up_u.v)
+#define down (down_u.v)
+#define m_ramp (m_u.v)
+static uint16_t ramp16;   /* min(R, 0xFFFF) */
 static events_t ramp;     /* R */
 static events_t cut;      /* events a hold removed from this run: the block's rest */
 static events_t run_events; /* events of the next run of `cur` (all of it, or the rest) */
 static uint32_t seek_steps;
-static uint32_t step_sub, extra_sub, base_sub;
+static uint32_t step_sub, base_sub;
 static uint8_t frac;
+/* extra_sub (= (R - m) * step_sub) as a 32-bit value and, when it is below
+ * 2^24, as its low 24 bits: the fast path works on those. */
+static union {
+    uint32_t v;
+    __uint24 lo;
+} extra;
+#define extra_sub (extra.v)
+
+/* The fast path (stepper_fast_isr): a line run whose every interval is below
+ * 2^24 subticks, so 24-bit arithmetic and one compare per event suffice. */
+static uint8_t run_fast;            /* this run may use the fast path */
+static __uint24 base24, step24;     /* base_sub and step_sub of that run */
+static __uint24 ival24;             /* base24 + extra.lo: the pending interval */
+extern "C" {
+volatile uint8_t st_fast;           /* bit 0: the pending event takes the fast path */
+}
 
 /* Line and arc-correction Bresenham state (§3.2). */
-static __uint24 err[3], inc[3], wrap; /* 2n < 2^24 */
+typedef union {
+    __uint24 v;
+    uint16_t lo;
+} u24_u;
+static u24_u err_u[3];                 /* err[a], also as 16 bits when 2n < 2^16 */
+#define err(a) (err_u[a].v)
+static __uint24 inc[3], wrap; /* 2n < 2^24 */
+/* Fast path (n < 2^15, so 2n < 2^16): err += inc; if err >= wrap, err -= wrap
+ * is "if err >= thr: err -= thr else err += inc" with thr = wrap - inc. */
+static uint16_t thr16[3], inc16[3];
 static uint8_t line_axes;              /* axes with inc != 0 */
 static uint8_t line_neg, line_port; /* line directions, as masks and on the port */
 
@@ -98,10 +145,17 @@ static uint8_t seek_count;
 
 ISR(TIMER1_COMPA_vect, ISR_NAKED)
 {
+    /* The step edge first; then the body, chosen without touching SREG
+     * (lds, sbrs, pop and jumps leave it alone). */
     __asm__ __volatile__("push r24\n\t"
                          "lds r24, st_port_pulse\n\t"
                          "out %[port], r24\n\t"
+                         "lds r24, st_fast\n\t"
+                         "sbrs r24, 0\n\t"
+                         "rjmp 1f\n\t"
                          "pop r24\n\t"
+                         "jmp stepper_fast_isr\n\t"
+                         "1: pop r24\n\t"
                          "jmp stepper_event_isr\n\t" ::[port] "I"(_SFR_IO_ADDR(STEPPER_PORT)));
 }
 
@@ -124,6 +178,7 @@ static inline uint8_t home_switch_active(uint8_t axis)
 static void stop(uint8_t phase)
 {
     TIMSK1 &= ~_BV(OCIE1A);
+    st_fast = 0;
     wraps = 0;
     ev_axes = 0;
     st_port_pulse = port_rest;
@@ -171,12 +226,16 @@ static uint8_t dir_bits_of(uint8_t neg)
 
 static void start_line(uint32_t n, const uint32_t *incs, uint8_t neg)
 {
-    err[0] = err[1] = err[2] = n;
+    err(0) = err(1) = err(2) = n;
     inc[0] = incs[0];
     inc[1] = incs[1];
     inc[2] = incs[2];
     line_axes = (incs[0] ? 1 : 0) | (incs[1] ? 2 : 0) | (incs[2] ? 4 : 0);
     wrap = n + n;
+    for (uint8_t a = 0; a < 3; a++) {
+        thr16[a] = (uint16_t)(wrap - inc[a]);
+        inc16[a] = (uint16_t)inc[a];
+    }
     line_neg = neg;
     line_port = port_base | dir_bits_of(neg);
 }
@@ -187,19 +246,19 @@ static inline __attribute__((always_inline)) void line_event(void)
     uint8_t axes = 0, active = line_axes;
     __uint24 w = wrap, e;
     if (active & 1) {
-        e = err[0] + inc[0];
+        e = err(0) + inc[0];
         if (e >= w) { e -= w; axes = 1; }
-        err[0] = e;
+        err(0) = e;
     }
     if (active & 2) {
-        e = err[1] + inc[1];
+        e = err(1) + inc[1];
         if (e >= w) { e -= w; axes |= 2; }
-        err[1] = e;
+        err(1) = e;
     }
     if (active & 4) {
-        e = err[2] + inc[2];
+        e = err(2) + inc[2];
         if (e >= w) { e -= w; axes |= 4; }
-        err[2] = e;
+        err(2) = e;
     }
     ev_axes = axes;
     ev_neg = line_neg;
@@ -314,7 +373,7 @@ static void start_next(void)
                     alarm(ERR_HOME_PULLOFF);
                     return;
                 }
-                st_pos[b->u.axis] = 0;
+                st_pos(b->u.axis) = 0;
                 st_origin[b->u.axis] = 0;
             }
             uint8_t h = q_head + 1;
@@ -355,8 +414,13 @@ static void start_next(void)
     step_sub = cur->step_sub;
     extra_sub = cur->ramp_total_sub;
     frac = 0;
+    run_fast = cur->kind == BLOCK_LINE && base_sub + extra_sub < 0xFFFF00UL
+               && cur->n < 0x8000UL;
+    ramp16 = ramp > 0xFFFF ? 0xFFFF : (uint16_t)ramp;
+    base24 = (__uint24)base_sub;
+    step24 = (__uint24)step_sub;
     st_phase = PHASE_EVENT;
-    prepare_event(cur->kind);
+    prepare_event(cur->kind); /* m_ramp == 0: the next event takes the slow path */
 }
 
 /* The body of the compare interrupt, entered by the stub's jmp: `signal` gives
@@ -379,9 +443,9 @@ void stepper_event_isr(void)
         return;
     }
     uint8_t axes = ev_axes, neg = ev_neg;
-    if (axes & 1) { if (neg & 1) st_pos[0]--; else st_pos[0]++; }
-    if (axes & 2) { if (neg & 2) st_pos[1]--; else st_pos[1]++; }
-    if (axes & 4) { if (neg & 4) st_pos[2]--; else st_pos[2]++; }
+    if (axes & 1) { if (neg & 1) st_pos(0)--; else st_pos(0)++; }
+    if (axes & 2) { if (neg & 2) st_pos(1)--; else st_pos(1)++; }
+    if (axes & 4) { if (neg & 4) st_pos(2)--; else st_pos(2)++; }
     uint8_t kind = cur->kind;
     if (kind == BLOCK_SEEK) { /* read the switch after the step (§8.2) */
         seek_steps++;
@@ -422,6 +486,112 @@ void stepper_event_isr(void)
         extra_sub += step_sub;
     m_ramp = m;
     prepare_event(kind);
+    if (run_fast && !wraps && m) { /* m >= 1, so d >= 1 */
+        ival24 = base24 + extra.lo;
+        st_fast = 1;
+    }
+    PROFILE_END();
+}
+
+/* The body for a line event that is neither the first nor the last of its run
+ * (st_fast, set by the event before): the same arithmetic as
+ * stepper_event_isr's with 24-bit intervals and no calls, so that its prologue
+ * saves few registers. With down >= 1 and m_ramp >= 1, a hold leaves down >= 1,
+ * so this event never ends the run. */
+extern "C" void stepper_fast_isr(void) __attribute__((signal, used, externally_visible));
+void stepper_fast_isr(void)
+{
+    STEPPER_PORT = port_rest; /* end of the step pulse */
+    PROFILE_BEGIN();
+    uint8_t axes = ev_axes, neg = ev_neg;
+    if (axes & 1) {
+        uint16_t l = st_pos_u[0].h.lo;
+        if (neg & 1) {
+            if (l == 0) st_pos_u[0].h.hi--;
+            st_pos_u[0].h.lo = l - 1;
+        } else {
+            if (++l == 0) st_pos_u[0].h.hi++;
+            st_pos_u[0].h.lo = l;
+        }
+    }
+    if (axes & 2) {
+        uint16_t l = st_pos_u[1].h.lo;
+        if (neg & 2) {
+            if (l == 0) st_pos_u[1].h.hi--;
+            st_pos_u[1].h.lo = l - 1;
+        } else {
+            if (++l == 0) st_pos_u[1].h.hi++;
+            st_pos_u[1].h.lo = l;
+        }
+    }
+    if (axes & 4) {
+        uint16_t l = st_pos_u[2].h.lo;
+        if (neg & 4) {
+            if (l == 0) st_pos_u[2].h.hi--;
+            st_pos_u[2].h.lo = l - 1;
+        } else {
+            if (++l == 0) st_pos_u[2].h.hi++;
+            st_pos_u[2].h.lo = l;
+        }
+    }
+    uint16_t dn = down_u.lo, mr = m_u.lo;
+    if (st_hold_request && dn > mr) { /* §6 */
+        cut += dn - mr;
+        dn = mr;
+    }
+    uint16_t up = up_u.lo;
+    if (up < ramp16)
+        up_u.lo = ++up;
+    --dn;
+    down_u.lo = dn;
+    uint16_t m = up < dn ? up : dn;
+    __uint24 ival = ival24;
+    if (m != mr) {
+        if (m > mr) {
+            extra.lo -= step24;
+            ival -= step24;
+        } else {
+            extra.lo += step24;
+            ival += step24;
+        }
+        ival24 = ival;
+        m_u.lo = m;
+    }
+    /* §3.2 in 16 bits; the directions (port_rest, ev_neg) stay the line's. */
+    uint8_t active = line_axes, ax = 0, pulse = 0;
+    if (active & 1) {
+        uint16_t e = err_u[0].lo;
+        if (e >= thr16[0]) { e -= thr16[0]; ax = 1; pulse = X_STEP_BIT; }
+        else e += inc16[0];
+        err_u[0].lo = e;
+    }
+    if (active & 2) {
+        uint16_t e = err_u[1].lo;
+        if (e >= thr16[1]) { e -= thr16[1]; ax |= 2; pulse |= Y_STEP_BIT; }
+        else e += inc16[1];
+        err_u[1].lo = e;
+    }
+    if (active & 4) {
+        uint16_t e = err_u[2].lo;
+        if (e >= thr16[2]) { e -= thr16[2]; ax |= 4; pulse |= Z_STEP_BIT; }
+        else e += inc16[2];
+        err_u[2].lo = e;
+    }
+    ev_axes = ax;
+    pulse_bits = pulse;
+    __uint24 sum = ival + frac;
+    frac = (uint8_t)sum;
+    uint16_t low = (uint16_t)(sum >> 8); /* >= 1, < 2^16: no wrap wake-ups */
+    uint16_t now = TCNT1;
+    uint16_t next = ocr + low;
+    if ((uint16_t)(now - ocr) + LATE_MARGIN_TICKS >= low) {
+        next = now + LATE_MARGIN_TICKS;
+        st_overruns++;
+    }
+    ocr = next;
+    OCR1A = next;
+    st_port_pulse = port_rest | pulse;
+    st_fast = m != 0; /* m <= dn: the next event is not the run's last */
     PROFILE_END();
 }
 
@@ -535,7 +705,7 @@ static int32_t read_stable(const volatile int32_t *v)
 void stepper_position(int32_t pos[3], int32_t origin[3])
 {
     for (uint8_t a = 0; a < 3; a++) {
-        pos[a] = read_stable(&st_pos[a]);
+        pos[a] = read_stable(&st_pos(a));
         origin[a] = read_stable(&st_origin[a]);
     }
 }
