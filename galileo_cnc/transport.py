@@ -1,0 +1,33 @@
+"""Opening ports: pyserial for everything (DESIGN.md §2, Transport).
+
+Real ports by name (COMx, /dev/tty...), pseudo-terminals by path, and any
+pyserial URL, including `sim://` for the built-in simulated machine
+(galileo_cnc.protocol_sim), which importing this module registers.
+"""
+
+from __future__ import annotations
+
+import serial
+
+
+SIM_URL = "sim://"
+DEFAULT_BAUD = 115200
+
+
+def register_sim_scheme() -> None:
+    """Let `serial.serial_for_url("sim://...")` find galileo_cnc.protocol_sim."""
+    if "galileo_cnc" not in serial.protocol_handler_packages:
+        serial.protocol_handler_packages.append("galileo_cnc")
+
+
+register_sim_scheme()
+
+
+def is_simulated(url_or_name: str) -> bool:
+    return url_or_name.lower().startswith(SIM_URL)
+
+
+def open_port(url_or_name: str, baud: int = DEFAULT_BAUD, timeout: float | None = 1.0,
+              **kwargs) -> serial.SerialBase:
+    """Open a port by name, path or pyserial URL (`sim://[?config=PATH]`)."""
+    return serial.serial_for_url(url_or_name, baudrate=baud, timeout=timeout, **kwargs)
