@@ -75,11 +75,6 @@ class Op:
     value: int = 0
     pos: SourcePos | None = None
 
-    def row(self) -> tuple[int, ...]:
-        line, col = (self.pos.line, self.pos.col) if self.pos else (0, 0)
-        return (int(self.kind), self.x_nm, self.y_nm, self.i_nm, self.j_nm,
-                self.tool, self.value, line, col)
-
 
 @dataclass(frozen=True, slots=True)
 class Aperture:
@@ -134,9 +129,6 @@ class Program:
     def __len__(self) -> int:
         return self.table.shape[0]
 
-    def column(self, name: str) -> np.ndarray:
-        return self.table[:, COLUMNS.index(name)]
-
     @property
     def kind(self) -> np.ndarray:
         return self.table[:, KIND]
@@ -150,9 +142,6 @@ class Program:
         for index in range(len(self)):
             yield self.op(index)
 
-    def ops_of(self, *kinds: OpKind) -> np.ndarray:
-        """Rows of the given kinds (a view-free copy)."""
-        return self.table[np.isin(self.table[:, KIND], [int(k) for k in kinds])]
 
 
 class ProgramBuilder:
