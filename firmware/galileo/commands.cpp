@@ -10,6 +10,21 @@
 #include "serial.h"
 #include "stepper.h"
 
+/* `make -C firmware PROFILE=1`: Uno pin A1 is high while the main loop handles
+ * one command line (checks, parse, plan, reply queued), A2 while the planner
+ * runs (bench/bench_firmware.py measures both in simavr's pin trace). */
+#ifdef GALILEO_PROFILE
+#define LINE_PROFILE_BEGIN() (PORTC |= _BV(1))
+#define LINE_PROFILE_END() (PORTC &= ~_BV(1))
+#define PLAN_PROFILE_BEGIN() (PORTC |= _BV(2))
+#define PLAN_PROFILE_END() (PORTC &= ~_BV(2))
+#else
+#define LINE_PROFILE_BEGIN()
+#define LINE_PROFILE_END()
+#define PLAN_PROFILE_BEGIN()
+#define PLAN_PROFILE_END()
+#endif
+
 static uint16_t expected_seq = 1;
 static uint16_t last_seq;
 static uint8_t alarm_code; /* nonzero: locked until Unlock */
@@ -218,7 +233,9 @@ static void execute_pending(void)
             alarm_code = 0;
             pl.ended = 0;
         } else if (!protocol_only) {
+            PLAN_PROFILE_BEGIN();
             err = planner_execute(cmd, pending.args, pending.nargs);
+            PLAN_PROFILE_END();
         }
     }
     pending.waiting = 0;
@@ -273,9 +290,12 @@ void commands_service(void)
         uint8_t got = serial_read_line(&line, &len);
         if (got == LINE_TOO_LONG)
             reply_error(ERR_LINE_TOO_LONG, 0, 0);
-        else if (got == LINE_READY)
+        else if (got == LINE_READY) {
+            LINE_PROFILE_BEGIN();
             handle_line(line, len);
+        }
     }
     if (pending.waiting)
         execute_pending();
+    LINE_PROFILE_END();
 }

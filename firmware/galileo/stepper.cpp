@@ -604,7 +604,7 @@ void stepper_init(void)
     STEPPER_PORT = port_rest;
     STEPPER_DDR |= STEP_MASK | DIR_MASK;
 #ifdef GALILEO_PROFILE
-    DDRC |= _BV(0);
+    DDRC |= _BV(0) | _BV(1) | _BV(2); /* A0: step ISR; A1, A2: commands.cpp */
 #endif
     st_port_pulse = port_rest;
     TCCR1A = 0;           /* normal mode: free-running, never stopped or written */
