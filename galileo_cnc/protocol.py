@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from typing import Optional
+from typing import NamedTuple, Optional
 
 from .errors import GalileoError
 from .machine.commands import (ArcTo, Dwell, EndJob, Flash, Home, Jog, LineTo,
@@ -164,9 +164,11 @@ class ProtocolVersionError(ProtocolError):
 class LineRejected(ProtocolError):
     """A command line the machine side refuses: `code` set, or a resend request."""
 
-    def __init__(self, message: str, code: int | None = None, resend: bool = False):
+    def __init__(self, message: str, code: int | None = None, resend: bool = False,
+                 seq: int | None = None):
         self.code = code
         self.resend = resend
+        self.seq = seq  # the accepted sequence number, if it got that far
         super().__init__(message)
 
 
@@ -236,42 +238,66 @@ def encode_command(cmd: object, seq: int) -> bytes:
     return frame_line(seq, command_text(cmd))
 
 
-_LINE_RE = re.compile(rb"^N(\d{1,5}) ([A-Z]{1,3})((?: -?\d{1,9})*)$")
+class DecodedLine(NamedTuple):
+    seq: int
+    command: object
+    mnemonic: str
 
 
-def decode_line(line: bytes, expected_seq: int | None = None) -> tuple[int, object]:
-    """Parse one received line (the firmware's rules, for the simulated machine and tests).
+_SEQUENCE = re.compile(r"N(\d{1,6})")
+_MNEMONIC = re.compile(r"[A-Z]{0,3}")
+_ARGUMENT = re.compile(r"(-?)(\d*)")
 
-    Returns (seq, command). Raises LineRejected: `resend=True` for a missing or bad
-    checksum or a sequence mismatch (reply `rs N<expected>`), else with an error code.
+
+def decode_line(line: bytes, expected_seq: int | None = None) -> DecodedLine:
+    """Parse one received line exactly as the firmware's `handle_line` does, check for
+    check and in the same order (the simulated machine answers with it; its tests
+    compare every reply with the firmware's in simavr).
+
+    Raises LineRejected: `resend` for a missing or bad checksum or a sequence
+    mismatch, else an error `code`; `seq` is set once the sequence number was
+    accepted (the firmware counts the line even if its command is then refused).
     """
     line = line.rstrip(b"\n").replace(b"\r", b"")
     if len(line) + 1 > MAX_LINE_BYTES:
         raise LineRejected("line too long", code=2)
-    star = line.rfind(b"*")
-    body, check = line[:star], line[star + 1:]
-    if star < 0 or not re.fullmatch(rb"[0-9A-F]{2}", check) or int(check, 16) != crc8(body):
+    n = len(line)
+    if n < 4 or line[n - 3:n - 2] != b"*":
         raise LineRejected("checksum", resend=True)
-    match = _LINE_RE.match(body)
-    if match is None:
+    check = line[n - 2:]
+    if not re.fullmatch(rb"[0-9A-F]{2}", check) or int(check, 16) != crc8(line[:n - 3]):
+        raise LineRejected("checksum", resend=True)
+    body = line[:n - 3].decode("latin-1")
+    m = _SEQUENCE.match(body)
+    rest = body[m.end():] if m else ""
+    if m is None or len(m.group(1)) > 5 or int(m.group(1)) > SEQ_MAX or not rest.startswith(" "):
         raise LineRejected("malformed line", code=1)
-    seq = int(match.group(1))
-    if seq > SEQ_MAX:
-        raise LineRejected("malformed line", code=1)
+    seq = int(m.group(1))
     if expected_seq is not None and seq != 0 and seq != expected_seq:
         raise LineRejected(f"expected N{expected_seq}", resend=True)
-    spec = _BY_MNEMONIC.get(match.group(2).decode())
-    if spec is None:
-        raise LineRejected("unknown command", code=3)
-    values = [int(v) for v in match.group(3).split()]
-    if not spec.min_args <= len(values) <= len(spec.args):
-        raise LineRejected("bad argument", code=4)
+    mm = _MNEMONIC.match(rest, 1)
+    mnemonic, p = mm.group(0), rest[mm.end():]
+    spec = _BY_MNEMONIC.get(mnemonic) if mnemonic else None
+    if spec is None or (p and p[0] != " "):
+        raise LineRejected("unknown command", code=3, seq=seq)
+    values: list[int] = []
+    while p.startswith(" ") and len(values) < len(spec.args):
+        am = _ARGUMENT.match(p, 1)
+        digits = am.group(2)
+        if not 1 <= len(digits) <= 9:
+            raise LineRejected("bad argument", code=4, seq=seq)
+        value = -int(digits) if am.group(1) else int(digits)
+        kind = spec.args[len(values)][1]
+        if not kind.lo <= value <= kind.hi:
+            raise LineRejected("bad argument", code=4, seq=seq)
+        values.append(value)
+        p = p[am.end():]
+    if p or len(values) < spec.min_args:
+        raise LineRejected("bad argument", code=4, seq=seq)
     kwargs = dict(spec.fixed)
     for (field, kind), value in zip(spec.args, values):
-        if not kind.lo <= value <= kind.hi:
-            raise LineRejected("bad argument", code=4)
         kwargs[field] = bool(value) if kind is FLAG else value
-    return seq, spec.cls(**kwargs)
+    return DecodedLine(seq, spec.cls(**kwargs), spec.mnemonic)
 
 
 # ---- replies --------------------------------------------------------------------------------

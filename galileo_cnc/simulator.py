@@ -32,7 +32,6 @@ from .machine import MachineError, ReferenceMachine, SetOrigin, Trace
 from .machine import vector
 
 _PROTOCOL_ONLY = (P.QueryStatus, P.QueryVersion, P.Unlock)
-_BY_MNEMONIC = {spec.mnemonic: spec for spec in P.COMMANDS}
 _LIMIT_RE = re.compile(r"([XYZ]) would reach (-?\d+) steps, (below|beyond)")
 
 
@@ -161,51 +160,22 @@ class SimulatedMachine:
         self._emit(f"rs N{self._expected_seq}")
 
     def _handle_line(self, s: bytes) -> None:
-        """The firmware's `handle_line`, check for check."""
-        n = len(s)
-        if n < 4 or s[n - 3:n - 2] != b"*":
-            return self._resend()
-        check = s[n - 2:]
-        if not re.fullmatch(rb"[0-9A-F]{2}", check) or int(check, 16) != P.crc8(s[:n - 3]):
-            return self._resend()
-        body = s[:n - 3].decode("latin-1")
-        m = re.match(r"N(\d{1,6})", body)
-        rest = body[m.end():] if m else ""
-        if m is None or len(m.group(1)) > 5 or int(m.group(1)) > P.SEQ_MAX \
-                or not rest.startswith(" "):
-            return self._emit(P.format_error(1))
-        seq = int(m.group(1))
-        if seq != 0 and seq != self._expected_seq:
-            return self._resend()
+        """The firmware's `handle_line` (protocol.decode_line follows it check for check)."""
+        try:
+            seq, command, mnemonic = P.decode_line(s, self._expected_seq)
+        except P.LineRejected as rejected:
+            if rejected.seq is not None:
+                self._accept_seq(rejected.seq)
+            if rejected.resend:
+                return self._resend()
+            return self._emit(P.format_error(rejected.code, rejected.seq))
+        self._accept_seq(seq)
+        self._pending = (seq, command, mnemonic)
+        self._service()
+
+    def _accept_seq(self, seq: int) -> None:
         self._last_seq = seq
         self._expected_seq = P.next_seq(seq)
-        mm = re.match(r"[A-Z]{0,3}", rest[1:])
-        mnemonic, p = mm.group(0), rest[1 + mm.end():]
-        spec = _BY_MNEMONIC.get(mnemonic) if mnemonic else None
-        if spec is None or (p and p[0] != " "):
-            return self._emit(P.format_error(3, seq))
-        values: list[int] = []
-        ok = True
-        while p.startswith(" ") and len(values) < len(spec.args):
-            am = re.match(r"(-?)(\d*)", p[1:])
-            digits = am.group(2)
-            if not 1 <= len(digits) <= 9:
-                ok = False
-                break
-            value = -int(digits) if am.group(1) else int(digits)
-            kind = spec.args[len(values)][1]
-            if not kind.lo <= value <= kind.hi:
-                ok = False
-                break
-            values.append(value)
-            p = p[1 + am.end():]
-        if not ok or p or len(values) < spec.min_args:
-            return self._emit(P.format_error(4, seq))
-        kwargs = dict(spec.fixed)
-        for (field, kind), value in zip(spec.args, values):
-            kwargs[field] = bool(value) if kind is P.FLAG else value
-        self._pending = (seq, spec.cls(**kwargs), spec.mnemonic)
-        self._service()
 
     def _service(self) -> None:
         """Run queued blocks (unless held), the pending line, then buffered bytes."""

@@ -60,7 +60,9 @@ def test_frame_line_format():
 def test_every_command_round_trips_within_the_line_limit(cmd, seq):
     line = P.encode_command(cmd, seq)
     assert len(line) <= P.MAX_LINE_BYTES and line.endswith(b"\n")
-    assert P.decode_line(line) == (seq, cmd)
+    decoded = P.decode_line(line)
+    assert (decoded.seq, decoded.command) == (seq, cmd)
+    assert line.split(b" ")[1].split(b"*")[0] == decoded.mnemonic.encode()
 
 
 def test_the_longest_line_fits():
@@ -178,3 +180,12 @@ def test_protocol_header_carries_the_definition():
         assert f"ERR_{e.name} = {e.code}," in text and f'"{e.text}"' in text
     for spec in P.COMMANDS:
         assert f'{{"{spec.mnemonic}", {spec.min_args}, {len(spec.args)},' in text
+
+
+def test_sequence_is_checked_before_the_command_as_the_firmware_does():
+    with pytest.raises(P.LineRejected) as info:
+        P.decode_line(_framed(b"N7 zap"), expected_seq=5)
+    assert info.value.resend and info.value.seq is None
+    with pytest.raises(P.LineRejected) as info:
+        P.decode_line(_framed(b"N5 zap"), expected_seq=5)
+    assert (info.value.code, info.value.seq) == (3, 5)  # counted, then refused
