@@ -133,3 +133,35 @@ class FirmwareLink:
                 return status
             time.sleep(0.02)
         raise AssertionError(f"machine still busy after {timeout_s} s: {status}")
+
+
+def framed(body: bytes) -> bytes:
+    """A line with the right CRC but whatever body the test wants (valid or not)."""
+    return body + b"*%02X\n" % P.crc8(body)
+
+
+def check_bad_input_replies(link: "FirmwareLink", idle_timeout_s: float) -> None:
+    """Bad input over the wire gets the documented reply and the next line works.
+
+    One sequence for every machine behind the protocol: the firmware in simavr
+    and sim:// must answer it identically.
+    """
+    from galileo_cnc.machine import Jog, LineTo, SetFeed
+
+    assert link.send(P.QueryStatus()).kind == "ok"               # N0
+    assert link.send_raw(b"\x01\xfegarbage#$%\n") == P.Reply("rs", 1)
+    assert link.send_raw(b"N1 S*00\n") == P.Reply("rs", 1)       # bad checksum
+    assert link.send_raw(framed(b"N7 S")) == P.Reply("rs", 1)    # wrong sequence
+    r = link.send_raw(b"N1 L " + b"1" * 70 + b"\n")
+    assert (r.kind, r.code) == ("error", 2)                      # over-long
+    assert link.send_raw(framed(b"N1 ZAP 3")).code == 3          # unknown command
+    assert link.send_raw(framed(b"N2 L 1")).code == 4            # too few arguments
+    link.seq = 3
+    r = link.send(LineTo(-5, 0))                                 # past the travel
+    assert (r.kind, r.code, r.seq) == ("error", 5, 3)
+    assert "X would reach -5, below 0" in r.text
+    assert link.send(SetFeed(50_000)).code == 6
+    r = link.send(Jog(10, 20, 0))
+    assert r == P.Reply("ok", 5)
+    status = link.wait_idle(idle_timeout_s)
+    assert (status.x_steps, status.y_steps, status.last_seq) == (10, 20, 5)

@@ -19,7 +19,7 @@ from galileo_cnc.machine import (ArcTo, Dwell, EndJob, Flash, Home, Jog, LineTo,
                                  PenUp, Rapid, SetFeed, SetOrigin, simulate)
 from galileo_cnc.simavr import SimulatedBoard, step_trace
 
-from firmware_support import ELF, FirmwareLink, build_firmware, build_harness
+from firmware_support import ELF, FirmwareLink, build_firmware, build_harness, check_bad_input_replies
 
 # Every step edge lies within [offset, offset + LATENCY_JITTER_TICKS] of its
 # reference tick: the compare match is exact, the edge follows it by a fixed
@@ -152,31 +152,11 @@ def test_step_edges_hold_their_latency_while_the_uart_receives(firmware):
 
 # ---- bad input over the wire ----------------------------------------------------------
 
-def _framed(body: bytes) -> bytes:
-    return body + b"*%02X\n" % P.crc8(body)
-
-
 def test_bad_input_gets_the_documented_reply_and_the_next_line_works(firmware):
     with SimulatedBoard(firmware, trace=False) as board:
         link = FirmwareLink(board.port)
         try:
-            assert link.send(P.QueryStatus()).kind == "ok"               # N0
-            assert link.send_raw(b"\x01\xfegarbage#$%\n") == P.Reply("rs", 1)
-            assert link.send_raw(b"N1 S*00\n") == P.Reply("rs", 1)       # bad checksum
-            assert link.send_raw(_framed(b"N7 S")) == P.Reply("rs", 1)   # wrong sequence
-            r = link.send_raw(b"N1 L " + b"1" * 70 + b"\n")
-            assert (r.kind, r.code) == ("error", 2)                      # over-long
-            assert link.send_raw(_framed(b"N1 ZAP 3")).code == 3         # unknown command
-            assert link.send_raw(_framed(b"N2 L 1")).code == 4           # too few arguments
-            link.seq = 3
-            r = link.send(LineTo(-5, 0))                                 # past the travel
-            assert (r.kind, r.code, r.seq) == ("error", 5, 3)
-            assert "X would reach -5, below 0" in r.text
-            assert link.send(SetFeed(50_000)).code == 6
-            r = link.send(Jog(10, 20, 0))
-            assert r == P.Reply("ok", 5)
-            status = link.wait_idle(60)
-            assert (status.x_steps, status.y_steps, status.last_seq) == (10, 20, 5)
+            check_bad_input_replies(link, idle_timeout_s=60)
         finally:
             link.close()
 

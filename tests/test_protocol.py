@@ -5,6 +5,7 @@ from pathlib import Path
 import pytest
 from hypothesis import given, strategies as st
 
+from firmware_support import framed as _framed
 from galileo_cnc import protocol as P
 from galileo_cnc.config import MachineConfig
 from galileo_cnc.firmware_headers import config_header, protocol_header
@@ -89,10 +90,6 @@ def test_decode_rejections(raw, resend, code):
     with pytest.raises(P.LineRejected) as info:
         P.decode_line(raw)
     assert info.value.resend is resend and info.value.code == code
-
-
-def _framed(body: bytes) -> bytes:
-    return body + b"*%02X\n" % P.crc8(body)
 
 
 @pytest.mark.parametrize("body, code", [

@@ -1,10 +1,8 @@
 """The built-in simulated machine behind `sim://` speaks the firmware's protocol.
 
 The link is the firmware tests' `FirmwareLink` (tests/firmware_support.py) on a
-`sim://` port, so both ends are driven by the same host code. The bad-input
-cases are copied from tests/test_firmware_fitl.py
-(test_bad_input_gets_the_documented_reply_and_the_next_line_works), where they
-are inline, not a shared constant: keep the two in step.
+`sim://` port, so both ends are driven by the same host code, and the bad-input
+sequence is the firmware test's own (`check_bad_input_replies`).
 """
 
 from __future__ import annotations
@@ -20,7 +18,8 @@ from galileo_cnc.machine import (ArcTo, Dwell, EndJob, Flash, Home, Jog, LineTo,
                                  PenUp, Rapid, SetFeed, SetOrigin, simulate)
 from galileo_cnc.transport import open_port
 
-from firmware_support import FirmwareLink
+from firmware_support import FirmwareLink, check_bad_input_replies
+from firmware_support import framed as _framed
 
 CENTRE = [SetFeed(20000), Jog(3000, 3000, 0), SetOrigin(), SetFeed(800)]
 
@@ -41,10 +40,6 @@ def link():
     link = sim_link()
     yield link
     link.close()
-
-
-def _framed(body: bytes) -> bytes:
-    return body + b"*%02X\n" % P.crc8(body)
 
 
 def test_serial_for_url_gives_the_firmware_banner():
@@ -80,23 +75,7 @@ def test_moves_are_answered_and_end_where_commanded(link):
 
 
 def test_bad_input_gets_the_firmwares_reply_and_the_next_line_works(link):
-    assert link.send(P.QueryStatus()).kind == "ok"               # N0
-    assert link.send_raw(b"\x01\xfegarbage#$%\n") == P.Reply("rs", 1)
-    assert link.send_raw(b"N1 S*00\n") == P.Reply("rs", 1)       # bad checksum
-    assert link.send_raw(_framed(b"N7 S")) == P.Reply("rs", 1)   # wrong sequence
-    r = link.send_raw(b"N1 L " + b"1" * 70 + b"\n")
-    assert (r.kind, r.code) == ("error", 2)                      # over-long
-    assert link.send_raw(_framed(b"N1 ZAP 3")).code == 3         # unknown command
-    assert link.send_raw(_framed(b"N2 L 1")).code == 4           # too few arguments
-    link.seq = 3
-    r = link.send(LineTo(-5, 0))                                 # past the travel
-    assert (r.kind, r.code, r.seq) == ("error", 5, 3)
-    assert "X would reach -5, below 0" in r.text
-    assert link.send(SetFeed(50_000)).code == 6
-    r = link.send(Jog(10, 20, 0))
-    assert r == P.Reply("ok", 5)
-    status = link.wait_idle(5)
-    assert (status.x_steps, status.y_steps, status.last_seq) == (10, 20, 5)
+    check_bad_input_replies(link, idle_timeout_s=5)
 
 
 @pytest.mark.parametrize("raw, expected", [
