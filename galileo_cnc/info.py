@@ -9,10 +9,9 @@ from __future__ import annotations
 import numpy as np
 
 from .geometry import arc_extremes
-from .program import KIND, NM_PER_MM, TOOL, X, Y, I, J, OpKind, Program
+from .program import KIND, NM_PER_MM, POSITIONED_KINDS, TOOL, X, Y, I, J, OpKind, Program
 
 DEFAULT_MARGIN_NM = 1 * NM_PER_MM
-_POSITIONED = (OpKind.MOVE, OpKind.LINE, OpKind.ARC_CW, OpKind.ARC_CCW, OpKind.FLASH)
 _DRAWN = (OpKind.LINE, OpKind.ARC_CW, OpKind.ARC_CCW)
 
 
@@ -21,7 +20,7 @@ def start_points(table: np.ndarray) -> np.ndarray:
     starts = np.zeros((len(table), 2), dtype=np.int64)
     if not len(table):
         return starts
-    positioned = np.isin(table[:, KIND], [int(k) for k in _POSITIONED])
+    positioned = np.isin(table[:, KIND], POSITIONED_KINDS)
     last = np.maximum.accumulate(np.where(positioned, np.arange(len(table)), -1))
     previous = np.concatenate(([-1], last[:-1]))
     known = previous >= 0

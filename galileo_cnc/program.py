@@ -56,6 +56,10 @@ class OpKind(IntEnum):
     POLARITY = 12
 
 
+# Kinds whose (x, y) is a place the head goes to; other rows carry the current point.
+POSITIONED_KINDS = tuple(int(k) for k in (OpKind.MOVE, OpKind.LINE, OpKind.ARC_CW,
+                                          OpKind.ARC_CCW, OpKind.FLASH))
+
 # Column order of Program.table.
 COLUMNS = ("kind", "x_nm", "y_nm", "i_nm", "j_nm", "tool", "value", "line", "col")
 KIND, X, Y, I, J, TOOL, VALUE, LINE, COL = range(len(COLUMNS))

@@ -23,7 +23,8 @@ import numpy as np
 from ..errors import GerberError, SourcePos
 from ..program import COL as COL_COL
 from ..program import LINE as LINE_COL
-from ..program import COLUMNS, KIND, NO_TOOL, X, Y, Aperture, OpKind, Program, ProgramBuilder
+from ..program import (COLUMNS, KIND, NO_TOOL, POSITIONED_KINDS, X, Y, Aperture, OpKind, Program,
+                       ProgramBuilder)
 from ..geometry import single_quadrant_centre
 from . import batch as batch_reader
 from .apertures import define_aperture, parse_parameters
@@ -328,7 +329,7 @@ class GerberReader:
             self.emit(FLASH, x, y, tool=self.aperture)
             return
         copy = self.load.transform_rows(block)
-        moving = np.isin(copy[:, KIND], (MOVE, LINE, ARC_CW, ARC_CCW, FLASH))
+        moving = np.isin(copy[:, KIND], POSITIONED_KINDS)
         copy[moving, X] += x
         copy[moving, Y] += y
         self.rows.extend(copy.ravel().tolist())
@@ -579,9 +580,8 @@ class GerberReader:
         rows = np.frombuffer(self.rows, dtype=np.int64).reshape(-1, NCOL)[first:].copy()
         if not len(rows):
             return
-        moving = np.isin(rows[:, KIND], (MOVE, LINE, ARC_CW, ARC_CCW, FLASH, int(OpKind.SELECT),
-                                         int(OpKind.REGION_BEGIN), int(OpKind.REGION_END),
-                                         int(OpKind.POLARITY)))
+        moving = np.isin(rows[:, KIND], POSITIONED_KINDS + (
+            int(OpKind.SELECT), int(OpKind.REGION_BEGIN), int(OpKind.REGION_END), int(OpKind.POLARITY)))
         for ix in range(nx):
             for iy in range(ny):
                 if ix == 0 and iy == 0:
@@ -698,7 +698,7 @@ def _offsets_to_positions(table: np.ndarray, text: str) -> None:
 
 
 def _rows_extent(rows: np.ndarray) -> tuple[int, int, int, int]:
-    drawn = rows[np.isin(rows[:, KIND], (MOVE, LINE, ARC_CW, ARC_CCW, FLASH))]
+    drawn = rows[np.isin(rows[:, KIND], POSITIONED_KINDS)]
     if not len(drawn):
         return (0, 0, 0, 0)
     return (int(drawn[:, X].min()), int(drawn[:, Y].min()), int(drawn[:, X].max()), int(drawn[:, Y].max()))
