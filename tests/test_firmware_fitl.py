@@ -117,6 +117,17 @@ def test_full_circles_and_off_circle_ends(firmware):
     check_job(firmware, job)
 
 
+def test_tiny_arcs_are_scaled_to_their_length(firmware):
+    # Radii 1..8: the per-arc length scale (motion.md 5.3) moves every band (the
+    # minimum period floor needs feeds near F_MAX, where arc events overrun the ISR).
+    job = CENTRE + [SetFeed(100), ArcTo(0, 0, -1, 0, cw=False), ArcTo(1, 1, 0, 1, cw=True),
+                    ArcTo(0, 0, 1, -1, cw=False), SetFeed(800), ArcTo(0, 0, 2, 0, cw=False),
+                    ArcTo(-5, 5, -5, 0, cw=True), ArcTo(0, 0, 0, -5, cw=False),
+                    ArcTo(3, 4, 3, 4, cw=True), ArcTo(0, 0, -3, -4, cw=False),
+                    SetFeed(3000), ArcTo(0, 0, 2, 0, cw=True), ArcTo(0, 0, 4, 7, cw=False)]
+    check_job(firmware, job)
+
+
 def test_flashes_rapids_and_dwells(firmware):
     job = CENTRE + [Rapid(200, 100), Flash(), Rapid(400, 100), Flash(50), Dwell(30),
                     PenDown(), LineTo(500, 200), EndJob()]

@@ -164,3 +164,58 @@ def test_band_tables_follow_their_formula():
     rho = [round((math.asin(t[b + 1]) - math.asin(t[b])) / (t[b + 1] - t[b]) * 32768)
            for b in range(32)]
     assert list(BAND_RHO_Q15) == rho
+
+
+def test_cordic_table_follows_its_formula_and_matches_the_firmware():
+    import re
+    from pathlib import Path
+    from galileo_cnc.machine.arcs import ATAN_Q32, TWO_PI_Q29
+    assert list(ATAN_Q32) == [round(math.atan(2.0 ** -i) / (2 * math.pi) * 2 ** 32)
+                              for i in range(len(ATAN_Q32))]
+    assert TWO_PI_Q29 == round(2 * math.pi * 2 ** 29)
+    src = (Path(__file__).resolve().parents[1] / "firmware" / "galileo" / "arcs.cpp").read_text()
+    body = re.search(r"ATAN_Q32\[N_ATAN\] PROGMEM = \{([^}]*)\}", src).group(1)
+    assert [int(v) for v in body.replace("\n", " ").split(",")] == list(ATAN_Q32)
+    assert f"#define N_ATAN {len(ATAN_Q32)}" in src
+    assert f"#define TWO_PI_Q29 {TWO_PI_Q29}ULL" in src
+
+
+coord = st.one_of(st.integers(-46341, 46341), st.integers(-2 ** 31 + 1, 2 ** 31 - 1))
+
+
+@settings(max_examples=300, deadline=None)
+@given(coord, coord)
+@example(1, 0)
+@example(-1, 0)
+@example(0, -1)
+@example(-46341, -1)
+@example(-(2 ** 31 - 1), 2 ** 31 - 1)
+def test_integer_angle_is_within_1e_7_rad(x, y):
+    from galileo_cnc.machine.arcs import angle_q32
+    assume((x, y) != (0, 0))
+    a = angle_q32(x, y)
+    assert 0 <= a < 2 ** 32
+    d = (a / 2 ** 32 * 2 * math.pi - math.atan2(y, x)) % (2 * math.pi)
+    assert min(d, 2 * math.pi - d) < 1e-7
+
+
+@settings(max_examples=100, deadline=None)
+@given(radii, angles, angles, st.booleans(), st.integers(-3, 3))
+def test_arc_length_and_scale_follow_the_walked_arc(radius, a0, a1, cw, dr):
+    """length_q15 = r x the swept angle start -> P*; weight = sum of the events' band rho."""
+    s = (round(radius * math.cos(a0)), round(radius * math.sin(a0)))
+    assume(s != (0, 0))
+    e = (round((radius + dr) * math.cos(a1)), round((radius + dr) * math.sin(a1)))
+    g = arc_geometry(s, e, not cw)
+    if g.n_arc == 0:
+        assert g.scale == 1 << 20
+        return
+    pts, keys = arc_points(g)
+    p = np.vstack([[g.start], pts]).astype(float)
+    ang = np.unwrap(np.arctan2(p[:, 1], p[:, 0]))
+    assert abs(g.length_q15 / 2 ** 15 - abs(ang[-1] - ang[0]) * math.sqrt(g.r2)) < 1e-3
+    from galileo_cnc.machine.arcs import band_table
+    bv, brho = band_table(g.r2)
+    band = np.searchsorted(np.asarray(bv), keys, side="right") - 1
+    assert g.weight_q15 == int(np.asarray(brho)[band].sum())
+    assert abs(g.scale / 2 ** 20 - g.length_q15 / g.weight_q15) < 2 ** -19

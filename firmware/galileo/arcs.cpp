@@ -9,6 +9,14 @@
 
 static const uint16_t BAND_SIN_Q16[CFG_N_BANDS] PROGMEM = CFG_BAND_SIN_Q16;
 static const uint16_t BAND_RHO_Q15[CFG_N_BANDS] PROGMEM = CFG_BAND_RHO_Q15;
+/* atan(2^-i) in Q32 turns: arcs.py ATAN_Q32 (a test compares the two). */
+#define N_ATAN 28
+static const uint32_t ATAN_Q32[N_ATAN] PROGMEM = {
+    536870912, 316933406, 167458907, 85004756, 42667331, 21354465, 10679838, 5340245,
+    2670163, 1335087, 667544, 333772, 166886, 83443, 41722, 20861, 10430, 5215, 2608,
+    1304, 652, 326, 163, 81, 41, 20, 10, 5};
+#define TWO_PI_Q29 3373259426ULL
+#define SCALE_BITS 20
 
 /* The walker: the current point, F, counts and the box of visited points. */
 static struct {
@@ -17,7 +25,126 @@ static struct {
     uint16_t first_key;
     uint8_t ccw;
     int32_t xmin, xmax, ymin, ymax;
+    uint16_t band_v[CFG_N_BANDS]; /* raw thresholds V_b (not compacted) */
+    uint64_t weight;              /* sum of the table rho over the events (§5.3) */
+    uint32_t r16;                 /* isqrt(R2 << 32): radius, Q16 */
 } w;
+
+/* (r8 * s + 2^23) >> 24 without a 64-bit product (slow on the AVR):
+ * with r8 = a * 2^16 + c (r8 < 2^24), every partial sum fits 32 bits. */
+static uint16_t band_threshold(uint32_t r8, uint16_t s)
+{
+    uint16_t a = (uint16_t)(r8 >> 16), c = (uint16_t)r8;
+    return (uint16_t)(((uint32_t)a * s + (((uint32_t)c * s + (1UL << 23)) >> 16)) >> 8);
+}
+
+/* isqrt(r2 << 32) = floor(sqrt(r2) * 2^16) in 32 bits (r2 < 2^31): 16 more
+ * digits of the digit-by-digit root; rem = N - root^2 <= 2 root. */
+static uint32_t isqrt_q16(uint32_t r2)
+{
+    uint32_t root = isqrt32(r2), rem = r2 - root * root;
+    for (uint8_t j = 0; j < 16; j++) {
+        uint8_t one = rem > root; /* (2 root + 1)^2 <= 4 N */
+        if (j < 15) /* the last rem is not needed (and would not fit) */
+            rem = one ? ((rem - root) << 2) - 1 : rem << 2;
+        root = (root << 1) + one;
+    }
+    return root;
+}
+
+/* v >> n, arithmetic, by constant shifts (a variable shift is a bit loop on the AVR). */
+static inline int32_t asr32(int32_t v, uint8_t n)
+{
+    if (n & 16) v >>= 16;
+    if (n & 8) v >>= 8;
+    if (n & 4) v >>= 4;
+    if (n & 2) v >>= 2;
+    if (n & 1) v >>= 1;
+    return v;
+}
+
+/* P(k): the table rho summed over the keys 0..k-1 (< 2^32: k <= 23 171 + 1). */
+static uint32_t key_prefix(uint16_t k)
+{
+    uint32_t sum = 0;
+    for (uint8_t b = 0; b < CFG_N_BANDS && w.band_v[b] < k; b++) {
+        uint16_t hi = (b + 1 < CFG_N_BANDS && w.band_v[b + 1] < k) ? w.band_v[b + 1] : k;
+        sum += (uint32_t)(uint16_t)(hi - w.band_v[b]) * pgm_read_word(&BAND_RHO_Q15[b]);
+    }
+    return sum;
+}
+
+/* Keys k0..k1 (empty when k1 < k0). A key is in the last band b with V_b <= key,
+ * as with the compacted table. */
+static void add_key_weight(int32_t k0, int32_t k1)
+{
+    if (k1 >= k0)
+        w.weight += key_prefix((uint16_t)(k1 + 1)) - (k0 ? key_prefix((uint16_t)k0) : 0);
+}
+
+/* Events into v = lo..hi of a formula bulk: key -v for v <= 0, v - 1 for v >= 1. */
+static void add_formula_weight(int32_t lo, int32_t hi)
+{
+    add_key_weight(hi < 0 ? -hi : 0, -lo);
+    add_key_weight((lo > 1 ? lo : 1) - 1, hi - 1);
+}
+
+/* Angle of (x, y) != (0, 0) in Q32 turns: the CORDIC of arcs.py angle_q32. */
+static uint32_t angle_q32(int32_t x, int32_t y)
+{
+    uint32_t z = 0;
+    if (x < 0) { /* CORDIC converges for |angle| < 99 degrees */
+        x = -x;
+        y = -y;
+        z = 0x80000000UL;
+    }
+    while (x >= (1L << 28) || y >= (1L << 28) || y <= -(1L << 28)) {
+        x >>= 1; /* to [2^27, 2^28): room for the CORDIC gain (1.65) */
+        y >>= 1;
+    }
+    while (x < (1L << 27) && (y < 0 ? -y : y) < (1L << 27)) {
+        x <<= 1;
+        y <<= 1;
+    }
+    for (uint8_t i = 0; i < N_ATAN; i++) {
+        int32_t dx = asr32(y, i), dy = asr32(x, i);
+        uint32_t a = pgm_read_dword(&ATAN_Q32[i]);
+        if (y > 0) {
+            x += dx;
+            y -= dy;
+            z += a;
+        } else {
+            x -= dx;
+            y += dy;
+            z -= a;
+        }
+    }
+    return z;
+}
+
+/* §5.3: length of the arc part / its table weight, Q20 (1.0 for an empty arc). */
+static uint32_t length_scale(int32_t sx, int32_t sy)
+{
+    if (w.n == 0 || w.weight == 0)
+        return 1UL << SCALE_BITS;
+    /* P* seen from the start: |dot|, |cross| <= |s| |P*| < 2^31 (P* is within
+     * 1/2 step of the circle), so uint32 sums give the exact int32 values. */
+    int32_t dot = (int32_t)((uint32_t)(sx * w.x) + (uint32_t)(sy * w.y));
+    int32_t cross = (int32_t)((uint32_t)(sx * w.y) - (uint32_t)(sy * w.x));
+    uint64_t sweep = 1ULL << 32; /* a full circle */
+    if (w.x != sx || w.y != sy) {
+        uint32_t turn = angle_q32(dot, cross);
+        sweep = (uint32_t)(w.ccw ? turn : 0 - turn);
+    }
+    uint64_t circ16 = ((uint64_t)w.r16 * TWO_PI_Q29 + (1UL << 28)) >> 29;
+    uint64_t len = (circ16 * (sweep >> 4) + (1UL << 28)) >> 29;
+    uint64_t wt = w.weight;
+    while (wt >> 32) {
+        wt >>= 1;
+        len >>= 1;
+    }
+    return udiv64_32((len << SCALE_BITS) + (wt >> 1), (uint32_t)wt);
+}
 
 static void box_add(int32_t x, int32_t y)
 {
@@ -86,6 +213,10 @@ static uint8_t walk_step(uint8_t side, uint8_t stop_before_exit)
     box_add(x, y);
     if (w.first_key == NO_FIRST_KEY)
         w.first_key = (uint16_t)key;
+    uint8_t b = CFG_N_BANDS - 1; /* the event's band: the last with V_b <= key */
+    while (w.band_v[b] > key)
+        b--;
+    w.weight += pgm_read_word(&BAND_RHO_Q15[b]);
     w.n++;
     return 1;
 }
@@ -124,6 +255,7 @@ static uint8_t walk_side(uint8_t side, uint8_t has_target, int32_t target)
         }
         if (w.first_key == NO_FIRST_KEY)
             w.first_key = (uint16_t)(v >= 0 ? v : -(v + 1));
+        add_formula_weight(v + 1, hi);
         w.n += (uint32_t)(hi - v);
         from_canon(formula_u(hi), hi, side, &w.x, &w.y);
         w.f = (int32_t)(square(w.x) + square(w.y) - w.r2);
@@ -156,6 +288,11 @@ uint8_t arc_walk(int32_t sx, int32_t sy, int32_t ex, int32_t ey, uint8_t ccw,
     w.xmin = w.xmax = sx;
     w.ymin = w.ymax = sy;
     box_add(ex, ey);
+    w.weight = 0;
+    w.r16 = isqrt_q16(w.r2);
+    uint32_t r8 = w.r16 >> 8; /* = isqrt(R2 << 16) */
+    for (uint8_t b = 0; b < CFG_N_BANDS; b++)
+        w.band_v[b] = band_threshold(r8, pgm_read_word(&BAND_SIN_Q16[b]));
     if (w.r2 > 0) {
         uint8_t side_e = arc_side(ex, ey, ccw), i;
         for (i = 0; i < 6; i++) {
@@ -182,6 +319,7 @@ uint8_t arc_walk(int32_t sx, int32_t sy, int32_t ex, int32_t ey, uint8_t ccw,
     out->py = w.y;
     out->n_arc = w.n;
     out->first_key = w.first_key;
+    out->scale = length_scale(sx, sy);
     out->xmin = w.xmin;
     out->xmax = w.xmax;
     out->ymin = w.ymin;
@@ -197,7 +335,7 @@ void band_table_fill(struct band_table *t, const struct block *b)
     uint16_t rho[CFG_N_BANDS];
     uint8_t count = 0;
     for (uint8_t i = 0; i < CFG_N_BANDS; i++) {
-        uint16_t v = (uint16_t)mul_round_shift(r8, pgm_read_word(&BAND_SIN_Q16[i]), 24);
+        uint16_t v = band_threshold(r8, pgm_read_word(&BAND_SIN_Q16[i]));
         uint16_t r = pgm_read_word(&BAND_RHO_Q15[i]);
         if (count && t->v[count - 1] == v) {
             rho[count - 1] = r; /* equal thresholds: the later band wins */
@@ -206,8 +344,14 @@ void band_table_fill(struct band_table *t, const struct block *b)
             rho[count++] = r;
         }
     }
-    for (uint8_t i = 0; i < count; i++)
-        t->base_sub[i] = mul_round_shift(b->u.arc.axial_sub, rho[i], CFG_RHO_BITS);
+    for (uint8_t i = 0; i < count; i++) {
+        uint32_t scaled = mul_round_shift(rho[i], b->u.arc.scale, SCALE_BITS);
+        uint32_t base = mul_round_shift(b->u.arc.axial_sub, scaled, CFG_RHO_BITS);
+        /* a scale below 1 must not beat the minimum step period (§5.6) */
+        if (base < ((uint32_t)CFG_MIN_STEP_PERIOD_TICKS << CFG_FRAC_BITS))
+            base = (uint32_t)CFG_MIN_STEP_PERIOD_TICKS << CFG_FRAC_BITS;
+        t->base_sub[i] = base;
+    }
     t->count = count;
     uint8_t band0 = 0;
     if (b->u.arc.first_key != NO_FIRST_KEY)

@@ -67,6 +67,7 @@ struct arc_plan {
     int32_t px, py;         /* P*, relative to the centre */
     uint32_t n_arc;
     uint16_t first_key;     /* NO_FIRST_KEY when the arc part is empty */
+    uint32_t scale;         /* true length / table weight, Q20 (§5.3) */
     int32_t xmin, xmax, ymin, ymax; /* every visited point, relative (§7) */
 };
 

@@ -187,6 +187,7 @@ static uint8_t arc(const int32_t *args, uint8_t ccw)
     b->u.arc.corr_x = corr_x;
     b->u.arc.corr_y = corr_y;
     b->u.arc.first_key = p.first_key;
+    b->u.arc.scale = p.scale;
     b->u.arc.ccw = ccw;
     b->u.arc.table = NO_BAND_TABLE;
     set_ramp(b, b->u.arc.axial_sub, ramp_events(pl.feed_steps_per_s));

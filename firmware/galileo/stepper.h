@@ -40,6 +40,7 @@ struct block {
         struct {
             int16_t x0, y0;       /* start relative to the centre (|.| <= MAX_ARC_COORD) */
             uint32_t axial_sub;   /* C1 of the feed: the band bases are C1 * rho */
+            uint32_t scale;       /* band rho scale, Q20: the arc's length (§5.3) */
             uint32_t n_arc;       /* arc events; n - n_arc correction events follow */
             int32_t corr_x, corr_y;
             uint16_t first_key;   /* band key of the first arc event */

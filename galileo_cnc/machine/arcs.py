@@ -46,6 +46,8 @@ CANON: dict[tuple[int, bool], tuple[int, int, int, int]] = {
 #: r8 = isqrt(R2 << 16). Edges t_b = sqrt(1 - 2^(-b/32)) make 1/cos(angle) grow by
 #: the same ratio 2^(1/64) across every band; rho_b is the mean of 1/cos over the
 #: band, (asin t_b+1 - asin t_b) / (t_b+1 - t_b), with t_32 = 1/sqrt(2).
+#: Every arc then scales its rho by S = its true length / the sum of its events'
+#: table rho (arc_geometry), so a whole arc runs at the feed for any radius.
 BAND_SIN_Q16 = (
     0, 9593, 13494, 16438, 18880, 20997, 22879, 24582, 26141, 27581, 28922, 30176,
     31354, 32466, 33519, 34518, 35468, 36374, 37239, 38066, 38859, 39619, 40350,
@@ -58,6 +60,15 @@ N_BANDS = len(BAND_SIN_Q16)
 
 #: Largest |coordinate| relative to the centre: keeps R2 < 2^31 for the firmware.
 MAX_ARC_COORD = 32767
+
+#: Per-arc length normalisation (§5.3): atan(2^-i) in Q32 turns for the CORDIC,
+#: 2*pi in Q29, and the precision of the scale factor.
+ATAN_Q32 = (
+    536870912, 316933406, 167458907, 85004756, 42667331, 21354465, 10679838, 5340245,
+    2670163, 1335087, 667544, 333772, 166886, 83443, 41722, 20861, 10430, 5215, 2608,
+    1304, 652, 326, 163, 81, 41, 20, 10, 5)
+TWO_PI_Q29 = 3373259426
+SCALE_BITS = 20
 
 
 def next_side(side: int, ccw: bool) -> int:
@@ -155,12 +166,63 @@ class ArcGeometry:
     correction: tuple[int, int]
     n_corr: int
     band_v: tuple[int, ...]      # compact thresholds, strictly increasing, [0] == 0
-    band_rho: tuple[int, ...]    # Q15 path length per event of each compact band
+    band_rho: tuple[int, ...]    # Q15 path length per event of each compact band, scaled
     band0: int                   # compact band index of the first arc event
+    weight_q15: int = 0          # sum of the table rho over the arc events (unscaled)
+    length_q15: int = 0          # true length of the arc part, Q15 steps
+    scale: int = 1 << SCALE_BITS  # length / weight, Q20: applied to every band rho
 
     @property
     def n(self) -> int:
         return self.n_arc + self.n_corr
+
+
+def angle_q32(x: int, y: int) -> int:
+    """Angle of (x, y) != (0, 0) in Q32 turns, [0, 2^32): integer CORDIC (§5.3)."""
+    base = 0
+    if x < 0:  # CORDIC converges for |angle| < 99 degrees: fold into x >= 0
+        x, y, base = -x, -y, 1 << 31
+    while max(x, abs(y)) >= 1 << 28:  # normalise to [2^27, 2^28): room for the gain
+        x, y = x >> 1, y >> 1
+    while max(x, abs(y)) < 1 << 27:  # (1.65) and a precision that scales with |(x, y)|
+        x, y = x << 1, y << 1
+    z = 0
+    for i, a in enumerate(ATAN_Q32):
+        if y > 0:
+            x, y, z = x + (y >> i), y - (x >> i), z + a
+        else:
+            x, y, z = x - (y >> i), y + (x >> i), z - a
+    return (base + z) & 0xFFFFFFFF
+
+
+def arc_length_q15(r2: int, start: tuple[int, int], p_star: tuple[int, int], ccw: bool,
+                   n_arc: int) -> int:
+    """True length of the arc part, r times the swept angle start -> P*, Q15 steps.
+
+    The angle of P* seen from the start is one CORDIC of (dot, cross); both fit
+    int32 (|s| |P*| < 2^31, as P* is within 1/2 step of the circle).
+    """
+    if n_arc == 0:
+        return 0
+    (sx, sy), (px, py) = start, p_star
+    if p_star == start:
+        sweep = 1 << 32  # a full circle
+    else:
+        turn = angle_q32(sx * px + sy * py, sx * py - sy * px)
+        sweep = turn if ccw else -turn & 0xFFFFFFFF
+    r16 = isqrt(r2 << 32)
+    circ16 = (r16 * TWO_PI_Q29 + (1 << 28)) >> 29       # 2 pi r, Q16
+    return (circ16 * (sweep >> 4) + (1 << 28)) >> 29    # times sweep / 2^32, Q15
+
+
+def length_scale(length_q15: int, weight_q15: int) -> int:
+    """round(length / weight) in Q20; 1.0 for an empty arc."""
+    if weight_q15 == 0:
+        return 1 << SCALE_BITS
+    while weight_q15 >> 32:  # the firmware divides 64 by 32 bits
+        weight_q15 >>= 1
+        length_q15 >>= 1
+    return ((length_q15 << SCALE_BITS) + (weight_q15 >> 1)) // weight_q15
 
 
 def band_table(r2: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
@@ -176,6 +238,24 @@ def band_table(r2: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
             vs.append(v)
             rhos.append(rho)
     return tuple(vs), tuple(rhos)
+
+
+def key_weight(band_v: tuple[int, ...], band_rho: tuple[int, ...], k0: int, k1: int) -> int:
+    """Sum of the band rho over the keys k0..k1 (an empty range gives 0)."""
+    total = 0
+    top = len(band_v)
+    for i in range(top):
+        lo = max(k0, band_v[i])
+        hi = min(k1 + 1, band_v[i + 1] if i + 1 < top else k1 + 1)
+        if hi > lo:
+            total += (hi - lo) * band_rho[i]
+    return total
+
+
+def formula_weight(band_v, band_rho, lo: int, hi: int) -> int:
+    """Sum of rho over the events into v = lo..hi: key -v for v <= 0, v - 1 for v >= 1."""
+    return (key_weight(band_v, band_rho, max(-hi, 0), -lo)
+            + key_weight(band_v, band_rho, max(lo, 1) - 1, hi - 1))
 
 
 def band_of(band_v: tuple[int, ...], key: int) -> int:
@@ -290,10 +370,21 @@ def arc_geometry(start: tuple[int, int], end: tuple[int, int], ccw: bool) -> Arc
     cx, cy = ex - w.x, ey - w.y
     band_v, band_rho = band_table(r2)
     band0 = band_of(band_v, w.first_key) if w.first_key is not None else 0
+    weight = 0
+    for seg in w.segments:
+        if seg[0] == WALK:
+            weight += sum(band_rho[band_of(band_v, k)] for k in seg[2])
+        else:
+            weight += formula_weight(band_v, band_rho, seg[2], seg[3])
+    length = arc_length_q15(r2, (sx, sy), (w.x, w.y), ccw, w.n)
+    scale = length_scale(length, weight)
+    half = 1 << (SCALE_BITS - 1)
+    scaled = tuple((rho * scale + half) >> SCALE_BITS for rho in band_rho)
     return ArcGeometry(ccw=ccw, r2=r2, start=(sx, sy), end=(ex, ey),
                        segments=tuple(w.segments), p_star=(w.x, w.y), n_arc=w.n,
                        correction=(cx, cy), n_corr=max(abs(cx), abs(cy)),
-                       band_v=band_v, band_rho=band_rho, band0=band0)
+                       band_v=band_v, band_rho=scaled, band0=band0,
+                       weight_q15=weight, length_q15=length, scale=scale)
 
 
 def arc_bbox(g: ArcGeometry) -> tuple[int, int, int, int]:

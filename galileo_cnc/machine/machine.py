@@ -20,7 +20,7 @@ from .commands import (AXIS_NAMES, ArcTo, Command, Dwell, EndJob, Flash, Home, J
                        LineTo, MachineError, Motors, PenDown, PenUp, Rapid, SetFeed,
                        SetOrigin)
 from .moves import ArcMove, Hold, Item, LineMove, Pause, SeekMove
-from .ramps import (TICKS_PER_MS, axial_interval_sub, line_rho_q15, ramp_events,
+from .ramps import (FRAC_BITS, TICKS_PER_MS, axial_interval_sub, line_rho_q15, ramp_events,
                     ramp_step_sub, weighted_interval_sub)
 from .trace import Trace
 
@@ -168,8 +168,12 @@ class ReferenceMachine:
         cfg = self.config
         axial = axial_interval_sub(self.feed_steps_per_s)
         ramp = ramp_events(self.feed_steps_per_s, cfg.accel_steps_per_s2)
+        # The length scale (§5.3) can take a band below 1 step per event: the
+        # minimum step period still bounds the major axis (§5.6).
+        floor = cfg.min_step_period_ticks << FRAC_BITS
         items.append(ArcMove(tuple(self.position), center, geom,
-                             tuple(weighted_interval_sub(axial, r) for r in geom.band_rho),
+                             tuple(max(weighted_interval_sub(axial, r), floor)
+                                   for r in geom.band_rho),
                              geom.n, ramp, ramp_step_sub(axial, ramp, cfg.ramp_start_factor)))
         self.position = [end[0], end[1], z]
 
