@@ -1,14 +1,25 @@
 """pyserial URL handler for `sim://`: the built-in simulated machine as a port.
 
 Found by `serial.serial_for_url("sim://...")` once "galileo_cnc" is in
-`serial.protocol_handler_packages` (galileo_cnc.transport adds it). Options in
-the query: `config=PATH` (a machine profile TOML). Every open is a power-on:
-a fresh machine that sends its banner, as the firmware does after reset.
+`serial.protocol_handler_packages` (galileo_cnc.transport adds it).
+
+    sim://[NAME][?speed=S&config=PATH]
+
+`speed` is how many times faster than real time the machine runs (default 1;
+0 = instant: every move is done when its `ok` goes out); `config` a machine
+profile TOML. Plain `sim://` is a power-on at every open: a fresh machine that
+sends its banner, as the firmware does after reset. `sim://NAME` is a machine
+that keeps power in this process while the port is closed, as a board whose USB
+cable is pulled: it goes on executing its queue, and opening it again neither
+resets it nor sends a banner (galileo_cnc.simulator.named_machine,
+forget_named_machines).
 """
 
 from __future__ import annotations
 
+import math
 import numbers
+import re
 import threading
 import time
 import urllib.parse
@@ -16,7 +27,10 @@ import urllib.parse
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException, to_bytes
 
 from .config import load_config
-from .simulator import SimulatedMachine
+from .simulator import SimulatedMachine, open_named_machine
+
+_NAME_RE = re.compile(r"[A-Za-z0-9_.-]+")
+_FORM = "sim://[NAME][?speed=S&config=PATH]"
 
 
 class Serial(SerialBase):
@@ -29,6 +43,7 @@ class Serial(SerialBase):
         self._rx_cond = threading.Condition()
         self._cancel = False
         self.machine: SimulatedMachine | None = None
+        self._named = False
         super().__init__(*args, **kwargs)
 
     # ---- open / close -------------------------------------------------------------
@@ -37,35 +52,61 @@ class Serial(SerialBase):
             raise SerialException("Port is already open.")
         if self._port is None:
             raise SerialException("Port must be configured before it can be used.")
-        config = self.from_url(self.port)
+        name, config, speed = self.from_url(self.port)
         self._reconfigure_port()
         with self._rx_cond:
             self._rx.clear()
-        self.machine = SimulatedMachine(config, self._deliver)
+        if name:
+            try:
+                machine, powered_on = open_named_machine(name, config, speed)
+            except ValueError as exc:
+                raise SerialException(str(exc)) from exc
+            if not machine.attach(self._deliver):
+                raise SerialException(f"sim://{name} is already open")
+        else:
+            machine, powered_on = SimulatedMachine(config, self._deliver, speed), True
+        self.machine, self._named = machine, bool(name)
         self.is_open = True
-        self.machine.reset()                # the banner, as after a reset
+        if powered_on:
+            machine.reset()                 # the banner, as after a reset
 
     def close(self):
         if self.is_open:
             self.is_open = False
+            if self._named:
+                self.machine.detach()       # the cable is pulled: the board runs on
+            else:
+                self.machine.close()        # power off
             with self._rx_cond:
                 self._rx_cond.notify_all()
         super().close()
 
     def from_url(self, url):
+        """(name, config, speed) from `sim://[NAME][?speed=S&config=PATH]`."""
         parts = urllib.parse.urlsplit(url)
-        if parts.scheme != "sim":
-            raise SerialException(f"expected a URL of the form sim://[?config=PATH], got {url!r}")
-        config_path = None
+        if parts.scheme != "sim" or parts.path or (
+                parts.netloc and not _NAME_RE.fullmatch(parts.netloc)):
+            raise SerialException(f"expected a URL of the form {_FORM}, got {url!r}")
+        config_path, speed = None, 1.0
         for option, values in urllib.parse.parse_qs(parts.query, True).items():
             if option == "config":
                 config_path = values[0]
+            elif option == "speed":
+                try:
+                    speed = float(values[0])
+                except ValueError:
+                    speed = -1.0
+                if not (math.isfinite(speed) and speed >= 0):
+                    raise SerialException(f"sim://: speed must be a number >= 0, "
+                                          f"got {values[0]!r}")
             else:
-                raise SerialException(f"sim://: unknown option {option!r} (known: config)")
+                raise SerialException(f"sim://: unknown option {option!r} "
+                                      f"(known: speed, config)")
         try:
-            return load_config(config_path)
+            config = load_config(config_path)
         except Exception as exc:    # a bad profile is a port that cannot be opened
             raise SerialException(f"sim://: {exc}") from exc
+        return parts.netloc, config, speed
 
     def _reconfigure_port(self):
         if not isinstance(self._baudrate, numbers.Integral) or not 0 < self._baudrate < 2 ** 32:
@@ -162,5 +203,5 @@ class Serial(SerialBase):
 
     # ---- for tests and the preview -----------------------------------------------------
     def trace(self):
-        """The step trace the simulated machine has executed since the port opened."""
+        """The step trace the simulated machine has executed since it powered on."""
         return self.machine.trace()

@@ -29,5 +29,5 @@ def is_simulated(url_or_name: str) -> bool:
 
 def open_port(url_or_name: str, baud: int = DEFAULT_BAUD, timeout: float | None = 1.0,
               **kwargs) -> serial.SerialBase:
-    """Open a port by name, path or pyserial URL (`sim://[?config=PATH]`)."""
+    """Open a port by name, path or pyserial URL (`sim://[NAME][?speed=S&config=PATH]`)."""
     return serial.serial_for_url(url_or_name, baudrate=baud, timeout=timeout, **kwargs)

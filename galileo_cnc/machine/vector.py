@@ -146,14 +146,14 @@ def execute(items: Sequence[Item], t0: int = 0, holds: Sequence[Hold] = (),
     if holds or abort_at_tick is not None:
         table, base, runs, tail = build_events(items)
         ticks, runs, end, n_done = apply_holds(base, runs, tail, t0, holds, abort_at_tick)
-        tick, axis, direction = _rows(table[:n_done], ticks[:n_done])
+        tick, axis, direction = step_rows(table[:n_done], ticks[:n_done])
         return tick, axis, direction, end, n_done < len(base)
     parts = []
     end = t0
     for chunk in _chunks(items):
         table, base, runs, tail = build_events(chunk)
         ticks, _starts, end = run_ticks(base, runs, end, tail, inplace=True)
-        parts.append(_rows(table, ticks))
+        parts.append(step_rows(table, ticks))
     if not parts:
         empty = np.zeros(0, dtype=np.int8)
         return np.zeros(0, dtype=np.int64), empty, empty, end, False
@@ -175,7 +175,7 @@ def _chunks(items: Sequence[Item]):
         yield items[start:]
 
 
-def _rows(table: np.ndarray, ticks: np.ndarray):
+def step_rows(table: np.ndarray, ticks: np.ndarray):
     """Rows in (event, axis) order: tick, axis, dir."""
     stepped = table != 0
     codes = table[stepped]
