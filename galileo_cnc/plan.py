@@ -1,6 +1,8 @@
 """The planner: a Program (ops in nm) becomes a Job (machine commands in steps).
 
-One pass over the op table, in file order (docs/plan.md):
+One pass over the op table (docs/plan.md). Gerber artwork with more than one
+aperture is first grouped by aperture (`order.group_by_aperture`), so each pen is
+inserted once; G-code keeps its file order, where feeds and pen moves are modal.
 
 - subtract the offset from every coordinate, then nm -> steps with
   `MachineConfig.nm_to_steps` (nearest step, halves away from zero);
@@ -11,6 +13,8 @@ One pass over the op table, in file order (docs/plan.md):
   DWELL, FEED (nm/s -> steps/s) as themselves; SELECT, POLARITY and the REGION
   markers emit nothing (region contours are drawn as outlines);
 - a MOVE or LINE that lands on the step it starts from is dropped;
+- at the first draw or flash of each aperture (when there are several) the pen is
+  lifted and `Job.pen_changes` records the command where the user swaps pens;
 - the job ends with PenUp and EndJob;
 - soft limits: the finished command list is planned (not stepped) by the reference
   machine, whose travel check is the firmware's; a refusal becomes a PlanError that
@@ -28,6 +32,7 @@ from .config import MachineConfig
 from .errors import GalileoError, SourcePos
 from .machine import (ArcTo, Command, Dwell, EndJob, Flash, LineTo, MachineError, PenDown,
                       PenUp, Rapid, ReferenceMachine, SetFeed)
+from .order import DRAWING_KINDS, drawing_apertures, group_by_aperture
 from .program import I, J, KIND, LINE, COL, NO_TOOL, TOOL, VALUE, X, Y, OpKind, Program
 
 #: op index of the commands the planner adds itself (the closing PenUp, EndJob).
@@ -55,6 +60,9 @@ class Job:
     commands: list[Command] = field(default_factory=list)
     op_index: list[int] = field(default_factory=list)
     aperture: list[int] = field(default_factory=list)
+    grouped: bool = False                   # work grouped by aperture (order.py)
+    #: command index -> aperture: stop before that command for a pen change.
+    pen_changes: dict[int, int] = field(default_factory=dict)
 
     def __len__(self) -> int:
         return len(self.commands)
@@ -66,26 +74,38 @@ class Job:
 
 
 def plan_program(program: Program, config: MachineConfig | None = None,
-                 offset_nm: tuple[int, int] = (0, 0)) -> Job:
-    """Plan `program` for the machine `config` with `offset_nm` subtracted (see module doc)."""
+                 offset_nm: tuple[int, int] = (0, 0), group: bool = True) -> Job:
+    """Plan `program` for the machine `config` with `offset_nm` subtracted (see module
+    doc); `group=False` keeps a Gerber file's own order."""
     config = config or MachineConfig()
     steps = config.nm_to_steps
     ox, oy = offset_nm
     job = Job(program.source, (int(ox), int(oy)))
-    rows = program.table.tolist()
+    several_pens = len(drawing_apertures(program)) > 1
+    if group and several_pens and program.format == "gerber":
+        ordered = group_by_aperture(program)
+        job.grouped = True
+    else:
+        ordered = list(enumerate(program.table.tolist()))
     aperture = NO_TOOL
+    pen = None                         # the aperture whose pen is in the holder
     pen_down: bool | None = None       # unknown until the job sets it
     at: tuple[int, int] | None = None  # position in steps; unknown at the start
     at_nm = (-ox, -oy)                 # the program's current point (nm, offset applied)
 
-    for index, row in enumerate(rows):
+    for index, row in ordered:
         kind = row[KIND]
         if kind == OpKind.SELECT:
             aperture = row[TOOL]
             continue
-        if kind in (OpKind.LINE, OpKind.ARC_CW, OpKind.ARC_CCW, OpKind.FLASH) \
-                and row[TOOL] != NO_TOOL:
+        if kind in DRAWING_KINDS and row[TOOL] != NO_TOOL:
             aperture = row[TOOL]
+        if several_pens and kind in DRAWING_KINDS and aperture != pen:
+            if pen_down is not False:
+                job.add(PenUp(), index, aperture)
+                pen_down = False
+            job.pen_changes[len(job)] = aperture
+            pen = aperture
         x_nm, y_nm = row[X] - ox, row[Y] - oy
         target = (steps(x_nm), steps(y_nm))
 

@@ -42,10 +42,65 @@ def test_move_line_flash_mapping_and_bookkeeping():
                (OpKind.LINE, 2 * MM, 3 * MM, 0, 0, 11),
                (OpKind.SELECT, 0, 0, 0, 0, 12),
                (OpKind.FLASH, 5 * MM, 5 * MM, 0, 0, 12))
+    # two apertures: the pen is lifted before the second, and both are pen changes
     assert job.commands == [Rapid(160, 160), PenDown(), LineTo(320, 160), LineTo(320, 480),
-                            Rapid(800, 800), Flash()] + END
-    assert job.op_index == [1, 2, 2, 3, 5, 5, NO_OP, NO_OP]
-    assert job.aperture == [11, 11, 11, 11, 12, 12, 12, 12]
+                            PenUp(), Rapid(800, 800), Flash()] + END
+    assert job.op_index == [1, 2, 2, 3, 5, 5, 5, NO_OP, NO_OP]
+    assert job.aperture == [11, 11, 11, 11, 12, 12, 12, 12, 12]
+    assert job.pen_changes == {1: 11, 5: 12}
+
+
+def test_gerber_work_is_grouped_by_aperture_one_pen_change_each():
+    job = plan((OpKind.SELECT, 0, 0, 0, 0, 10),
+               (OpKind.FLASH, 1 * MM, 1 * MM, 0, 0, 10),
+               (OpKind.SELECT, 0, 0, 0, 0, 11),
+               (OpKind.MOVE, 2 * MM, 2 * MM),
+               (OpKind.LINE, 3 * MM, 2 * MM, 0, 0, 11),
+               (OpKind.SELECT, 0, 0, 0, 0, 10),
+               (OpKind.FLASH, 4 * MM, 4 * MM, 0, 0, 10),
+               (OpKind.SELECT, 0, 0, 0, 0, 11),
+               (OpKind.LINE, 3 * MM, 5 * MM, 0, 0, 11))     # draws from the flash at (4, 4)
+    assert job.grouped
+    assert job.commands == [PenUp(), Rapid(160, 160), Flash(), Rapid(640, 640), Flash(),
+                            # D11: the path, then the line that started at the D10 flash
+                            Rapid(320, 320), PenDown(), LineTo(480, 320),
+                            Rapid(640, 640), PenDown(), LineTo(480, 800)] + END
+    assert job.pen_changes == {1: 10, 6: 11}   # D11 is inserted over its first stroke
+    assert job.op_index[:5] == [1, 1, 1, 6, 6]
+    # the file's order on request: four pen changes
+    in_order = plan_program(job_program := program(
+        (OpKind.SELECT, 0, 0, 0, 0, 10), (OpKind.FLASH, 1 * MM, 1 * MM, 0, 0, 10),
+        (OpKind.SELECT, 0, 0, 0, 0, 11), (OpKind.MOVE, 2 * MM, 2 * MM),
+        (OpKind.LINE, 3 * MM, 2 * MM, 0, 0, 11), (OpKind.SELECT, 0, 0, 0, 0, 10),
+        (OpKind.FLASH, 4 * MM, 4 * MM, 0, 0, 10)), CFG, group=False)
+    assert not in_order.grouped and len(in_order.pen_changes) == 3
+    assert len(job_program) == 7
+
+
+def test_region_outlines_draw_with_the_selected_aperture_and_one_pen_needs_no_change():
+    job = plan((OpKind.SELECT, 0, 0, 0, 0, 12),
+               (OpKind.REGION_BEGIN,), (OpKind.MOVE, 1 * MM, 1 * MM),
+               (OpKind.LINE, 2 * MM, 1 * MM), (OpKind.LINE, 1 * MM, 1 * MM),
+               (OpKind.REGION_END,),
+               (OpKind.FLASH, 5 * MM, 5 * MM, 0, 0, 12))
+    assert job.pen_changes == {} and not job.grouped
+    assert set(job.aperture) == {12}
+
+
+def test_gcode_keeps_its_order():
+    b = ProgramBuilder("t.nc")
+    b.emit(int(OpKind.SELECT), tool=1, line=1)
+    b.emit(int(OpKind.MOVE), 1 * MM, 1 * MM, line=2)
+    b.emit(int(OpKind.LINE), 2 * MM, 1 * MM, tool=1, line=3)
+    b.emit(int(OpKind.SELECT), tool=2, line=4)
+    b.emit(int(OpKind.LINE), 2 * MM, 2 * MM, tool=2, line=5)
+    b.emit(int(OpKind.SELECT), tool=1, line=6)
+    b.emit(int(OpKind.LINE), 1 * MM, 2 * MM, tool=1, line=7)
+    job = plan_program(b.build("gcode", "mm"), CFG)
+    assert not job.grouped
+    assert [c for c in job.commands if isinstance(c, LineTo)] == [
+        LineTo(320, 160), LineTo(320, 320), LineTo(160, 320)]
+    assert list(job.pen_changes.values()) == [1, 2, 1]
 
 
 def test_pen_ops_dwell_feed_and_markers():
