@@ -27,6 +27,13 @@ def is_simulated(url_or_name: str) -> bool:
     return url_or_name.lower().startswith(SIM_URL)
 
 
+def with_sim_config(url_or_name: str, config_path) -> str:
+    """`sim://` simulates the machine of the profile at `config_path` (if any)."""
+    if config_path is None or not is_simulated(url_or_name) or "config=" in url_or_name:
+        return url_or_name
+    return url_or_name + ("&" if "?" in url_or_name else "?") + f"config={config_path}"
+
+
 def open_port(url_or_name: str, baud: int = DEFAULT_BAUD, timeout: float | None = 1.0,
               **kwargs) -> serial.SerialBase:
     """Open a port by name, path or pyserial URL (`sim://[NAME][?speed=S&config=PATH]`)."""

@@ -257,7 +257,6 @@ def test_feed_hold_decelerates_and_resume_continues_as_the_reference(firmware):
 
 
 def test_abort_decelerates_keeps_the_position_and_locks_until_unlock(firmware):
-    import time
     job = CENTRE + [SetFeed(1600), LineTo(2400, 800), LineTo(0, 0)]
     full = simulate(job)
     with SimulatedBoard(firmware) as board:
@@ -284,17 +283,3 @@ def test_abort_decelerates_keeps_the_position_and_locks_until_unlock(firmware):
     assert (status.x_steps, status.y_steps) == (moved[0] - 3000, moved[1] - 3000)
     x_gaps = np.diff(tick[axis == 0])[-20:]
     assert np.all(np.diff(x_gaps) >= -LATENCY_JITTER_TICKS)   # slowing down to the stop
-
-
-# ---- a sample board, planned from the file ---------------------------------------------
-
-def test_sample_board_planned_with_the_proposed_offset(firmware):
-    from galileo_cnc.info import proposed_offset
-    from galileo_cnc.plan import plan_program
-    from galileo_cnc.readers import read_file
-    from firmware_support import REPO
-
-    program = read_file(REPO / "samples" / "led-blinker.gbr")
-    job = plan_program(program, MachineConfig(), proposed_offset(program))
-    ref = check_job(firmware, job.commands)
-    assert ref.final_position[2] == MachineConfig().pen_up_z_steps
