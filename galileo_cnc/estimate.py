@@ -56,3 +56,11 @@ def job_timing(commands, config: MachineConfig | None = None,
             clock = vector.execute(items, clock)[3]
         ends[k] = clock
     return JobTiming(ends)
+
+
+def duration_text(seconds: float) -> str:
+    """1:05, or 1:02:05 past an hour."""
+    whole = int(round(seconds))
+    hours, rest = divmod(whole, 3600)
+    minutes, secs = divmod(rest, 60)
+    return f"{hours}:{minutes:02d}:{secs:02d}" if hours else f"{minutes}:{secs:02d}"
