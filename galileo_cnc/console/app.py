@@ -1,0 +1,201 @@
+"""The console: banner, connection line, the `>>` prompt loop and its bottom toolbar.
+
+Commands live in their own modules and reach the console through the registry
+(registry.py); this module owns what they share: the link to the machine, the
+machine configuration, printing (also from the link's reader thread) and
+questions.
+"""
+
+from __future__ import annotations
+
+import contextvars
+import shlex
+from pathlib import Path
+
+from prompt_toolkit import PromptSession
+from prompt_toolkit.history import FileHistory, History, InMemoryHistory
+from prompt_toolkit.shortcuts import print_formatted_text, prompt
+
+from .. import __version__
+from ..config import MachineConfig
+from ..errors import GalileoError
+from ..link import LinkError, MachineLink, PortGone
+from ..machine import SetFeed
+from ..protocol import Status
+from .commands import build_registry
+from .units import position_mm_text
+
+PROMPT = ">> "
+#: States in which the head may be moving: a command interrupted there must stop it.
+MOVING_STATES = ("run", "hold", "homing")
+
+
+class Console:
+    def __init__(self, port: str | None, baud: int, config: MachineConfig,
+                 history_path: Path | None, config_path: Path | None = None):
+        self.requested_port = port
+        self.config_path = config_path
+        self.baud = baud
+        self.config = config                    # feed changes from `setup` land here
+        self.link: MachineLink | None = None
+        self.last_status: Status | None = None
+        self.leaving = False
+        self.registry = build_registry()
+        self.session: PromptSession = PromptSession(
+            history=_open_history(history_path), completer=self.registry.completer(),
+            complete_while_typing=False, bottom_toolbar=self.toolbar)
+        # The app session (terminal) this console runs in, for printing from other threads.
+        self._context = contextvars.copy_context()
+
+    # ---- output and questions ----------------------------------------------------
+    def say(self, text: str = "") -> None:
+        """Print a line; above the prompt or progress bar when one is showing."""
+        print_formatted_text(text)
+
+    def say_from_thread(self, text: str) -> None:
+        """`say` for the link's reader thread, which does not know our terminal."""
+        self._context.copy().run(self.say, text)
+
+    def ask(self, question: str, default: str = "", completer=None) -> str:
+        """One line of input; Ctrl-C/Ctrl-D cancel the command (KeyboardInterrupt/EOFError)."""
+        return prompt(question, default=default, completer=completer).strip()
+
+    def confirm(self, question: str, default: bool = True) -> bool:
+        choices = "[Y/n]" if default else "[y/N]"
+        while True:
+            answer = self.ask(f"{question} {choices} ").lower()
+            if not answer:
+                return default
+            if answer in ("y", "yes"):
+                return True
+            if answer in ("n", "no"):
+                return False
+            self.say("please answer y or n")
+
+    # ---- the machine ----------------------------------------------------------------
+    def connect(self, port: str | None) -> bool:
+        self.disconnect()
+        try:
+            link = MachineLink.open(port, self.baud, self.config, self.config_path)
+        except GalileoError as error:
+            self.say(f"not connected: {error}")
+            self.say("type `connect PORT` to try again (`ports` lists them)")
+            return False
+        link.on_message = self.say_from_thread
+        self.link = link
+        line = link.describe()
+        if port is None and link.simulated:
+            line += " (no board found)"
+        self.say(line)
+        try:  # the machine starts with its own default feed; make it ours
+            link.send(SetFeed(self.config.feed_steps_per_s))
+        except LinkError as error:
+            self.say(f"could not set the feed rate: {error}")
+        self.refresh_status()
+        return True
+
+    def use_config(self, config: MachineConfig) -> None:
+        """Plan with `config` from now on; the link's copy goes into the job journal."""
+        self.config = config
+        if self.link is not None:
+            self.link.config = config
+
+    def disconnect(self) -> None:
+        if self.link is not None:
+            self.link.close()
+            self.link = None
+            self.last_status = None
+
+    def refresh_status(self) -> Status | None:
+        self.last_status = None
+        if self.link is not None:
+            try:
+                self.last_status = self.link.status(timeout_s=1.0)
+            except LinkError:
+                pass
+        return self.last_status
+
+    def stop_if_moving(self) -> None:
+        """After an interrupted command: never leave the head moving."""
+        status = self.refresh_status()
+        if self.link is not None and status is not None and status.state in MOVING_STATES:
+            self.say("stopping the machine (ramping down)")
+            self.link.abort()
+
+    def toolbar(self) -> str:
+        if self.link is None:
+            return " not connected | type connect [PORT]"
+        status = self.last_status
+        state = status.state if status else "no answer"
+        where = position_mm_text(status, self.config) if status else "position unknown"
+        return (f" {self.link.port_name} | {state} | {where} | "
+                f"feed {self.config.feed_mm_s:g} mm/s")
+
+    # ---- the loop ------------------------------------------------------------------------
+    def banner(self) -> None:
+        self.say(f"galileo-cnc {__version__}: console for a home-built CNC pen plotter")
+        self.say("type help for the commands, help COMMAND for one of them, exit to leave")
+
+    def run(self) -> int:
+        self.banner()
+        self.connect(self.requested_port)
+        while not self.leaving:
+            try:
+                line = self.session.prompt(PROMPT)
+            except KeyboardInterrupt:
+                continue                 # Ctrl-C at the prompt: just a new prompt
+            except EOFError:
+                break                    # Ctrl-D leaves
+            self.execute(line)
+        self.disconnect()
+        return 0
+
+    def execute(self, line: str) -> None:
+        try:
+            words = shlex.split(line)
+        except ValueError:               # an unbalanced quote: take the words as typed
+            words = line.split()
+        if not words:
+            return
+        name, arguments = words[0], words[1:]
+        command = self.registry.get(name)
+        if command is None:
+            self.unknown(name)
+            return
+        if command.needs_machine and self.link is None:
+            self.say("not connected to a machine: type connect [PORT]")
+            return
+        try:
+            command.run(self, arguments)
+        except PortGone as error:
+            self.say(str(error))
+            self.say("the port is gone: type connect to reconnect, then resume")
+            self.disconnect()
+        except GalileoError as error:
+            self.say(str(error))
+        except (KeyboardInterrupt, EOFError):
+            self.say("cancelled")
+            self._stop_safely()
+        self.refresh_status()
+
+    def _stop_safely(self) -> None:
+        try:
+            self.stop_if_moving()
+        except GalileoError as error:
+            self.say(f"could not stop the machine: {error}")
+
+    def unknown(self, word: str) -> None:
+        closest = self.registry.closest(word)
+        hint = f" Did you mean {closest}?" if closest else ""
+        self.say(f"Unknown command!{hint} Type help for the list of commands.")
+
+
+def _open_history(path: Path | None) -> History:
+    if path is None:
+        return InMemoryHistory()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.touch(exist_ok=True)
+    except OSError:
+        return InMemoryHistory()      # a read-only home must not stop the console
+    return FileHistory(str(path))

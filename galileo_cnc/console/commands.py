@@ -1,0 +1,34 @@
+"""The console's commands, in the order `help` lists them."""
+
+from __future__ import annotations
+
+from prompt_toolkit.completion import PathCompleter, WordCompleter
+
+from . import getg, machine_commands, resume, setup, show_help
+from .registry import ConsoleCommand, Registry
+
+
+def _leave(console, arguments: list[str]) -> None:
+    console.leaving = True
+
+
+def build_registry() -> Registry:
+    return Registry([
+        ConsoleCommand("help", "help [COMMAND]", "print the help, or one command's",
+                       show_help.run, arguments=lambda names: WordCompleter(names)),
+        ConsoleCommand("getg", "getg [FILE]", "plot a Gerber or G-code file",
+                       getg.run, needs_machine=True,
+                       arguments=PathCompleter(expanduser=True)),
+        ConsoleCommand("setup", "setup", "jog the head with the keypad, set the feed rate",
+                       setup.run, needs_machine=True),
+        ConsoleCommand("status", "status", "the machine's state and position",
+                       machine_commands.status, needs_machine=True),
+        ConsoleCommand("ports", "ports", "list the serial ports", machine_commands.ports),
+        ConsoleCommand("connect", "connect [PORT]", "reconnect, to PORT if given",
+                       machine_commands.connect),
+        ConsoleCommand("home", "home", "drive the axes to their end-stops",
+                       machine_commands.home, needs_machine=True),
+        ConsoleCommand("resume", "resume", "continue an interrupted job",
+                       resume.run, needs_machine=True),
+        ConsoleCommand("exit", "exit", "leave the console", _leave),
+    ])

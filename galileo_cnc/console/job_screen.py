@@ -1,0 +1,129 @@
+"""A streamed job on screen: progress bar (lines, %, ETA), pen changes, q/Ctrl-C to stop.
+
+The job streams in the calling thread; prompt_toolkit's ProgressBar runs its own
+application in a second thread and owns the keyboard meanwhile, so the stop and
+continue keys arrive here as key bindings and reach the streaming thread through
+events. The machine's messages and the pen-change requests print above the bar.
+"""
+
+from __future__ import annotations
+
+import threading
+from typing import Callable
+
+from prompt_toolkit.key_binding import KeyBindings
+from prompt_toolkit.shortcuts import ProgressBar
+from prompt_toolkit.shortcuts.progress_bar import formatters
+
+from ..estimate import duration_text
+from ..stream import PenChange, Progress, StreamAborted, StreamResult
+
+BELL = "\a"
+#: How often a pen-change wait looks for a stop request.
+_WAIT_POLL_S = 0.1
+
+RunStream = Callable[..., StreamResult]   # run(on_progress=..., on_pen_change=...)
+
+
+class _MachineEta(formatters.Formatter):
+    """ETA from the reference machine's timing (the streamer's), not from the rate so far."""
+
+    def __init__(self, screen: "JobScreen"):
+        self.screen = screen
+
+    def format(self, progress_bar, progress, width):
+        eta = self.screen.eta_s
+        return f"ETA {duration_text(eta)}" if eta is not None else "ETA ?"
+
+    def get_width(self, progress_bar):
+        return 12
+
+
+class JobScreen:
+    def __init__(self, console, title: str, total: int, start: int = 0):
+        self.console = console
+        self.title = title
+        self.total = total
+        self.start = start
+        self.eta_s: float | None = None
+        self.stop_requested = threading.Event()
+        self._continue = threading.Event()
+        self._abort_stream: Callable[[], None] | None = None
+        self._counter = None
+
+    def run(self, run_stream: RunStream, abort_stream: Callable[[], None]) -> StreamResult:
+        """Stream with the bar showing; `abort_stream` is called (from the key thread)
+        when the user stops the job."""
+        self._abort_stream = abort_stream
+        bar = ProgressBar(title=f"{self.title}   (q or Ctrl-C stops, the machine ramps down)",
+                          formatters=self._formatters(), key_bindings=self._key_bindings(),
+                          cancel_callback=self.request_stop)
+        with bar:
+            self._counter = bar(label="lines", total=self.total)
+            self._counter.items_completed = self.start
+            result = run_stream(on_progress=self._on_progress,
+                                on_pen_change=self._on_pen_change)
+            if result.completed:
+                self._counter.items_completed = self.total
+                self._counter.done = True
+            else:
+                self._counter.stopped = True
+        return result
+
+    def request_stop(self) -> None:
+        if not self.stop_requested.is_set():
+            self.stop_requested.set()
+            self._continue.set()              # wakes a pen-change wait
+            if self._abort_stream is not None:
+                self._abort_stream()
+
+    # ---- called by the streamer, in the streaming thread ------------------------------------
+    def _on_progress(self, progress: Progress) -> None:
+        self.eta_s = progress.eta_s
+        self._counter.total = progress.total
+        self._counter.items_completed = progress.confirmed
+        self._counter.progress_bar.invalidate()
+
+    def _on_pen_change(self, change: PenChange) -> None:
+        """With the machine idle and the pen up: ask for the pen, wait for Enter."""
+        self._continue.clear()
+        if not self.stop_requested.is_set():   # q may have come while the machine stopped
+            self.console.say(f"{BELL}insert pen for aperture {change.description}, "
+                             "then press Enter (q stops)")
+        while not (self.stop_requested.is_set() or self._continue.wait(_WAIT_POLL_S)):
+            pass
+        if self.stop_requested.is_set():
+            raise StreamAborted("stopped by the user")
+
+    # ---- layout and keys ------------------------------------------------------------------------
+    def _formatters(self) -> list[formatters.Formatter]:
+        return [formatters.Label(), formatters.Text(" "), formatters.Percentage(),
+                formatters.Text(" "), formatters.Bar(sym_a="#", sym_b=">", sym_c="."),
+                formatters.Text(" "), formatters.Progress(), formatters.Text("  "),
+                _MachineEta(self)]
+
+    def _key_bindings(self) -> KeyBindings:
+        keys = KeyBindings()
+
+        @keys.add("q")
+        @keys.add("Q")
+        def _stop(event) -> None:
+            self.request_stop()
+
+        @keys.add("enter")
+        @keys.add("c-j")   # Enter typed while a message prints (cooked mode) arrives as \n
+        def _go_on(event) -> None:
+            self._continue.set()
+
+        return keys
+
+
+def report(console, result: StreamResult) -> None:
+    """The end of a job: the seed's "process has finished", a bell and the time taken."""
+    if result.completed:
+        console.say(f"{BELL}process has finished in {duration_text(result.elapsed_s)} "
+                    f"({result.total} commands)")
+    else:
+        reason = f": {result.reason}" if result.reason else ""
+        console.say(f"job stopped after {result.confirmed} of {result.total} commands"
+                    f"{reason}; type resume to continue it")

@@ -1,0 +1,92 @@
+"""Jogging with the numeric keypad, as the seed's setup screen did.
+
+7/1 Z up/down, 8/2 Y +/-, 4/6 X -/+ (with NumLock off the keypad sends
+Home/End and the arrows, which do the same); 0 or o sets the origin here; q
+leaves. One small prompt_toolkit application reads single keys; every jog is
+one `Jog` command of the distance chosen before.
+"""
+
+from __future__ import annotations
+
+from prompt_toolkit.application import Application
+from prompt_toolkit.key_binding import KeyBindings
+from prompt_toolkit.layout import Layout, Window
+from prompt_toolkit.layout.controls import FormattedTextControl
+
+from ..errors import GalileoError
+from ..machine import Jog, SetOrigin
+from .units import jog_units_to_steps, position_mm_text
+
+#: key -> direction (x, y, z); each key has a NumLock-off twin.
+KEYPAD = {
+    "8": (0, 1, 0), "up": (0, 1, 0),
+    "2": (0, -1, 0), "down": (0, -1, 0),
+    "4": (-1, 0, 0), "left": (-1, 0, 0),
+    "6": (1, 0, 0), "right": (1, 0, 0),
+    "7": (0, 0, 1), "home": (0, 0, 1),
+    "1": (0, 0, -1), "end": (0, 0, -1),
+}
+ORIGIN_KEYS = ("0", "o", "O", "insert")   # Insert is keypad 0 with NumLock off
+LEAVE_KEYS = ("q", "Q", "escape")
+HINT = "7/1 Z up/down  8/2 Y+/Y-  4/6 X-/X+  0 or o: origin here  q: back"
+
+
+class KeypadJog:
+    def __init__(self, console, units: int):
+        self.console = console
+        self.link = console.link
+        self.step = jog_units_to_steps(units, console.config)
+        self.units = units
+        self.note = ""
+        self.status = self.link.status()
+
+    def line(self) -> str:
+        where = position_mm_text(self.status, self.console.config)
+        note = f"   {self.note}" if self.note else ""
+        return (f"jog {self.units} units = {self.step} steps   {where}{note}\n{HINT}")
+
+    def jog(self, direction: tuple[int, int, int]) -> None:
+        dx, dy, dz = (self.step * d for d in direction)
+        self._do(Jog(dx, dy, dz), "")
+
+    def set_origin(self) -> None:
+        self.link.wait_idle()
+        self._do(SetOrigin(), "origin set here")
+
+    def _do(self, command, note: str) -> None:
+        try:
+            self.link.send(command)
+            self.note = note
+        except GalileoError as refused:          # e.g. the jog would leave the travel
+            self.note = str(refused)
+        self.status = self.link.status()
+
+    def stop(self) -> None:
+        self.link.abort()
+        self.note = "stopped"
+
+    def run(self) -> None:
+        keys = KeyBindings()
+        for key, direction in KEYPAD.items():
+            keys.add(key)(lambda event, d=direction: self.jog(d))
+        for key in ORIGIN_KEYS:
+            keys.add(key)(lambda event: self.set_origin())
+        for key in LEAVE_KEYS:
+            keys.add(key)(lambda event: event.app.exit())
+
+        @keys.add("c-c")
+        def _interrupt(event) -> None:
+            self.stop()
+            event.app.exit()
+
+        app: Application = Application(
+            layout=Layout(Window(FormattedTextControl(self.line), height=2)),
+            key_bindings=keys, full_screen=False)
+        app.run()
+
+
+def jog_with_keypad(console, units: int) -> None:
+    keypad = KeypadJog(console, units)
+    keypad.run()
+    status = console.link.wait_idle()
+    console.say(f"position {position_mm_text(status, console.config)}")

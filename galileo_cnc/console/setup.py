@@ -1,0 +1,88 @@
+"""`setup`: the seed's menu: 1) jog with the numeric keypad, 2) feed rate."""
+
+from __future__ import annotations
+
+import math
+
+from ..config import MIN_FEED_STEPS_PER_S
+from ..machine import SetFeed
+from .keypad import jog_with_keypad
+from .units import NM_PER_JOG_UNIT
+
+MENU = """setup
+  1) jog the head with the numeric keypad (and set the origin)
+  2) feed rate
+  q) back to the prompt"""
+DEFAULT_JOG_UNITS = 100          # 1 mm
+
+
+def run(console, arguments: list[str]) -> None:
+    while True:
+        console.say(MENU)
+        choice = console.ask("choice: ").lower()
+        if choice in ("", "q", "quit", "exit"):
+            return
+        action = _ACTIONS.get(choice)
+        if action is None:
+            console.say("choose 1, 2 or q")
+            continue
+        action(console)
+
+
+def jog(console) -> None:
+    units = _ask_jog_units(console)
+    if units is not None:
+        jog_with_keypad(console, units)
+
+
+def _ask_jog_units(console) -> int | None:
+    while True:
+        answer = console.ask(f"jog distance in units of {NM_PER_JOG_UNIT // 1000} um "
+                             f"(1000 = 1 cm) [{DEFAULT_JOG_UNITS}]: ")
+        if not answer:
+            return DEFAULT_JOG_UNITS
+        if answer.lower() == "q":
+            return None
+        try:
+            units = int(answer)
+        except ValueError:
+            console.say("a whole number, please (100 = 1 mm)")
+            continue
+        if units <= 0:
+            console.say("the distance must be more than 0")
+            continue
+        return units
+
+
+def feed(console) -> None:
+    config = console.config
+    answer = console.ask(f"feed rate in mm/s [{config.feed_mm_s:g}]: ")
+    if not answer:
+        return
+    try:
+        mm_s = float(answer)
+    except ValueError:
+        mm_s = math.nan
+    if not math.isfinite(mm_s):
+        console.say(f"not a number: {answer!r}")
+        return
+    steps_per_s = config.feed_steps_per_s_of(mm_s)
+    lowest = MIN_FEED_STEPS_PER_S / config.steps_per_mm
+    highest = config.max_feed_steps_per_s / config.steps_per_mm
+    if not MIN_FEED_STEPS_PER_S <= steps_per_s <= config.max_feed_steps_per_s:
+        console.say(f"refused: the machine runs {lowest:g} .. {highest:g} mm/s")
+        return
+    if mm_s > config.feed_warn_mm_s:
+        console.say(f"warning: {mm_s:g} mm/s ({config.feed_rpm(mm_s):.0f} rpm) is above "
+                    f"{config.feed_warn_mm_s:g} mm/s ({config.feed_rpm(config.feed_warn_mm_s):.0f} "
+                    "rpm): the motors may stall and lose steps")
+        if not console.confirm("use it anyway?", default=False):
+            console.say(f"feed rate stays {config.feed_mm_s:g} mm/s")
+            return
+    console.link.send(SetFeed(steps_per_s))
+    console.use_config(config.replace(feed_mm_s=mm_s))
+    console.say(f"feed rate {mm_s:g} mm/s ({steps_per_s} steps/s, "
+                f"{config.feed_rpm(mm_s):.0f} rpm)")
+
+
+_ACTIONS = {"1": jog, "2": feed}
