@@ -90,6 +90,27 @@ def test_abort_stops_with_a_ramp_and_known_position():
     assert np.all(np.diff(gaps) >= 0)  # decelerating into the stop
 
 
+def test_an_abort_keeps_only_the_origins_set_before_the_stop():
+    # SetOrigin is a queued block: one behind the running move never takes effect
+    cmds = START + [LineTo(8000, 0), SetOrigin(), LineTo(2000, 0)]
+    full = simulate(cmds)
+    first_line_end = 12000 + 8000
+    during_first = int(full.tick[24000 + 3000])
+    m = ReferenceMachine()
+    m.run(cmds, abort_at_tick=during_first)
+    assert m.origin == [12000, 12000, 0]                      # START's origin only
+    assert m.work_position[0] == m.position[0] - 12000 < 8000
+    # aborted in the last line: the origin set after the first line holds
+    during_last = int(full.tick[-200])
+    m = ReferenceMachine()
+    m.run(cmds, abort_at_tick=during_last)
+    assert m.origin == [first_line_end, 12000, 0]
+    assert 0 < m.work_position[0] < 2000
+    # and the next command plans from the stop, in those coordinates
+    trace = m.run([LineTo(0, 0)])
+    assert trace.final_position == (0, 0, 0) and m.position[0] == first_line_end
+
+
 def test_soft_limits_refuse_before_any_step():
     m = ReferenceMachine()
     with pytest.raises(MachineError, match=r"X would reach -1 steps, below the travel minimum X=0") as e:

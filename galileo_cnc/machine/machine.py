@@ -82,15 +82,37 @@ class ReferenceMachine:
     def run(self, commands: Iterable[Command], holds: Sequence[Hold] = (),
             abort_at_tick: int | None = None, backend: str = "numpy") -> Trace:
         """Plan and step `commands`; ticks continue from this machine's clock."""
-        start_machine = tuple(self.position)
-        items = self.plan(list(commands))
+        commands = list(commands)
+        start_state = self._state()
+        items = self.plan(commands)
         tick, axis, direction, end, aborted = BACKENDS[backend](
             items, self.clock_ticks, holds, abort_at_tick)
         self.clock_ticks = end
         if aborted:
             moved = np.bincount(axis, weights=direction, minlength=3).astype(int)
-            self.position = [start_machine[a] + int(moved[a]) for a in range(3)]
+            self.origin = self._origin_when_stopped(commands, start_state,
+                                                    events_done=len(np.unique(tick)))
+            self.position = [start_state[0][a] + int(moved[a]) for a in range(3)]
         return Trace(tick, axis, direction, self.work_position, end)
+
+    def _origin_when_stopped(self, commands: list[Command], start_state: tuple,
+                             events_done: int) -> list[int]:
+        """The work origin as the machine had it when an abort stopped it (§6).
+
+        A SetOrigin is a queued block: it took effect only if every move before it
+        ran; the abort drops the rest of the queue. The feed, by contrast, is the
+        planner's and stays as the last command received set it (the firmware's
+        rule), so it is left as planned.
+        """
+        probe = ReferenceMachine(self.config)
+        probe._restore(tuple(list(v) if isinstance(v, list) else v for v in start_state))
+        origin, done = list(start_state[1]), 0
+        for command in commands:
+            if done >= events_done:
+                break
+            done += sum(item.n for item in probe.plan([command]) if not isinstance(item, Pause))
+            origin = list(probe.origin)
+        return origin
 
     # ---- helpers ----------------------------------------------------------------
     def _fail(self, message: str, axis: str = "", limit: int | None = None) -> MachineError:
