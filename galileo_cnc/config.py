@@ -212,15 +212,7 @@ class MachineConfig:
 
     @classmethod
     def from_toml(cls, path: str | Path, **overrides: Any) -> "MachineConfig":
-        path = Path(path)
-        try:
-            with path.open("rb") as fh:
-                data = tomllib.load(fh)
-        except OSError as exc:
-            raise ConfigError(f"{path}: cannot read config: {exc.strerror}") from None
-        except tomllib.TOMLDecodeError as exc:
-            raise ConfigError(f"{path}: bad TOML: {exc}") from None
-        config = cls.from_mapping(data, source=str(path))
+        config = cls.from_mapping(read_toml(path), source=str(path))
         return config.replace(**overrides) if overrides else config
 
     def to_toml(self) -> str:
@@ -240,6 +232,18 @@ def _check_keys(data: Mapping[str, Any], source: str) -> None:
     unknown = sorted(set(data) - _FIELD_NAMES)
     if unknown:
         raise ConfigError(f"{source}: unknown machine setting(s): {', '.join(unknown)}")
+
+
+def read_toml(path: str | Path, what: str = "config") -> dict:
+    """A TOML file as a dict; ConfigError naming the file when it cannot be read."""
+    path = Path(path)
+    try:
+        with path.open("rb") as fh:
+            return tomllib.load(fh)
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read {what}: {exc.strerror}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: bad TOML: {exc}") from None
 
 
 def load_config(path: str | Path | None = None, **overrides: Any) -> MachineConfig:

@@ -273,15 +273,19 @@ class MachineLink:
         deadline = None if timeout_s is None else time.monotonic() + timeout_s
         while True:
             status = self.status()
-            if status.state == "alarm":
-                alarm = self.take_alarm()
-                raise LinkError(f"machine alarm: {alarm.code} {alarm.text}" if alarm
-                                else "machine in alarm state (send U)")
-            if status.state == "idle" and status.queue_blocks == 0:
+            if self.standing(status):
                 return status
             if deadline is not None and time.monotonic() > deadline:
                 raise LinkError(f"machine still busy after {timeout_s:g} s: {status.text()}")
             time.sleep(poll_s)
+
+    def standing(self, status: P.Status) -> bool:
+        """Idle with an empty queue; LinkError if the machine is in alarm."""
+        if status.state == "alarm":
+            alarm = self.take_alarm()
+            raise LinkError(f"machine alarm: {alarm.code} {alarm.text}" if alarm
+                            else "machine in alarm state (send U)")
+        return status.state == "idle" and status.queue_blocks == 0
 
     def hold(self) -> None:
         self.write(P.RT_HOLD)

@@ -21,7 +21,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from .config import ConfigError, MachineConfig, tomllib
+from .config import ConfigError, MachineConfig, read_toml
 from .transport import DEFAULT_BAUD
 from .userdirs import config_dir
 
@@ -44,15 +44,7 @@ def load_profile(path: str | os.PathLike | None = None, *, port: str | None = No
     found = Path(path) if path is not None else config_dir() / PROFILE_NAME
     if path is None and not found.exists():
         found = None
-    data: dict = {}
-    if found is not None:
-        try:
-            with found.open("rb") as fh:
-                data = tomllib.load(fh)
-        except OSError as exc:
-            raise ConfigError(f"{found}: cannot read the profile: {exc.strerror}") from None
-        except tomllib.TOMLDecodeError as exc:
-            raise ConfigError(f"{found}: bad TOML: {exc}") from None
+    data = read_toml(found, "the profile") if found is not None else {}
     serial_table = data.get("serial", {})
     unknown = sorted(set(serial_table) - {"port", "baud"})
     if unknown:

@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import Callable
 
 from . import protocol as P
-from .config import MachineConfig
+from .config import MachineConfig, tomllib
 from .errors import GalileoError, SourcePos
 from .estimate import JobTiming, job_timing
 from .journal import (ABORTED, FAILED, FINISHED, INTERRUPTED, Journal, JournalEntry,
@@ -193,11 +193,7 @@ class JobStreamer:
             waited += 0.2
             if waited >= STALL_S and self._unconfirmed:
                 status = self.link.status()
-                if status.state == "alarm":
-                    alarm = self.link.take_alarm()
-                    raise LinkError(f"machine alarm: {alarm.code} {alarm.text}" if alarm
-                                    else "machine in alarm state")
-                if status.state == "idle" and status.queue_blocks == 0:
+                if self.link.standing(status):
                     # an empty queue makes room for any line: this is no flow control
                     self._settle_by_status(status.last_seq)
                 waited = 0.0
@@ -276,12 +272,7 @@ class JobStreamer:
         while True:
             if self._abort.is_set():
                 raise StreamAborted("stopped by the user")
-            status = self.link.status()
-            if status.state == "alarm":
-                alarm = self.link.take_alarm()
-                raise LinkError(f"machine alarm: {alarm.code} {alarm.text}" if alarm
-                                else "machine in alarm state")
-            if status.state == "idle" and status.queue_blocks == 0:
+            if self.link.standing(self.link.status()):
                 return
             time.sleep(0.05)
 
@@ -356,7 +347,7 @@ def plan_resume(link: MachineLink, entry: JournalEntry) -> tuple[Job, Program, i
     if file_digest(entry.source) != entry.digest:
         raise ResumeError(f"{entry.source} changed since the job was planned; "
                           f"start it again with getg")
-    config = MachineConfig.from_mapping(_toml(entry.profile), "journal")
+    config = MachineConfig.from_mapping(tomllib.loads(entry.profile), "journal")
     program = read_file(entry.source)
     job = plan_program(program, config, entry.offset_nm, group=entry.group)
     if len(job) != entry.total:
@@ -385,11 +376,3 @@ def resume_job(link: MachineLink, journal: Journal, **callbacks) -> StreamResult
         raise ResumeError("no interrupted job to resume")
     job, program, start = plan_resume(link, entry)
     return JobStreamer(link, job, program, journal=journal, start=start).run(**callbacks)
-
-
-def _toml(text: str) -> dict:
-    try:
-        import tomllib
-    except ModuleNotFoundError:     # pragma: no cover - Python 3.10
-        import tomli as tomllib     # type: ignore[no-redef]
-    return tomllib.loads(text)
