@@ -32,6 +32,8 @@ POLL_S = 1.0
 SILENT_S = 3.0
 #: After opening, wait this long for the banner of a board that resets on open.
 BANNER_WAIT_S = 2.5
+#: The greeting's reply comes after any the machine still owed the last session.
+GREETING_S = 10.0
 
 
 class LinkError(GalileoError):
@@ -100,19 +102,36 @@ class MachineLink:
         return link
 
     def _greet(self) -> None:
-        """Wait out a board's reset, note its status, then `N0 V` (restarts the count)."""
+        """Wait out a board's reset, note its status, then `N0 V` (restarts the count).
+
+        A board that kept power while the cable was out may still be running lines
+        of the last session: wait until its queue has run (so that its status `N`
+        counts every line it will ever accept from that session, which resuming
+        needs), and skip the replies it still owed, which arrive before ours.
+        """
         deadline = time.monotonic() + (0.3 if self.simulated else BANNER_WAIT_S)
         while self.banner is None and time.monotonic() < deadline:
             time.sleep(0.02)
         try:
-            self.initial_status = self.status(timeout_s=SILENT_S)
+            status = self.status(timeout_s=SILENT_S)
         except PortGone:
             raise PortGone(f"{self.port_name}: no answer from a galileo-cnc machine "
                            f"(is the firmware flashed, and the baud rate {self.baud}?)") from None
+        while status.state in ("run", "homing"):
+            time.sleep(0.05)
+            status = self.status()
+        self.initial_status = status
         self.seq = -1                       # so that the greeting goes out as N0
-        reply = self.send_protocol(P.QueryVersion())
-        if reply.banner is None:
-            raise LinkError(f"{self.port_name}: the version reply carries no banner: {reply.text!r}")
+        seq, line = self.frame(P.QueryVersion())
+        self.write(line)
+        while True:
+            reply = self.next_reply(GREETING_S)
+            if reply is None:
+                raise PortGone(f"{self.port_name}: no reply to {line.decode().strip()!r}")
+            if reply.kind == "ok" and reply.seq == seq and reply.banner is not None:
+                break
+            if reply.kind == "rs":          # our line was garbled: N0 is always accepted
+                self.write(line)
         self.banner = P.check_banner(reply.banner)
         self._alarm = None
 

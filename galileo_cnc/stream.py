@@ -211,12 +211,12 @@ class JobStreamer:
     def _take_reply(self, reply: P.Reply | None) -> None:
         if reply is None:
             return
+        if reply.kind == "ok" and reply.seq not in self._unconfirmed:
+            self._message(f"ignored a stray reply: ok N{reply.seq}")   # not to a job line
+            return
         if self._wire:
             self._wire.popleft()                # one reply per transmission: frees its bytes
         if reply.kind == "ok":
-            if reply.seq not in self._unconfirmed:
-                self._message(f"ignored a stray reply: ok N{reply.seq}")
-                return
             if reply.seq == self._resend_from:
                 self._resend_from = None
             self._confirm_through(reply.seq)
