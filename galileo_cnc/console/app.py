@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import contextvars
 import shlex
+import threading
+import time
 from pathlib import Path
 
 from prompt_toolkit import PromptSession
@@ -26,6 +28,8 @@ from .commands import build_registry
 from .units import position_mm_text
 
 PROMPT = ">> "
+#: While the prompt waits, the toolbar's state and position are refreshed this often.
+TOOLBAR_REFRESH_S = 0.5
 #: States in which the head may be moving: a command interrupted there must stop it.
 MOVING_STATES = ("run", "hold", "homing")
 
@@ -43,7 +47,9 @@ class Console:
         self.registry = build_registry()
         self.session: PromptSession = PromptSession(
             history=_open_history(history_path), completer=self.registry.completer(),
-            complete_while_typing=False, bottom_toolbar=self.toolbar)
+            complete_while_typing=False, bottom_toolbar=self.toolbar,
+            refresh_interval=TOOLBAR_REFRESH_S)
+        self._at_prompt = threading.Event()
         # The app session (terminal) this console runs in, for printing from other threads.
         self._context = contextvars.copy_context()
 
@@ -139,16 +145,34 @@ class Console:
     def run(self) -> int:
         self.banner()
         self.connect(self.requested_port)
+        threading.Thread(target=self._watch_machine, name="toolbar", daemon=True).start()
         while not self.leaving:
+            self._at_prompt.set()
             try:
                 line = self.session.prompt(PROMPT)
             except KeyboardInterrupt:
                 continue                 # Ctrl-C at the prompt: just a new prompt
             except EOFError:
                 break                    # Ctrl-D leaves
+            finally:
+                self._at_prompt.clear()
             self.execute(line)
+        self.leaving = True
         self.disconnect()
         return 0
+
+    def _watch_machine(self) -> None:
+        """Keep the toolbar's state and position current while the prompt waits
+        (a jog or a home may still be running); commands query for themselves."""
+        while not self.leaving:
+            self._at_prompt.wait()
+            link = self.link
+            if link is not None and not self.leaving:
+                try:
+                    self.last_status = link.status(timeout_s=1.0)
+                except GalileoError:
+                    self.last_status = None     # the toolbar says "no answer"
+            time.sleep(TOOLBAR_REFRESH_S)
 
     def execute(self, line: str) -> None:
         try:
