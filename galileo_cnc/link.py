@@ -57,6 +57,8 @@ class MachineLink:
         self.baud = baud
         self.config = config
         self.simulated = is_simulated(name)
+        # machine seconds per wall second: sim://?speed=S runs S times faster (0: instantly)
+        self.speed = float(getattr(getattr(port, "machine", None), "speed", 1.0))
         self.banner: P.Banner | None = None
         self.initial_status: P.Status | None = None   # before our greeting reset the count
         self.on_message: Callable[[str], None] | None = None

@@ -53,7 +53,7 @@ class Progress:
     confirmed: int          # commands the machine has confirmed
     total: int
     elapsed_s: float
-    eta_s: float | None     # machine time left (reference timing)
+    eta_s: float | None     # time left: the reference's machine time (at sim:// speed)
     source_line: int        # line of the file the last confirmed command came from
 
 
@@ -257,8 +257,10 @@ class JobStreamer:
         done = self.confirmed + 1
         ops = [op for op in self.job.op_index[max(self.confirmed - 2, 0):done] if op != NO_OP]
         line = int(self.program.table[ops[-1], LINE]) if self.program is not None and ops else 0
+        left = self.timing.remaining_s(done)
+        eta = left / self.link.speed if self.link.speed > 0 else 0.0
         return Progress(done - self.start, len(self.job) - self.start,
-                        time.monotonic() - self._began, self.timing.remaining_s(done), line)
+                        time.monotonic() - self._began, eta, line)
 
     def _wait_until_confirmed(self) -> None:
         while self._unconfirmed:
