@@ -115,7 +115,8 @@ class JobStreamer:
         self._unconfirmed: dict[int, _Transmission] = {}  # by seq, in the order first sent
         self._resend: deque[_Transmission] = deque()
         self._resend_from: int | None = None            # `rs N<e>` being answered
-        self._asked = set() if self.start == 0 else {self.start}
+        self._changes = self._pen_changes_from(self.start)
+        self._asked: set[int] = set()
         self._on_progress = on_progress
         self._began = began
         self._journal_begin()
@@ -133,7 +134,7 @@ class JobStreamer:
                     self._wait_standing()
                     self._asked.add(self._next)
                     if on_pen_change is not None:
-                        aperture = self.job.pen_changes[self._next]
+                        aperture = self._changes[self._next]
                         on_pen_change(PenChange(aperture, describe_aperture(self.program, aperture),
                                                 self._next))
                     continue
@@ -155,8 +156,17 @@ class JobStreamer:
         self._journal_end(FINISHED)
         return result(True)
 
+    def _pen_changes_from(self, start: int) -> dict[int, int]:
+        """The job's pen changes; a resumed job first asks for the pen in force where
+        it continues (it may have been taken out while the job was stopped)."""
+        changes = dict(self.job.pen_changes)
+        before = [k for k in changes if k <= start]
+        if start > 0 and before:
+            changes[start] = changes[max(before)]
+        return changes
+
     def _pen_change_due(self) -> bool:
-        return (not self._resend and self._next in self.job.pen_changes
+        return (not self._resend and self._next in self._changes
                 and self._next not in self._asked)
 
     def _fill(self) -> None:

@@ -499,9 +499,13 @@ def test_resume_finishes_a_job_whose_port_died(home):
             user.expect(rf"{entry.confirmed + 1} of {len(job)} commands were done")
             user.expect(r"continue the job\? \[Y/n\]")
             user.line("")
-            start = entry.confirmed + 1     # the pen asked for there is in already
-            for index in sorted(i for i in job.pen_changes if i > start):
-                user.expect(rf"insert pen for aperture D{job.pen_changes[index]} ")
+            start = entry.confirmed + 1
+            # first the pen in force where the job continues (it may have been taken
+            # out meanwhile), then the changes still ahead
+            in_force = job.pen_changes[max(i for i in job.pen_changes if i <= start)]
+            ahead = [job.pen_changes[i] for i in sorted(job.pen_changes) if i > start]
+            for aperture in [in_force] + ahead:
+                user.expect(rf"insert pen for aperture D{aperture} ")
                 user.type("\r")
             user.expect(r"process has finished")
             assert user.status() == ("idle", *position_after(job, len(job), config))

@@ -161,8 +161,14 @@ def test_a_port_that_dies_resumes_to_the_same_total_trace(journal):
     assert entry.state == INTERRUPTED and 0 < entry.confirmed < len(job) - 1
 
     link = MachineLink.open(url)                    # the plug is back; the board kept power
-    result = resume_job(link, journal)
+    changes = []
+    result = resume_job(link, journal, on_pen_change=changes.append)
     link.close()
+    start = len(job) - result.total
+    # first the pen in force where the job continues, then the changes still ahead
+    in_force = job.pen_changes[max(k for k in job.pen_changes if k <= start)]
+    assert changes[0].command_index == start and changes[0].aperture == in_force
+    assert [c.command_index for c in changes[1:]] == [k for k in job.pen_changes if k > start]
     # lines in flight when the port died were accepted: the machine's own count
     # (its status N, read before the new session) moves the start past them
     assert result.completed and result.total < len(job) - entry.confirmed - 1
