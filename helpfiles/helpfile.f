@@ -62,6 +62,12 @@ connect [PORT]
 home
     Drive the axes with end-stop switches to them (Z first, then X, then Y).
 
+[unlock]
+unlock
+    Leave the alarm state. A homing error (switch already pressed, or not
+    found) or a stopped job locks the machine; it refuses motion until you
+    unlock it. Check the machine first: the position is kept.
+
 [resume]
 resume
     Continue a job that was stopped or lost its port, after the last command

@@ -512,3 +512,16 @@ def test_resume_finishes_a_job_whose_port_died(home):
         assert Journal.default().pending() is None
     finally:
         forget_named_machines()
+
+
+def test_a_homing_alarm_locks_the_machine_until_unlock(home, tmp_path):
+    profile = tmp_path / "far-switches.toml"          # the X switch is out of reach
+    profile.write_text("[machine]\nsim_x_endstop_steps = -100000\n")
+    with console_in_thread(home, f"{INSTANT_SIM}&config={profile}") as user:
+        user.line("home")
+        user.expect(r"alarm:11 end-stop not found")
+        user.expect(r"the machine is locked \(alarm\): check it, then type unlock")
+        assert user.status()[0] == "alarm"
+        user.line("unlock")
+        user.expect(r"unlocked.*: state idle")
+        assert user.status()[0] == "idle"

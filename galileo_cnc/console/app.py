@@ -200,7 +200,9 @@ class Console:
         except (KeyboardInterrupt, EOFError):
             self.say("cancelled")
             self._stop_safely()
-        self.refresh_status()
+        status = self.refresh_status()
+        if status is not None and status.state == "alarm":
+            self.say("the machine is locked (alarm): check it, then type unlock")
 
     def _stop_safely(self) -> None:
         try:

@@ -28,6 +28,8 @@ def build_registry() -> Registry:
                        machine_commands.connect),
         ConsoleCommand("home", "home", "drive the axes to their end-stops",
                        machine_commands.home, needs_machine=True),
+        ConsoleCommand("unlock", "unlock", "leave the alarm state (after a homing error)",
+                       machine_commands.unlock, needs_machine=True),
         ConsoleCommand("resume", "resume", "continue an interrupted job",
                        resume.run, needs_machine=True),
         ConsoleCommand("exit", "exit", "leave the console", _leave),

@@ -1,8 +1,9 @@
-"""Small machine commands: status, ports, connect, home."""
+"""Small machine commands: status, ports, connect, home, unlock."""
 
 from __future__ import annotations
 
 from ..machine import Home
+from ..protocol import Unlock
 from ..ports import list_ports
 from .units import position_mm_text
 
@@ -36,3 +37,12 @@ def home(console, arguments: list[str]) -> None:
     console.link.send(Home())
     state = console.link.wait_idle()
     console.say(f"homed: {position_mm_text(state, console.config)}")
+
+
+def unlock(console, arguments: list[str]) -> None:
+    alarm = console.link.take_alarm()
+    console.link.send_protocol(Unlock())
+    state = console.link.status()
+    cause = f" (it was alarm:{alarm.code} {alarm.text})" if alarm else ""
+    console.say(f"unlocked{cause}: state {state.state}, "
+                f"{position_mm_text(state, console.config)}")
