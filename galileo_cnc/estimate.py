@@ -1,7 +1,7 @@
 """Job time from the reference machine: the progress bar's ETA and `plot`'s estimate.
 
-The times are those of the trace itself (docs/motion.md): each command is planned
-and stepped on the reference machine, so `end_ticks[k]` is the machine clock when
+The times are those of the trace itself (docs/motion.md): the job is planned and
+stepped on the reference machine, so `end_ticks[k]` is the machine clock when
 command k has finished on a machine that never waits for the host.
 """
 
@@ -12,13 +12,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .config import MachineConfig
-from .machine import TICKS_PER_S, ReferenceMachine, simulate
+from .machine import TICKS_PER_S, ReferenceMachine
 from .machine import vector
-
-#: Above this many commands the per-command walk costs seconds; the ETA then
-#: spreads the whole job's time evenly over its commands.
-PER_COMMAND_LIMIT = 20_000
-
+from .machine.moves import Pause
 
 @dataclass(frozen=True, slots=True)
 class JobTiming:
@@ -42,20 +38,27 @@ class JobTiming:
 
 def job_timing(commands, config: MachineConfig | None = None,
                position: tuple[int, int, int] = (0, 0, 0)) -> JobTiming:
+    """One vectorised run of the whole job; command k ends with its last step event.
+
+    Every step event has its own tick (steps of one event share it), so the
+    event count of each command's planned moves locates its last event in the
+    trace. A command without steps (a dwell, a feed) ends where the one before
+    it did; its time shows up in the next moving command. The total is exact.
+    """
     commands = list(commands)
-    if len(commands) > PER_COMMAND_LIMIT:
-        total = simulate(commands, config, position=position).total_ticks
-        spread = np.arange(1, len(commands) + 1, dtype=np.int64) * total // len(commands)
-        return JobTiming(spread)
     machine = ReferenceMachine(config, position)
-    ends = np.empty(len(commands), dtype=np.int64)
-    clock = 0
+    items, events = [], np.zeros(len(commands), dtype=np.int64)
     for k, command in enumerate(commands):
-        items = machine.plan([command])
-        if items:
-            clock = vector.execute(items, clock)[3]
-        ends[k] = clock
-    return JobTiming(ends)
+        planned = machine.plan([command])
+        items.extend(planned)
+        events[k] = sum(item.n for item in planned if not isinstance(item, Pause))
+    tick, _axis, _dir, end, _ = vector.execute(items, 0)
+    event_ticks = tick[np.flatnonzero(np.r_[True, tick[1:] != tick[:-1]])] if len(tick) else tick
+    done = np.cumsum(events)
+    ends = np.where(done > 0, event_ticks[np.maximum(done - 1, 0)] if len(tick) else 0, 0)
+    if len(ends):
+        ends[-1] = end
+    return JobTiming(ends.astype(np.int64))
 
 
 def duration_text(seconds: float) -> str:
