@@ -100,7 +100,8 @@ def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.s
     progress = TextProgress(out)
     link.on_message = progress.message
     try:
-        out.write(link.describe() + "\n")
+        found = " (no board found)" if profile.port is None and link.simulated else ""
+        out.write(link.describe() + found + "\n")
         start = 0
         if options.resume:
             entry = journal.pending()
