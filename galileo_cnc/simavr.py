@@ -55,7 +55,11 @@ HARNESS_PACKAGES = ("gcc", "make", "libsimavr-dev")
 TESTFW_PACKAGES = ("gcc-avr", "avr-libc")
 FIRMWARE_PACKAGES = ("gcc-avr", "avr-libc", "arduino-core-avr", "arduino-mk")
 
+# The byte firmware/galileo/stackpaint.cpp fills free SRAM with at reset.
+STACK_PAINT_BYTE = 0xC5
+
 _SUMMARY = re.compile(r"galileo-simavr: stop: (?P<reason>[^;]*); (?P<fields>.*)")
+_STACK = re.compile(r"galileo-simavr: stack: (?P<fields>.*)")
 
 
 class SimulatedBoardError(GalileoError):
@@ -132,7 +136,10 @@ class SimulatedBoard:
         cycle, pin, level = board.trace()
 
     `endstops` takes ("X", 7, -100)-style tuples or "X:7:-100" strings (see
-    docs/harness.md). Nothing is built here: run `make -C firmware/harness`.
+    docs/harness.md). `stack_paint` (a byte, e.g. STACK_PAINT_BYTE, for a
+    firmware that paints its free SRAM at reset) measures the stack's
+    high-water mark: `stack`, `stack_peak_bytes`, `stack_free_bytes` after
+    stop(). Nothing is built here: run `make -C firmware/harness`.
     """
 
     def __init__(self, elf: str | os.PathLike, *, trace: bool = True,
@@ -140,7 +147,8 @@ class SimulatedBoard:
                  endstops: Iterable[tuple[str, int, int] | str] = (),
                  max_seconds: float | None = None, realtime: bool = False,
                  freq_hz: int = F_CPU_HZ, extra_args: Sequence[str] = (),
-                 binary: str | os.PathLike | None = None, start_timeout: float = 10.0):
+                 binary: str | os.PathLike | None = None, start_timeout: float = 10.0,
+                 stack_paint: int | None = None):
         self.elf = Path(elf)
         self.binary = Path(binary) if binary else harness_path()
         self.start_timeout = start_timeout
@@ -155,6 +163,8 @@ class SimulatedBoard:
             self._args += ["--max-seconds", repr(float(max_seconds))]
         if realtime:
             self._args.append("--realtime")
+        if stack_paint is not None:
+            self._args += ["--stack-paint", f"0x{stack_paint:02x}"]
         self._args += list(extra_args)
         self._dir: Path | None = None
         self._process: subprocess.Popen | None = None
@@ -165,6 +175,8 @@ class SimulatedBoard:
         self.slave: str | None = None   # /dev/pts/N
         self.log = ""                   # the harness's stderr, after stop()
         self.summary: dict[str, str] = {}  # its exit summary, after stop()
+        # Its "stack:" line as ints (addresses too), after stop() with stack_paint.
+        self.stack: dict[str, int] = {}
         self.returncode: int | None = None
 
     # -- lifetime -----------------------------------------------------------
@@ -250,6 +262,10 @@ class SimulatedBoard:
         if match:
             self.summary = {"reason": match["reason"]}
             self.summary.update(re.findall(r"(\w+)=(\S+)", match["fields"]))
+        match = _STACK.search(self.log)
+        if match:
+            self.stack = {key: int(value, 0) for key, value in
+                          re.findall(r"(\w+)=(0x[0-9a-f]+|\d+)(?=\s|$)", match["fields"])}
         if self._want_trace:
             self._edges = read_trace(self._dir / "trace.bin")
         self._process = None
@@ -262,6 +278,18 @@ class SimulatedBoard:
             self._dir = None
 
     # -- results ------------------------------------------------------------
+
+    @property
+    def stack_peak_bytes(self) -> int | None:
+        """The deepest the stack wrote, in bytes below RAMEND + 1 (painting);
+        None unless started with stack_paint and stopped."""
+        return self.stack.get("peak")
+
+    @property
+    def stack_free_bytes(self) -> int | None:
+        """SRAM never touched between the static data's end and the stack's
+        deepest write; None unless started with stack_paint and stopped."""
+        return self.stack.get("free")
 
     def trace(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(cycle int64, pin int8, level int8) of every traced edge so far."""

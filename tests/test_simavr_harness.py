@@ -245,10 +245,37 @@ def test_max_seconds_of_simulated_time(built):
     assert 4_000_000 <= int(board.summary["cycle"]) <= 4_000_000 + 4  # one instruction
 
 
+# -- the stack's high-water mark ---------------------------------------------------
+
+def test_stack_report(built):
+    # testfw does not paint its SRAM, but simavr powers up with SRAM cleared:
+    # 0x00 stands in for the paint (the plotter firmware's own, 0xC5, is
+    # measured by tests/test_firmware_build.py).
+    with SimulatedBoard(built, stack_paint=0x00) as board:
+        with open_port(board) as port:
+            port.write(b"T")                  # 32 bytes from the UDRE interrupt
+            assert read_exactly(port, 33).endswith(b"\n")
+        board.stop()
+    stack = board.stack
+    end = int(subprocess.run(["avr-nm", str(built)], capture_output=True, text=True,
+                             check=True).stdout.split(" N _end")[0].split()[-1], 16) & 0xFFFF
+    assert (stack["pattern"], stack["ram_start"], stack["ramend"]) == (0, 0x100, 0x8FF)
+    assert stack["end"] == end and stack["static"] == end - 0x100
+    # main's frame plus an interrupt's: a few dozen bytes, nothing below them written
+    assert 4 < stack["peak"] <= stack["sp_peak"] < 64, stack
+    assert stack["clobbered"] == 0
+    assert stack["free"] == stack["lowest"] - stack["end"] == 0x900 - stack["peak"] - end
+    assert board.stack_peak_bytes == stack["peak"]
+    assert board.stack_free_bytes == stack["free"]
+
+
 def test_bad_arguments_are_named(built):
     result = subprocess.run([str(simavr.harness_path()), "--endstop", "W:7:1", str(built)],
                             capture_output=True, text=True, timeout=10)
     assert result.returncode == 1 and "--endstop" in result.stderr
+    result = subprocess.run([str(simavr.harness_path()), "--stack-paint", "0x1C5", str(built)],
+                            capture_output=True, text=True, timeout=10)
+    assert result.returncode == 1 and "--stack-paint" in result.stderr
     with pytest.raises(simavr.SimulatedBoardError, match="not found"):
         SimulatedBoard(HARNESS_DIR / "no-such.elf").start()
 

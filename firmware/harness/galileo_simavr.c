@@ -20,6 +20,7 @@
 #include <sim_elf.h>
 
 #include "pins.h"
+#include "stack.h"
 #include "uart_bridge.h"
 
 #define DEFAULT_FREQ 16000000u
@@ -45,6 +46,7 @@ struct options {
 	double max_speed; /* simulated seconds per wall-clock second; 0: no limit */
 	int no_wait;
 	int keep_simavr_timing;
+	int stack_paint; /* the pattern byte of --stack-paint, or -1 */
 	int verbose;
 	const char *elf;
 };
@@ -83,7 +85,7 @@ static void usage(FILE *out)
 		"usage: galileo-simavr [--freq HZ] [--mcu NAME] [--pty LINK | --stdio]\n"
 		"                      [--trace FILE] [--pins N,N,...] [--endstop AXIS:HOMEPIN:TRIP]...\n"
 		"                      [--max-seconds S] [--realtime | --max-speed F] [--no-wait]\n"
-		"                      [--simavr-uart-timing] [-v] ELF\n"
+		"                      [--simavr-uart-timing] [--stack-paint BYTE] [-v] ELF\n"
 		"\n"
 		"  --pty LINK        UART0 on a new pseudo-terminal, LINK a symlink to it;\n"
 		"                    prints 'pty: <slave path>' on stdout when ready; the AVR\n"
@@ -98,7 +100,9 @@ static void usage(FILE *out)
 		"  --max-seconds S   stop after S seconds of simulated time\n"
 		"  --realtime        never run ahead of the wall clock (--max-speed 1)\n"
 		"  --max-speed F     never run more than F times faster than the wall clock\n"
-		"  --simavr-uart-timing  keep simavr's 11-bit 8N1 frames (for comparison)\n");
+		"  --simavr-uart-timing  keep simavr's 11-bit 8N1 frames (for comparison)\n"
+		"  --stack-paint BYTE  the firmware fills free SRAM with BYTE at reset: report\n"
+		"                    the stack's high-water mark at exit ('stack:' line)\n");
 }
 
 static int parse_pins(const char *spec, struct options *o)
@@ -139,7 +143,8 @@ static int parse_endstop(const char *spec, pins_t *pins)
 static int parse_args(int argc, char **argv, struct options *o, pins_t *pins)
 {
 	enum { OPT_FREQ = 256, OPT_MCU, OPT_PTY, OPT_STDIO, OPT_TRACE, OPT_PINS, OPT_ENDSTOP,
-	       OPT_MAX_SECONDS, OPT_REALTIME, OPT_MAX_SPEED, OPT_NO_WAIT, OPT_SIMAVR_UART };
+	       OPT_MAX_SECONDS, OPT_REALTIME, OPT_MAX_SPEED, OPT_NO_WAIT, OPT_SIMAVR_UART,
+	       OPT_STACK_PAINT };
 	static const struct option longs[] = {
 		{"freq", required_argument, 0, OPT_FREQ},
 		{"mcu", required_argument, 0, OPT_MCU},
@@ -153,12 +158,14 @@ static int parse_args(int argc, char **argv, struct options *o, pins_t *pins)
 		{"max-speed", required_argument, 0, OPT_MAX_SPEED},
 		{"no-wait", no_argument, 0, OPT_NO_WAIT},
 		{"simavr-uart-timing", no_argument, 0, OPT_SIMAVR_UART},
+		{"stack-paint", required_argument, 0, OPT_STACK_PAINT},
 		{"verbose", no_argument, 0, 'v'},
 		{"help", no_argument, 0, 'h'},
 		{0, 0, 0, 0},
 	};
 	o->freq = DEFAULT_FREQ;
 	o->mcu = DEFAULT_MCU;
+	o->stack_paint = -1;
 	memcpy(o->pins, default_pins, sizeof(default_pins));
 	o->npins = (int)sizeof(default_pins);
 	int c;
@@ -201,6 +208,15 @@ static int parse_args(int argc, char **argv, struct options *o, pins_t *pins)
 			break;
 		case OPT_NO_WAIT: o->no_wait = 1; break;
 		case OPT_SIMAVR_UART: o->keep_simavr_timing = 1; break;
+		case OPT_STACK_PAINT: {
+			unsigned long byte = strtoul(optarg, &end, 0);
+			if (*end || !*optarg || byte > 0xff) {
+				fprintf(stderr, "galileo-simavr: --stack-paint: '%s' is not a byte (0..255, 0xC5)\n", optarg);
+				return -1;
+			}
+			o->stack_paint = (int)byte;
+			break;
+		}
 		case 'v': o->verbose++; break;
 		case 'h': usage(stdout); exit(EXIT_OK);
 		default: usage(stderr); return -1;
@@ -280,6 +296,7 @@ int main(int argc, char **argv)
 	static struct options opt;
 	static pins_t pins;
 	static uart_bridge_t uart;
+	static stack_watch_t stack;
 
 	if (parse_args(argc, argv, &opt, &pins) < 0)
 		return EXIT_USAGE;
@@ -303,6 +320,8 @@ int main(int argc, char **argv)
 	avr_load_firmware(avr, &fw);
 	avr->frequency = opt.freq;
 	avr->sleep = no_sleep;
+	if (opt.stack_paint >= 0 && stack_watch_init(&stack, avr, &fw, (uint8_t)opt.stack_paint) < 0)
+		return EXIT_SETUP;
 
 	uart.keep_simavr_timing = opt.keep_simavr_timing;
 	if (opt.pty_link) {
@@ -372,7 +391,11 @@ int main(int argc, char **argv)
 	const char *reason = NULL;
 	int status = EXIT_OK;
 	for (;;) {
+		if (stack.enabled)
+			stack_watch_before(&stack);
 		int state = avr_run(avr);
+		if (stack.enabled)
+			stack_watch_after(&stack);
 		uart_bridge_check_frame(&uart);
 		if (state == cpu_Done) {
 			reason = avr->sreg[S_I] ? "done" : "sleeping with interrupts off";
@@ -397,6 +420,8 @@ int main(int argc, char **argv)
 	uart_bridge_flush(&uart);
 	if (trace)
 		fclose(trace);
+	if (stack.enabled)
+		stack_watch_report(&stack, stderr);
 	fprintf(stderr,
 		"galileo-simavr: stop: %s; state=%s pc=0x%04x cycle=%llu (%.6f s) "
 		"uart0 rx=%llu tx=%llu frame=%llu cycles overruns=%llu dropped=%llu trace=%llu\n",
