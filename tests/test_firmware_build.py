@@ -25,11 +25,11 @@ from firmware_support import (ELF, STACK_MARGIN_BYTES, UNO_FLASH_BYTES, UNO_RAM_
                               check_bad_input_replies, framed)
 
 # SRAM that must stay free below the deepest measured stack pointer. The job
-# below cannot hit every path at its worst instant: the receive interrupt (11
-# bytes) nested under the step interrupt at the arc walk's deepest point was not
-# seen, so the measured peak needs room to spare. Measured (docs/harness.md,
-# "Stack"): 405-416 bytes by SP, 393-404 written, of the 525 left by .data+.bss.
-STACK_HEADROOM_BYTES = 64
+# below cannot hit every path at its worst instant (e.g. the receive interrupt
+# nested under the step interrupt at the planner's deepest point), so the
+# measured peak needs room to spare. Measured (docs/harness.md, "Stack"): 234
+# bytes by SP, 222 written, of the 521 left by .data+.bss.
+STACK_HEADROOM_BYTES = 128
 
 
 def test_firmware_builds_with_arduino_mk():

@@ -18,17 +18,26 @@ static const uint32_t ATAN_Q32[N_ATAN] PROGMEM = {
 #define TWO_PI_Q29 3373259426ULL
 #define SCALE_BITS 20
 
-/* The walker: the current point, F, counts and the box of visited points. */
+/* The walker: the current point (p.px, p.py), F, counts and the box of visited
+ * points, kept in the plan arc_walk hands back (no copy on the caller's stack). */
 static struct {
-    int32_t x, y, f;
-    uint32_t r2, n;
-    uint16_t first_key;
+    struct arc_plan p;            /* px, py: the current point; n_arc; first_key; box */
+    int32_t f;
+    uint32_t r2;
     uint8_t ccw;
-    int32_t xmin, xmax, ymin, ymax;
     uint16_t band_v[CFG_N_BANDS]; /* raw thresholds V_b (not compacted) */
-    uint64_t weight;              /* sum of the table rho over the events (§5.3) */
+    uint32_t weight_lo, weight_hi; /* sum of the table rho over the events (§5.3), 64 bits */
     uint32_t r16;                 /* isqrt(R2 << 32): radius, Q16 */
 } w;
+
+/* weight += a (64 bits) with a 32-bit add and a carry: no 64-bit temporaries. */
+static inline __attribute__((always_inline)) void add_weight(uint32_t a)
+{
+    uint32_t lo = w.weight_lo + a;
+    if (lo < a)
+        w.weight_hi++;
+    w.weight_lo = lo;
+}
 
 /* (r8 * s + 2^23) >> 24 without a 64-bit product (slow on the AVR):
  * with r8 = a * 2^16 + c (r8 < 2^24), every partial sum fits 32 bits. */
@@ -79,7 +88,7 @@ static uint32_t key_prefix(uint16_t k)
 static void add_key_weight(int32_t k0, int32_t k1)
 {
     if (k1 >= k0)
-        w.weight += key_prefix((uint16_t)(k1 + 1)) - (k0 ? key_prefix((uint16_t)k0) : 0);
+        add_weight(key_prefix((uint16_t)(k1 + 1)) - (k0 ? key_prefix((uint16_t)k0) : 0));
 }
 
 /* Events into v = lo..hi of a formula bulk: key -v for v <= 0, v - 1 for v >= 1. */
@@ -123,22 +132,22 @@ static uint32_t angle_q32(int32_t x, int32_t y)
 }
 
 /* §5.3: length of the arc part / its table weight, Q20 (1.0 for an empty arc). */
-static uint32_t length_scale(int32_t sx, int32_t sy)
+static __attribute__((noinline)) uint32_t length_scale(int32_t sx, int32_t sy)
 {
-    if (w.n == 0 || w.weight == 0)
+    uint64_t wt = ((uint64_t)w.weight_hi << 32) | w.weight_lo;
+    if (w.p.n_arc == 0 || wt == 0)
         return 1UL << SCALE_BITS;
     /* P* seen from the start: |dot|, |cross| <= |s| |P*| < 2^31 (P* is within
      * 1/2 step of the circle), so uint32 sums give the exact int32 values. */
-    int32_t dot = (int32_t)((uint32_t)(sx * w.x) + (uint32_t)(sy * w.y));
-    int32_t cross = (int32_t)((uint32_t)(sx * w.y) - (uint32_t)(sy * w.x));
+    int32_t dot = (int32_t)((uint32_t)(sx * w.p.px) + (uint32_t)(sy * w.p.py));
+    int32_t cross = (int32_t)((uint32_t)(sx * w.p.py) - (uint32_t)(sy * w.p.px));
     uint64_t sweep = 1ULL << 32; /* a full circle */
-    if (w.x != sx || w.y != sy) {
+    if (w.p.px != sx || w.p.py != sy) {
         uint32_t turn = angle_q32(dot, cross);
         sweep = (uint32_t)(w.ccw ? turn : 0 - turn);
     }
     uint64_t circ16 = ((uint64_t)w.r16 * TWO_PI_Q29 + (1UL << 28)) >> 29;
     uint64_t len = (circ16 * (sweep >> 4) + (1UL << 28)) >> 29;
-    uint64_t wt = w.weight;
     while (wt >> 32) {
         wt >>= 1;
         len >>= 1;
@@ -148,10 +157,10 @@ static uint32_t length_scale(int32_t sx, int32_t sy)
 
 static void box_add(int32_t x, int32_t y)
 {
-    if (x < w.xmin) w.xmin = x;
-    if (x > w.xmax) w.xmax = x;
-    if (y < w.ymin) w.ymin = y;
-    if (y > w.ymax) w.ymax = y;
+    if (x < w.p.xmin) w.p.xmin = x;
+    if (x > w.p.xmax) w.p.xmax = x;
+    if (y < w.p.ymin) w.p.ymin = y;
+    if (y > w.p.ymax) w.p.ymax = y;
 }
 
 /* Canonical frame (§4.1): v = sigma * major, u = tau * minor. */
@@ -202,38 +211,61 @@ static int32_t formula_end(int32_t v)
 /* One ISR event; 0 (and no step) if it would leave `side` while stopping there. */
 static uint8_t walk_step(uint8_t side, uint8_t stop_before_exit)
 {
-    int32_t x = w.x, y = w.y, f = w.f;
+    int32_t x = w.p.px, y = w.p.py, f = w.f;
     uint8_t axes, neg;
     uint32_t key = arc_event_step(&x, &y, &f, w.ccw, &axes, &neg);
     if (stop_before_exit && arc_side(x, y, w.ccw) != side)
         return 0;
-    w.x = x;
-    w.y = y;
+    w.p.px = x;
+    w.p.py = y;
     w.f = f;
     box_add(x, y);
-    if (w.first_key == NO_FIRST_KEY)
-        w.first_key = (uint16_t)key;
+    if (w.p.first_key == NO_FIRST_KEY)
+        w.p.first_key = (uint16_t)key;
     uint8_t b = CFG_N_BANDS - 1; /* the event's band: the last with V_b <= key */
     while (w.band_v[b] > key)
         b--;
-    w.weight += pgm_read_word(&BAND_RHO_Q15[b]);
-    w.n++;
+    add_weight(pgm_read_word(&BAND_RHO_Q15[b]));
+    w.p.n_arc++;
     return 1;
 }
 
 enum { SIDE_LEFT_BEHIND, SIDE_STOPPED, SIDE_FAILED };
 
-/* Phases 1-3 of §4.5 on one side, with or without a target v. */
-static uint8_t walk_side(uint8_t side, uint8_t has_target, int32_t target)
+/* Phase 2 of §4.5: the formula bulk from v to hi > v (out of line: its
+ * temporaries stay off the stack of the event-by-event phases). */
+static __attribute__((noinline)) void walk_formula(uint8_t side, int32_t v, int32_t hi)
 {
-    int32_t v = canon_v(w.x, w.y, side);
+    int32_t lo = v + 1, near0;
+    if (lo <= 0 && 0 <= hi)
+        near0 = 0;
+    else
+        near0 = (lo < 0 ? -lo : lo) < (hi < 0 ? -hi : hi) ? lo : hi;
+    for (uint8_t i = 0; i < 3; i++) {
+        int32_t e = i == 0 ? lo : i == 1 ? hi : near0, x, y;
+        from_canon(formula_u(e), e, side, &x, &y);
+        box_add(x, y);
+    }
+    if (w.p.first_key == NO_FIRST_KEY)
+        w.p.first_key = (uint16_t)(v >= 0 ? v : -(v + 1));
+    add_formula_weight(v + 1, hi);
+    w.p.n_arc += (uint32_t)(hi - v);
+    from_canon(formula_u(hi), hi, side, &w.p.px, &w.p.py);
+    w.f = (int32_t)(square(w.p.px) + square(w.p.py) - w.r2);
+}
+
+/* Phases 1-3 of §4.5 on one side, with or without a target v. */
+static __attribute__((noinline)) uint8_t walk_side(uint8_t side, uint8_t has_target,
+                                                   int32_t target)
+{
+    int32_t v = canon_v(w.p.px, w.p.py, side);
     if (has_target && target <= v)
         return SIDE_STOPPED;
-    while (canon_u(w.x, w.y, side) != formula_u(v)) { /* phase 1: resync */
+    while (canon_u(w.p.px, w.p.py, side) != formula_u(v)) { /* phase 1: resync */
         if (!walk_step(side, has_target))
             return SIDE_STOPPED;
         v++;
-        if (arc_side(w.x, w.y, w.ccw) != side)
+        if (arc_side(w.p.px, w.p.py, w.ccw) != side)
             return SIDE_LEFT_BEHIND;
         if (has_target && v == target)
             return SIDE_STOPPED;
@@ -242,23 +274,7 @@ static uint8_t walk_side(uint8_t side, uint8_t has_target, int32_t target)
     if (has_target && target < hi)
         hi = target;
     if (hi > v) {
-        int32_t lo = v + 1, near0;
-        if (lo <= 0 && 0 <= hi)
-            near0 = 0;
-        else
-            near0 = (lo < 0 ? -lo : lo) < (hi < 0 ? -hi : hi) ? lo : hi;
-        int32_t ends[3] = {lo, hi, near0};
-        for (uint8_t i = 0; i < 3; i++) {
-            int32_t x, y;
-            from_canon(formula_u(ends[i]), ends[i], side, &x, &y);
-            box_add(x, y);
-        }
-        if (w.first_key == NO_FIRST_KEY)
-            w.first_key = (uint16_t)(v >= 0 ? v : -(v + 1));
-        add_formula_weight(v + 1, hi);
-        w.n += (uint32_t)(hi - v);
-        from_canon(formula_u(hi), hi, side, &w.x, &w.y);
-        w.f = (int32_t)(square(w.x) + square(w.y) - w.r2);
+        walk_formula(side, v, hi);
         v = hi;
         if (has_target && v == target)
             return SIDE_STOPPED;
@@ -267,7 +283,7 @@ static uint8_t walk_side(uint8_t side, uint8_t has_target, int32_t target)
         if (!walk_step(side, has_target))
             return SIDE_STOPPED;
         v++;
-        if (arc_side(w.x, w.y, w.ccw) != side)
+        if (arc_side(w.p.px, w.p.py, w.ccw) != side)
             return SIDE_LEFT_BEHIND;
         if (has_target && v == target)
             return SIDE_STOPPED;
@@ -275,56 +291,54 @@ static uint8_t walk_side(uint8_t side, uint8_t has_target, int32_t target)
     return SIDE_FAILED;
 }
 
-uint8_t arc_walk(int32_t sx, int32_t sy, int32_t ex, int32_t ey, uint8_t ccw,
-                 struct arc_plan *out)
+/* The walker's start at (sx, sy), the band thresholds and the end in the box. */
+static __attribute__((noinline)) void walk_start(int32_t sx, int32_t sy, int32_t ex,
+                                                 int32_t ey, uint8_t ccw)
 {
-    w.x = sx;
-    w.y = sy;
+    w.p.px = sx;
+    w.p.py = sy;
     w.f = 0;
     w.r2 = square(sx) + square(sy);
-    w.n = 0;
-    w.first_key = NO_FIRST_KEY;
+    w.p.n_arc = 0;
+    w.p.first_key = NO_FIRST_KEY;
     w.ccw = ccw;
-    w.xmin = w.xmax = sx;
-    w.ymin = w.ymax = sy;
+    w.p.xmin = w.p.xmax = sx;
+    w.p.ymin = w.p.ymax = sy;
     box_add(ex, ey);
-    w.weight = 0;
+    w.weight_lo = w.weight_hi = 0;
     w.r16 = isqrt_q16(w.r2);
     uint32_t r8 = w.r16 >> 8; /* = isqrt(R2 << 16) */
     for (uint8_t b = 0; b < CFG_N_BANDS; b++)
         w.band_v[b] = band_threshold(r8, pgm_read_word(&BAND_SIN_Q16[b]));
-    if (w.r2 > 0) {
-        uint8_t side_e = arc_side(ex, ey, ccw), i;
-        for (i = 0; i < 6; i++) {
-            uint8_t side = arc_side(w.x, w.y, ccw), has_target = 0;
-            int32_t target = 0;
-            if (side == side_e) {
-                int32_t v_e = canon_v(ex, ey, side);
-                if (i > 0 || v_e > canon_v(w.x, w.y, side)) {
-                    has_target = 1;
-                    target = v_e;
-                }
-            }
-            uint8_t r = walk_side(side, has_target, target);
-            if (r == SIDE_STOPPED)
-                break;
-            if (r == SIDE_FAILED)
-                return 1;
-        }
-        if (i == 6)
+}
+
+/* §4.5: the sides from the walker's start to P*, the end's side side_e at v_e; 0 on success. */
+static inline __attribute__((always_inline)) uint8_t walk_sides(uint8_t side_e, int32_t v_e)
+{
+    for (uint8_t i = 0; i < 6; i++) {
+        uint8_t side = arc_side(w.p.px, w.p.py, w.ccw), has_target = 0;
+        if (side == side_e && (i > 0 || v_e > canon_v(w.p.px, w.p.py, side)))
+            has_target = 1;
+        uint8_t r = walk_side(side, has_target, has_target ? v_e : 0);
+        if (r == SIDE_STOPPED)
+            return 0;
+        if (r == SIDE_FAILED)
             return 1;
     }
-    box_add(w.x, w.y);
-    out->px = w.x;
-    out->py = w.y;
-    out->n_arc = w.n;
-    out->first_key = w.first_key;
-    out->scale = length_scale(sx, sy);
-    out->xmin = w.xmin;
-    out->xmax = w.xmax;
-    out->ymin = w.ymin;
-    out->ymax = w.ymax;
-    return 0;
+    return 1;
+}
+
+const struct arc_plan *arc_walk(int32_t sx, int32_t sy, int32_t ex, int32_t ey, uint8_t ccw)
+{
+    walk_start(sx, sy, ex, ey, ccw);
+    if (w.r2 > 0) {
+        uint8_t side_e = arc_side(ex, ey, ccw);
+        if (walk_sides(side_e, canon_v(ex, ey, side_e)))
+            return 0;
+    }
+    box_add(w.p.px, w.p.py);
+    w.p.scale = length_scale(sx, sy);
+    return &w.p;
 }
 
 void band_table_fill(struct band_table *t, const struct block *b)

@@ -71,9 +71,9 @@ struct arc_plan {
     int32_t xmin, xmax, ymin, ymax; /* every visited point, relative (§7) */
 };
 
-/* §4.4-4.5: walk the sides from start to P*; 0 on success. */
-uint8_t arc_walk(int32_t sx, int32_t sy, int32_t ex, int32_t ey, uint8_t ccw,
-                 struct arc_plan *out);
+/* §4.4-4.5: walk the sides from start to P*; the plan (static, valid until the
+ * next call), or 0 on failure. */
+const struct arc_plan *arc_walk(int32_t sx, int32_t sy, int32_t ex, int32_t ey, uint8_t ccw);
 /* §5.3: compact thresholds and cruise intervals for a queued arc block. */
 void band_table_fill(struct band_table *t, const struct block *b);
 

@@ -60,29 +60,31 @@ static const int32_t TRAVEL_MIN[3] = {CFG_X_TRAVEL_MIN_STEPS, CFG_Y_TRAVEL_MIN_S
 static const int32_t TRAVEL_MAX[3] = {CFG_X_TRAVEL_MAX_STEPS, CFG_Y_TRAVEL_MAX_STEPS,
                                       CFG_Z_TRAVEL_MAX_STEPS};
 
-/* §7: refuse a move whose visited box [lo, hi] (machine steps) leaves the travel. */
-static uint8_t check_travel(const int32_t lo[3], const int32_t hi[3])
+/* §7: refuse a move whose visited range [lo, hi] (machine steps) on axis a
+ * leaves the travel. A move checks its axes in order 0, 1, 2: the first that
+ * leaves is reported. Scalars, not arrays: no box on the caller's stack. */
+static __attribute__((noinline)) uint8_t check_axis(uint8_t a, int32_t lo, int32_t hi)
 {
-    for (uint8_t a = 0; a < 3; a++) {
-        if (lo[a] < TRAVEL_MIN[a] || hi[a] > TRAVEL_MAX[a]) {
-            pl_violation.axis = a;
-            pl_violation.above = lo[a] >= TRAVEL_MIN[a];
-            pl_violation.value = pl_violation.above ? hi[a] : lo[a];
-            pl_violation.limit = pl_violation.above ? TRAVEL_MAX[a] : TRAVEL_MIN[a];
-            return ERR_SOFT_LIMIT;
-        }
+    if (lo < TRAVEL_MIN[a] || hi > TRAVEL_MAX[a]) {
+        pl_violation.axis = a;
+        pl_violation.above = lo >= TRAVEL_MIN[a];
+        pl_violation.value = pl_violation.above ? hi : lo;
+        pl_violation.limit = pl_violation.above ? TRAVEL_MAX[a] : TRAVEL_MIN[a];
+        return ERR_SOFT_LIMIT;
     }
     return 0;
 }
 
 static uint8_t check_segment(const int32_t target[3])
 {
-    int32_t lo[3], hi[3];
     for (uint8_t a = 0; a < 3; a++) {
-        lo[a] = pl.pos[a] < target[a] ? pl.pos[a] : target[a];
-        hi[a] = pl.pos[a] < target[a] ? target[a] : pl.pos[a];
+        int32_t lo = pl.pos[a] < target[a] ? pl.pos[a] : target[a];
+        int32_t hi = pl.pos[a] < target[a] ? target[a] : pl.pos[a];
+        uint8_t err = check_axis(a, lo, hi);
+        if (err)
+            return err;
     }
-    return check_travel(lo, hi);
+    return 0;
 }
 
 /* §3.1 + §5.1: one line block to `target` (machine steps). */
@@ -155,45 +157,68 @@ static uint8_t line(const int32_t *args, uint8_t nargs)
     return line_to(target, pl.feed_steps_per_s, 1, 1);
 }
 
-static uint8_t arc(const int32_t *args, uint8_t ccw)
+/* rel[i] of an arc command: start (i = 0, 1) and end (i = 2, 3) relative to the
+ * centre, X for even i. */
+static inline __attribute__((always_inline)) int32_t arc_rel(const int32_t *args, uint8_t i)
+{
+    uint8_t a = i & 1;
+    int32_t c = pl.pos[a] + args[2 + a];
+    int32_t p = (i & 2) ? args[a] + pl.origin[a] : pl.pos[a];
+    return p - c;
+}
+
+/* The arc block once the walk has succeeded (out of line: its locals stay off
+ * the stack during the walk). pl is unchanged since arc() started. */
+static __attribute__((noinline)) uint8_t arc_queue(const int32_t *args, uint8_t ccw,
+                                                   const struct arc_plan *p)
 {
     int32_t ex = args[0] + pl.origin[0], ey = args[1] + pl.origin[1];
     int32_t cx = pl.pos[0] + args[2], cy = pl.pos[1] + args[3];
-    int32_t rel[4] = {pl.pos[0] - cx, pl.pos[1] - cy, ex - cx, ey - cy};
-    for (uint8_t i = 0; i < 4; i++)
-        if (rel[i] > CFG_MAX_ARC_COORD || rel[i] < -CFG_MAX_ARC_COORD)
-            return ERR_ARC_TOO_LARGE;
-    struct arc_plan p;
-    if (arc_walk(rel[0], rel[1], rel[2], rel[3], ccw, &p))
-        return ERR_BAD_ARGUMENT;
-    int32_t lo[3] = {p.xmin + cx, p.ymin + cy, pl.pos[2]};
-    int32_t hi[3] = {p.xmax + cx, p.ymax + cy, pl.pos[2]};
-    uint8_t err = check_travel(lo, hi);
+    uint8_t err = check_axis(0, p->xmin + cx, p->xmax + cx);
+    if (!err)
+        err = check_axis(1, p->ymin + cy, p->ymax + cy);
+    if (!err)
+        err = check_axis(2, pl.pos[2], pl.pos[2]);
     if (err)
         return err;
-    int32_t corr_x = rel[2] - p.px, corr_y = rel[3] - p.py;
+    int32_t corr_x = (ex - cx) - p->px, corr_y = (ey - cy) - p->py;
     uint32_t n_corr = (uint32_t)(corr_x < 0 ? -corr_x : corr_x);
     uint32_t n_corr_y = (uint32_t)(corr_y < 0 ? -corr_y : corr_y);
     if (n_corr_y > n_corr)
         n_corr = n_corr_y;
-    if (p.n_arc + n_corr == 0)
+    if (p->n_arc + n_corr == 0)
         return 0;
     struct block *b = stage(BLOCK_ARC);
-    b->n = p.n_arc + n_corr;
-    b->u.arc.x0 = (int16_t)rel[0];
-    b->u.arc.y0 = (int16_t)rel[1];
+    b->n = p->n_arc + n_corr;
+    b->u.arc.x0 = (int16_t)(pl.pos[0] - cx);
+    b->u.arc.y0 = (int16_t)(pl.pos[1] - cy);
     b->u.arc.axial_sub = axial_interval_sub(pl.feed_steps_per_s);
-    b->u.arc.n_arc = p.n_arc;
+    b->u.arc.n_arc = p->n_arc;
     b->u.arc.corr_x = corr_x;
     b->u.arc.corr_y = corr_y;
-    b->u.arc.first_key = p.first_key;
-    b->u.arc.scale = p.scale;
+    b->u.arc.first_key = p->first_key;
+    b->u.arc.scale = p->scale;
     b->u.arc.ccw = ccw;
     b->u.arc.table = NO_BAND_TABLE;
     set_ramp(b, b->u.arc.axial_sub, ramp_events(pl.feed_steps_per_s));
     pl.pos[0] = ex;
     pl.pos[1] = ey;
     return 0;
+}
+
+/* Changes pl only on success (in arc_queue's last lines): no snapshot needed. */
+static __attribute__((noinline)) uint8_t arc(const int32_t *args, uint8_t ccw)
+{
+    for (uint8_t i = 0; i < 4; i++) {
+        int32_t r = arc_rel(args, i);
+        if (r > CFG_MAX_ARC_COORD || r < -CFG_MAX_ARC_COORD)
+            return ERR_ARC_TOO_LARGE;
+    }
+    const struct arc_plan *p = arc_walk(arc_rel(args, 0), arc_rel(args, 1), arc_rel(args, 2),
+                                        arc_rel(args, 3), ccw);
+    if (!p)
+        return ERR_BAD_ARGUMENT;
+    return arc_queue(args, ccw, p);
 }
 
 #define HOME_AXES ((CFG_X_HOME_PIN >= 0) + (CFG_Y_HOME_PIN >= 0) + (CFG_Z_HOME_PIN >= 0))
@@ -245,16 +270,17 @@ uint8_t planner_blocks_needed(uint8_t cmd)
     }
 }
 
-uint8_t planner_execute(uint8_t cmd, const int32_t *args, uint8_t nargs)
+/* Every command but the arcs. On an error, pl is restored: only pos can have
+ * changed by then (a first block queued: Rapid's or Flash's Z move), as origin,
+ * feed and ended change only in commands that cannot fail after changing them. */
+static __attribute__((noinline)) uint8_t execute_other(uint8_t cmd, const int32_t *args,
+                                                       uint8_t nargs)
 {
-    struct planner saved = pl;
+    int32_t saved_pos[3] = {pl.pos[0], pl.pos[1], pl.pos[2]};
     uint8_t err = 0;
-    staged = 0;
     switch (cmd) {
     case CMD_RAPID: err = rapid(args); break;
     case CMD_LINE: err = line(args, nargs); break;
-    case CMD_ARC_CW: err = arc(args, 0); break;
-    case CMD_ARC_CCW: err = arc(args, 1); break;
     case CMD_PEN_UP: err = z_to(CFG_PEN_UP_Z_STEPS); break;
     case CMD_PEN_DOWN: err = z_to(CFG_PEN_DOWN_Z_STEPS); break;
     case CMD_FLASH:
@@ -290,12 +316,24 @@ uint8_t planner_execute(uint8_t cmd, const int32_t *args, uint8_t nargs)
             pl.ended = 1;
         break;
     }
-    if (err) {
-        pl = saved;
+    if (err)
+        for (uint8_t a = 0; a < 3; a++)
+            pl.pos[a] = saved_pos[a];
+    return err;
+}
+
+uint8_t planner_execute(uint8_t cmd, const int32_t *args, uint8_t nargs)
+{
+    uint8_t err;
+    staged = 0;
+    if (cmd == CMD_ARC_CW || cmd == CMD_ARC_CCW) /* the deep one: no snapshot under it */
+        err = arc(args, cmd == CMD_ARC_CCW);
+    else
+        err = execute_other(cmd, args, nargs);
+    if (err)
         staged = 0;
-    } else {
+    else
         queue_commit(staged);
-    }
     return err;
 }
 
