@@ -18,11 +18,12 @@ from galileo_cnc.info import proposed_offset
 from galileo_cnc.journal import ABORTED, FINISHED, INTERRUPTED, Journal
 from galileo_cnc.link import LinkError, MachineLink, PortGone
 from galileo_cnc.machine import simulate
-from galileo_cnc.plan import plan_program
+from galileo_cnc.plan import PlanError, plan_program
 from galileo_cnc.readers import read_file
 from galileo_cnc.stream import JobStreamer, ResumeError, resume_job
 from galileo_cnc.transport import open_port
 
+from corpus import CORPUS, corpus_paths
 from faults import FaultyPort
 
 REPO = Path(__file__).resolve().parents[1]
@@ -202,3 +203,28 @@ def test_a_silent_port_is_noticed(journal, monkeypatch):
         JobStreamer(link, job, program, journal=journal).run()
     link.close()
     assert journal.pending().state == INTERRUPTED
+
+
+# Every 12th real board under 150 kB (~25 files, a few seconds); tests run in CI
+# with the corpus beside the checkout. A sweep of all 406 that fit the travel
+# streamed equal to the reference too (docs/streaming.md).
+CORPUS_SAMPLE = [path for path in corpus_paths("real")
+                 if (CORPUS / path).stat().st_size < 150_000][::12]
+
+
+@pytest.mark.parametrize("path", CORPUS_SAMPLE)
+def test_real_boards_stream_to_the_simulated_machine_as_the_reference_steps(path):
+    program = read_file(CORPUS / path)
+    try:
+        job = plan_program(program, None, proposed_offset(program))
+    except PlanError as too_big:                    # larger than the 200 mm travel
+        assert "travel" in str(too_big)
+        return
+    link = MachineLink.open(INSTANT)
+    changes = []
+    result = JobStreamer(link, job, program).run(on_pen_change=changes.append)
+    trace = link._port.trace()
+    link.close()
+    assert result.completed
+    assert trace.same_steps(simulate(job.commands))
+    assert [c.aperture for c in changes] == list(job.pen_changes.values())
