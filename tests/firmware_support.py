@@ -135,6 +135,18 @@ class FirmwareLink:
         raise AssertionError(f"machine still busy after {timeout_s} s: {status}")
 
 
+def status_when(link: "FirmwareLink", predicate, timeout_s: float = 5.0,
+                poll_s: float = 0.002) -> P.Status:
+    """Poll the real-time status until `predicate(status)` holds."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        status = link.status()
+        if predicate(status):
+            return status
+        time.sleep(poll_s)
+    raise AssertionError(f"status never matched: {status}")
+
+
 def framed(body: bytes) -> bytes:
     """A line with the right CRC but whatever body the test wants (valid or not)."""
     return body + b"*%02X\n" % P.crc8(body)

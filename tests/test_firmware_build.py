@@ -12,7 +12,6 @@ no longer holds the pattern and the lowest stack pointer it saw
 (docs/harness.md, "Stack").
 """
 
-import time
 
 from galileo_cnc import protocol as P
 from galileo_cnc import simavr
@@ -22,7 +21,7 @@ from galileo_cnc.simavr import SimulatedBoard
 
 from firmware_support import (ELF, STACK_MARGIN_BYTES, UNO_FLASH_BYTES, UNO_RAM_BYTES,
                               FirmwareLink, build_firmware, build_harness,
-                              check_bad_input_replies, framed)
+                              check_bad_input_replies, framed, status_when)
 
 # SRAM that must stay free below the deepest measured stack pointer. The job
 # below cannot hit every path at its worst instant (e.g. the receive interrupt
@@ -47,16 +46,6 @@ def test_firmware_fits_an_uno_with_room_for_the_stack():
 
 
 # ---- the measured stack -------------------------------------------------------------
-
-def _wait(link, ready, what, timeout_s=60.0):
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        status = link.status()
-        if ready(status):
-            return status
-        time.sleep(0.005)
-    raise AssertionError(f"never {what}: {status}")
-
 
 def _demanding_job(link):
     """Every path with a deep stack: bad lines, homing, lines, arcs of every size,
@@ -95,9 +84,9 @@ def _demanding_job(link):
 
     # Hold and resume in the middle of a line, with queries while held.
     assert all(r.kind == "ok" for r in link.stream([SetFeed(1600), LineTo(0, 0)]))
-    _wait(link, lambda s: s.state == "run" and s.x_steps < 1700, "into the line")
+    status_when(link, lambda s: s.state == "run" and s.x_steps < 1700, 60.0, 0.005)
     link.port.write(P.RT_HOLD)
-    held = _wait(link, lambda s: s.state == "hold", "held")
+    held = status_when(link, lambda s: s.state == "hold", 60.0, 0.005)
     assert held.x_steps > 0
     link.port.write(P.RT_RESUME)
     status = link.wait_idle(60)
@@ -105,7 +94,7 @@ def _demanding_job(link):
 
     # Abort a line with blocks queued behind it, then unlock.
     assert all(r.kind == "ok" for r in link.stream([LineTo(1500, 500), LineTo(0, 0)]))
-    _wait(link, lambda s: s.state == "run" and s.x_steps > 300, "into the line")
+    status_when(link, lambda s: s.state == "run" and s.x_steps > 300, 60.0, 0.005)
     link.port.write(P.RT_ABORT)
     alarm = link.read_reply()
     assert (alarm.kind, alarm.code) == ("alarm", 14)

@@ -22,7 +22,7 @@ from galileo_cnc.machine import (TICKS_PER_S, ArcTo, Dwell, EndJob, Flash, Hold,
 from galileo_cnc.simulator import forget_named_machines
 from galileo_cnc.transport import open_port
 
-from firmware_support import FirmwareLink, check_bad_input_replies
+from firmware_support import FirmwareLink, check_bad_input_replies, status_when
 from firmware_support import framed as _framed
 
 CENTRE = [SetFeed(20000), Jog(3000, 3000, 0), SetOrigin(), SetFeed(800)]
@@ -253,16 +253,6 @@ def machine_ticks(trace, ref):
     """The trace's ticks on the reference's clock: an idle machine starts the first
     block when it is queued, so a paced trace is the reference shifted once."""
     return trace.tick - (trace.tick[0] - ref.tick[0])
-
-
-def status_when(link, predicate, timeout_s=5.0):
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        status = link.status()
-        if predicate(status):
-            return status
-        time.sleep(0.002)
-    raise AssertionError(f"status never matched: {status}")
 
 
 def stopped(link, timeout_s=5.0):
