@@ -17,7 +17,7 @@ from typing import TextIO
 
 from .errors import GalileoError
 from .estimate import duration_text
-from .info import DEFAULT_MARGIN_NM, extents, proposed_offset
+from .info import DEFAULT_MARGIN_NM, extents, offset_from_text, proposed_offset
 from .journal import Journal
 from .link import MachineLink, PortGone
 from .plan import Job, plan_program
@@ -38,11 +38,8 @@ def parse_offset(text: str, program: Program, margin_nm: int = DEFAULT_MARGIN_NM
         return proposed_offset(program, margin_nm)
     if text == "none":
         return (0, 0)
-    parts = text.split(",")
     try:
-        if len(parts) != 2:
-            raise ValueError
-        return tuple(round(float(p) * NM_PER_MM) for p in parts)   # type: ignore[return-value]
+        return offset_from_text(text)
     except ValueError:
         raise OffsetError(f"--offset: expected auto, none or X,Y in mm (e.g. 5,4), "
                           f"got {text!r}") from None

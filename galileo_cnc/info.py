@@ -6,6 +6,8 @@ the returned summary (the edge where floats are allowed).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .geometry import arc_extremes
@@ -87,6 +89,20 @@ def proposed_offset(program: Program, margin_nm: int = DEFAULT_MARGIN_NM) -> tup
     if box is None:
         return (0, 0)
     return (box[0] - margin_nm, box[1] - margin_nm)
+
+
+def offset_from_text(text: str) -> tuple[int, int]:
+    """An offset the user typed, 'X,Y' or 'X Y' in mm, in nm; ValueError otherwise."""
+    parts = text.replace(",", " ").split()
+    if len(parts) != 2:
+        raise ValueError(f"expected two numbers, X,Y in mm, got {text!r}")
+    try:
+        x_mm, y_mm = float(parts[0]), float(parts[1])
+    except ValueError:
+        raise ValueError(f"expected two numbers, X,Y in mm, got {text!r}") from None
+    if not (math.isfinite(x_mm) and math.isfinite(y_mm)):
+        raise ValueError("the offsets must be finite numbers")
+    return round(x_mm * NM_PER_MM), round(y_mm * NM_PER_MM)
 
 
 def per_aperture_counts(program: Program) -> dict[int, dict[str, int]]:

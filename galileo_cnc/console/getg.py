@@ -10,14 +10,13 @@ from __future__ import annotations
 from prompt_toolkit.completion import PathCompleter
 
 from ..estimate import duration_text, job_timing
-from ..info import DEFAULT_MARGIN_NM, extents, proposed_offset
+from ..info import DEFAULT_MARGIN_NM, extents, offset_from_text, proposed_offset
 from ..journal import Journal
 from ..plan import plan_program
 from ..program import NM_PER_MM, Program
 from ..readers import read_file
 from ..stream import JobStreamer
 from .job_screen import JobScreen, report
-from .units import parse_mm_pair
 
 
 def run(console, arguments: list[str]) -> None:
@@ -57,11 +56,9 @@ def choose_offset(console, program: Program) -> tuple[int, int] | None:
         if not answer:
             return (0, 0)
         try:
-            x_mm, y_mm = parse_mm_pair(answer)
+            return offset_from_text(answer)
         except ValueError as problem:
             console.say(str(problem))
-            continue
-        return (round(x_mm * NM_PER_MM), round(y_mm * NM_PER_MM))
 
 
 def _mm(nm: int) -> str:

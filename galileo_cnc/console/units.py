@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-
 from ..config import MachineConfig
 from ..protocol import Status
 
@@ -23,14 +21,3 @@ def position_mm_text(status: Status, config: MachineConfig) -> str:
     return (f"X {steps_to_mm(status.x_steps, config):.3f}  "
             f"Y {steps_to_mm(status.y_steps, config):.3f}  "
             f"Z {steps_to_mm(status.z_steps, config):.3f} mm")
-
-
-def parse_mm_pair(text: str) -> tuple[float, float]:
-    """'5, 4' or '5 4' -> (5.0, 4.0); ValueError otherwise."""
-    parts = text.replace(",", " ").split()
-    if len(parts) != 2:
-        raise ValueError("expected two numbers, X,Y in mm")
-    x_mm, y_mm = float(parts[0]), float(parts[1])
-    if not (math.isfinite(x_mm) and math.isfinite(y_mm)):
-        raise ValueError("the offsets must be finite numbers")
-    return x_mm, y_mm
