@@ -69,6 +69,8 @@ def _run_ports(args: argparse.Namespace) -> int:
                 else "  [no banner]"
         print(line)
     print(f"{'sim://':<20} built-in simulated machine (always there)")
+    print(f"{'simavr://':<20} the firmware running in simavr (after make -C firmware "
+          f"and make -C firmware/harness)")
     return 0
 
 

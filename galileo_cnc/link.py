@@ -24,7 +24,7 @@ from . import protocol as P
 from .config import MachineConfig
 from .errors import GalileoError
 from .machine import Command
-from .transport import DEFAULT_BAUD, is_simulated, open_port, with_sim_config
+from .transport import DEFAULT_BAUD, SIMAVR_URL, is_simulated, open_port, with_sim_config
 
 #: Ask for a status when no reply came for this long...
 POLL_S = 1.0
@@ -141,6 +141,8 @@ class MachineLink:
         """The console's connection line."""
         if self.simulated:
             what = f"{self.port_name} (built-in simulated machine)"
+        elif self.port_name.startswith(SIMAVR_URL):
+            what = f"{self.port_name} (the firmware running in simavr)"
         else:
             what = self.port_name
         fw = f"firmware {self.banner.firmware_version}" if self.banner else "no banner"

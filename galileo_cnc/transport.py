@@ -2,7 +2,8 @@
 
 Real ports by name (COMx, /dev/tty...), pseudo-terminals by path, and any
 pyserial URL, including `sim://` for the built-in simulated machine
-(galileo_cnc.protocol_sim), which importing this module registers.
+(galileo_cnc.protocol_sim) and `simavr://` for the real firmware running in
+simavr (galileo_cnc.protocol_simavr), which importing this module registers.
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ import serial
 
 
 SIM_URL = "sim://"
+SIMAVR_URL = "simavr://"      # the real firmware in simavr (galileo_cnc.protocol_simavr)
 DEFAULT_BAUD = 115200
 
 

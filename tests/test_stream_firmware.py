@@ -11,6 +11,9 @@ full in between, so no gap may open inside a run of moves.
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -113,3 +116,22 @@ def test_a_pulled_cable_then_resume_gives_the_uninterrupted_trace(firmware, tmp_
     resumed_at = len(job) - result.total
     assert 0 < resumed_at < len(job)           # some lines ran before the cut, some after
     assert_same_trace_in_pieces(fw, simulate(job.commands), [steps_before(job, resumed_at)])
+
+
+def test_plot_on_the_simavr_port_runs_the_real_firmware(firmware, tmp_path):
+    env = dict(os.environ, GALILEO_CNC_HOME=str(tmp_path), GALILEO_CNC_NO_PROBE="1")
+    result = subprocess.run(
+        [sys.executable, "-m", "galileo_cnc", "plot", "samples/square-and-circle.nc",
+         "--port", "simavr://?realtime=0", "--yes"],
+        cwd=REPO, env=env, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert "connected to simavr://?realtime=0 (the firmware running in simavr), " \
+        "firmware 0.1.0" in result.stdout
+    assert "process has finished" in result.stdout
+    missing = subprocess.run(
+        [sys.executable, "-m", "galileo_cnc", "plot", "samples/square-and-circle.nc",
+         "--port", f"simavr://?elf={tmp_path}/none.elf", "--yes"],
+        cwd=REPO, env=env, capture_output=True, text=True, timeout=60)
+    assert missing.returncode == 1
+    assert f"no firmware at {tmp_path}/none.elf: build it with `make -C firmware`" \
+        in missing.stderr
