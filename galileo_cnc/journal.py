@@ -51,7 +51,6 @@ class JournalEntry:
     group: bool                     # planned grouped by aperture
     total: int                      # commands in the job
     confirmed: int                  # last command index the machine confirmed (-1: none)
-    sent: int                       # last command index sent
     first_index: int                # command index and sequence number of the
     first_seq: int                  # session's first job line
     state: str = RUNNING
@@ -98,14 +97,10 @@ class Journal:
         self.entry = entry
         self.write()
 
-    def confirm(self, index: int, sent: int) -> None:
+    def confirm(self, index: int) -> None:
         self.entry.confirmed = index
-        self.entry.sent = sent
         if time.monotonic() - self._written >= WRITE_INTERVAL_S:
             self.write()
-
-    def note_sent(self, sent: int) -> None:
-        self.entry.sent = sent
 
     def end(self, state: str, reason: str = "") -> None:
         self.entry.state = state

@@ -190,8 +190,6 @@ class JobStreamer:
             self._unconfirmed[seq] = sent
             in_flight += len(line)
             self._next += 1
-            if self.journal is not None:
-                self.journal.note_sent(self._next - 1)
 
     def _await_reply(self) -> P.Reply | None:
         """The next reply; on a stall, settle the wire by the machine's status."""
@@ -259,7 +257,7 @@ class JobStreamer:
     def _confirm(self, sent: _Transmission) -> None:
         self.confirmed = max(self.confirmed, sent.index)
         if self.journal is not None:
-            self.journal.confirm(self.confirmed, self._next - 1)
+            self.journal.confirm(self.confirmed)
         if self._on_progress is not None:
             self._on_progress(self.progress())
 
@@ -318,8 +316,7 @@ class JobStreamer:
         first_seq = self.link.next_seq()
         self.journal.begin(JournalEntry(
             source, digest, self.job.offset_nm, self.link.config.to_toml(),
-            self.job.grouped, len(self.job), self.start - 1, self.start - 1,
-            self.start, first_seq))
+            self.job.grouped, len(self.job), self.start - 1, self.start, first_seq))
 
     def _journal_end(self, state: str, reason: str = "") -> None:
         if self.journal is not None and self.journal.entry is not None:
