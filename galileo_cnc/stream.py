@@ -329,13 +329,6 @@ class ResumeError(GalileoError):
     """The interrupted job cannot continue exactly where it stopped."""
 
 
-def stream_file(link: MachineLink, path: str, program: Program, offset_nm: tuple[int, int],
-                *, journal: Journal | None = None, group: bool = True, **callbacks) -> StreamResult:
-    """Plan `program` and stream the whole job (the `getg` and `plot` path)."""
-    job = plan_program(program, link.config, offset_nm, group=group)
-    return JobStreamer(link, job, program, journal=journal).run(**callbacks)
-
-
 def position_after(job: Job, count: int, config: MachineConfig) -> tuple[int, int, int]:
     """Work position once the first `count` commands have run (from the origin)."""
     machine = ReferenceMachine(config)
