@@ -105,6 +105,7 @@ def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.s
             if entry is None or Path(entry.source) != Path(options.file).resolve():
                 raise GalileoError(f"no interrupted job of {options.file} to resume")
             job, program, start = plan_resume(link, entry)
+            offset = job.offset_nm                  # the interrupted job's, not --offset
             out.write(f"resuming after command {start} of {len(job)}\n")
         box = extents(program)
         if box is not None:
