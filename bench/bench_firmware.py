@@ -66,9 +66,10 @@ sys.path.insert(0, str(REPO / "tests"))
 import numpy as np  # noqa: E402
 
 from galileo_cnc import protocol as P  # noqa: E402
-from galileo_cnc.config import MachineConfig  # noqa: E402
-from galileo_cnc.machine import LineTo, SetFeed, simulate  # noqa: E402
-from galileo_cnc.simavr import SimulatedBoard, harness_available, step_trace  # noqa: E402
+from galileo_cnc.config.machine import MachineConfig  # noqa: E402
+from galileo_cnc.job import LineTo, SetFeed
+from galileo_cnc.machine import simulate  # noqa: E402
+from galileo_cnc.simavr.board import SimulatedBoard, harness_available, step_trace  # noqa: E402
 
 F_CPU = 16_000_000
 WIRE_BYTES_PER_S = F_CPU / 1360          # 11 765: docs/harness.md

@@ -20,11 +20,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np  # noqa: E402
 
-from galileo_cnc.config import MachineConfig  # noqa: E402
-from galileo_cnc.machine import ArcTo, Jog, LineTo, SetFeed, SetOrigin  # noqa: E402
-from galileo_cnc.machine import loop, vector  # noqa: E402
-from galileo_cnc.machine.machine import ReferenceMachine  # noqa: E402
-from galileo_cnc.machine.moves import Pause  # noqa: E402
+from galileo_cnc.config.machine import MachineConfig  # noqa: E402
+from galileo_cnc.job import ArcTo, Jog, LineTo, SetFeed, SetOrigin  # noqa: E402
+from galileo_cnc.machine import stepper as loop, vector  # noqa: E402
+from galileo_cnc.machine.planner import ReferenceMachine  # noqa: E402
+from galileo_cnc.machine.blocks import Pause  # noqa: E402
 
 
 def long_job(moves: int, seed: int = 1):

@@ -51,7 +51,7 @@ TARGETS = {"gerbonara": 3.0, "pygerber": 100.0}
 def _reader(name: str):
     """A function path -> parsed object, with imports done before timing."""
     if name == "ours":
-        from galileo_cnc.gerber import read_gerber
+        from galileo_cnc.readers.gerber import read_gerber
 
         return read_gerber
     if name == "gerbonara":

@@ -1,4 +1,4 @@
 """galileo-cnc: plot PCB artwork and G-code drawings on home-built CNC pen plotters."""
 
 __version__ = "0.1.0"
-from . import transport as _transport  # noqa: E402,F401  registers sim:// with pyserial
+from galileo_cnc.transport import port as _port  # noqa: E402,F401  registers sim://, simavr://

@@ -1,3 +1,3 @@
-from .cli import main
+from galileo_cnc.cli.main import main
 
 raise SystemExit(main())

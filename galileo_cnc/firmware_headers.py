@@ -1,23 +1,26 @@
 """C headers for the firmware, generated from the one Python definition of each thing.
 
-`protocol_header()` renders galileo_cnc/protocol.py (wire format, commands, error
-codes, states, CRC table) and `config_header()` renders a MachineConfig plus the
-arc band tables of docs/motion.md §5.3. Both files are committed under
-firmware/galileo/ so the Arduino IDE can build the sketch without Python; tests
-assert the committed text equals what these functions produce.
+`protocol_header()` renders galileo_cnc/protocol/spec.py (wire format, commands
+with their queue blocks, error codes, states, CRC table) and `config_header()`
+renders the board's fixed facts (config/hardware.py), a MachineConfig with its
+digest, and the arc band tables of docs/motion.md §5.3. Both files are committed
+under firmware/galileo/ so the Arduino IDE can build the sketch without Python;
+tests assert the committed text equals what these functions produce.
 
-    python -m galileo_cnc.protocol --header firmware/galileo/protocol.h
-    python -m galileo_cnc.firmware_headers --config-header firmware/galileo/config.h [--config my.toml]
+One command writes both (a build tool: it may import every stage it describes):
+
+    python -m galileo_cnc.firmware_headers [--config my-profile.toml]
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from . import protocol as P
-from .config import MIN_FEED_STEPS_PER_S, NO_PIN, TICKS_PER_S, MachineConfig, load_config
-from .machine.arcs import BAND_RHO_Q15, BAND_SIN_Q16, MAX_ARC_COORD
-from .machine.ramps import FRAC_BITS, RHO_BITS
+from galileo_cnc.config.hardware import DEFAULT_BAUD, F_CPU_HZ, TICKS_PER_S, TIMER1_PRESCALER
+from galileo_cnc.config.machine import MIN_FEED_STEPS_PER_S, MachineConfig, load_config
+from galileo_cnc.protocol import spec as P
+from galileo_cnc.machine.arcs import BAND_RHO_Q15, BAND_SIN_Q16, MAX_ARC_COORD
+from galileo_cnc.machine.ramps import FRAC_BITS, RHO_BITS
 
 
 def _c_char(byte: bytes) -> str:
@@ -33,8 +36,8 @@ def _table(values, per_line: int = 12, indent: str = "    ") -> str:
 
 def protocol_header() -> str:
     out = [
-        "/* Generated from galileo_cnc/protocol.py by",
-        " *   python -m galileo_cnc.protocol --header firmware/galileo/protocol.h",
+        "/* Generated from galileo_cnc/protocol/spec.py by",
+        " *   python -m galileo_cnc.firmware_headers",
         " * Do not edit: change the Python definition and regenerate (docs/protocol.md). */",
         "#ifndef GALILEO_PROTOCOL_H",
         "#define GALILEO_PROTOCOL_H",
@@ -73,6 +76,7 @@ def protocol_header() -> str:
             "struct proto_command_spec {",
             "    char mnemonic[4];",
             "    uint8_t min_args, max_args;",
+            "    uint8_t blocks; /* queue room reserved before planning (HOME: per axis) */",
             f"    uint8_t kinds[{max_args}];",
             "};", "",
             "/* Tables: defined in the one file that defines PROTO_TABLES before including. */",
@@ -85,7 +89,7 @@ def protocol_header() -> str:
             "const struct proto_command_spec proto_commands[CMD_COUNT] PROGMEM = {"]
     for spec in P.COMMANDS:
         kinds = [f"ARG_{kind.name}" for _f, kind in spec.args] + ["0"] * (max_args - len(spec.args))
-        out.append(f'    {{"{spec.mnemonic}", {spec.min_args}, {len(spec.args)}, '
+        out.append(f'    {{"{spec.mnemonic}", {spec.min_args}, {len(spec.args)}, {spec.blocks}, '
                    f'{{{", ".join(kinds)}}}}}, /* {spec.cls.__name__} */')
     out.append("};")
     out.append("")
@@ -111,60 +115,39 @@ def protocol_header() -> str:
 
 def config_header(cfg: MachineConfig | None = None, source: str = "the defaults") -> str:
     cfg = cfg or MachineConfig()
-    tmin, tmax = cfg.travel_min_steps, cfg.travel_max_steps
-    values = [
-        ("TICKS_PER_S", TICKS_PER_S, "Timer1 at 16 MHz / 8: one tick is 0.5 us"),
+    fixed = [
+        ("F_CPU_HZ", F_CPU_HZ, "the board's clock"),
+        ("TIMER1_PRESCALER", TIMER1_PRESCALER, ""),
+        ("TICKS_PER_S", TICKS_PER_S, "Timer1 at F_CPU / 8: one tick is 0.5 us"),
+        ("SERIAL_BAUD", DEFAULT_BAUD, ""),
         ("FRAC_BITS", FRAC_BITS, "subtick = 1/256 tick"),
         ("RHO_BITS", RHO_BITS, "path length per event in Q15"),
-        ("FEED_STEPS_PER_S", cfg.feed_steps_per_s, "default feed"),
-        ("RAPID_STEPS_PER_S", cfg.rapid_steps_per_s, "pen-up travel"),
-        ("Z_FEED_STEPS_PER_S", cfg.z_feed_steps_per_s, "pen up / down"),
-        ("HOME_FEED_STEPS_PER_S", cfg.home_feed_steps_per_s, "homing seek and pull-off"),
         ("MIN_FEED_STEPS_PER_S", MIN_FEED_STEPS_PER_S, ""),
-        ("MAX_FEED_STEPS_PER_S", cfg.max_feed_steps_per_s, "= TICKS_PER_S / MIN_STEP_PERIOD"),
-        ("MIN_STEP_PERIOD_TICKS", cfg.min_step_period_ticks, ""),
-        ("ACCEL_STEPS_PER_S2", cfg.accel_steps_per_s2, "axis acceleration bound A"),
-        ("RAMP_START_FACTOR", cfg.ramp_start_factor, "a move starts at this x the period"),
-        ("PEN_DOWN_Z_STEPS", cfg.pen_down_z_steps, ""),
-        ("PEN_UP_Z_STEPS", cfg.pen_up_z_steps, ""),
-        ("FLASH_DWELL_MS", cfg.flash_dwell_ms, ""),
-        ("X_TRAVEL_MIN_STEPS", tmin[0], "soft limits, machine steps"),
-        ("X_TRAVEL_MAX_STEPS", tmax[0], ""),
-        ("Y_TRAVEL_MIN_STEPS", tmin[1], ""),
-        ("Y_TRAVEL_MAX_STEPS", tmax[1], ""),
-        ("Z_TRAVEL_MIN_STEPS", tmin[2], ""),
-        ("Z_TRAVEL_MAX_STEPS", tmax[2], ""),
-        ("X_STEP_PIN", cfg.x_step_pin, "Arduino pin numbers"),
-        ("X_DIR_PIN", cfg.x_dir_pin, ""),
-        ("Y_STEP_PIN", cfg.y_step_pin, ""),
-        ("Y_DIR_PIN", cfg.y_dir_pin, ""),
-        ("Z_STEP_PIN", cfg.z_step_pin, ""),
-        ("Z_DIR_PIN", cfg.z_dir_pin, ""),
-        ("X_HOME_PIN", cfg.x_home_pin, f"{NO_PIN}: no end-stop; INPUT_PULLUP, active LOW"),
-        ("Y_HOME_PIN", cfg.y_home_pin, ""),
-        ("Z_HOME_PIN", cfg.z_home_pin, ""),
-        ("X_HOME_DIR", cfg.x_home_dir, "seek direction"),
-        ("Y_HOME_DIR", cfg.y_home_dir, ""),
-        ("Z_HOME_DIR", cfg.z_home_dir, ""),
-        ("HOME_DEBOUNCE_READS", cfg.home_debounce_reads, "consecutive active reads"),
-        ("HOME_PULLOFF_STEPS", cfg.home_pulloff_steps, ""),
         ("MAX_ARC_COORD", MAX_ARC_COORD, "|coordinate| relative to an arc centre"),
     ]
     out = [
-        "/* Machine configuration, generated from galileo_cnc/config.py "
+        "/* Machine configuration, generated from galileo_cnc/config/ "
         f"({source}) by",
-        " *   python -m galileo_cnc.firmware_headers --config-header firmware/galileo/config.h",
-        " * Edit the machine's TOML file and regenerate (--config FILE), or edit the",
-        " * values here for a one-off build; docs/motion.md defines what they mean. */",
+        " *   python -m galileo_cnc.firmware_headers [--config PROFILE.toml]",
+        " * Edit the machine's profile and regenerate, then reflash: the banner's digest",
+        " * tells the host which profile this build is for. docs/motion.md defines the",
+        " * values. */",
         "#ifndef GALILEO_CONFIG_H", "#define GALILEO_CONFIG_H", "",
     ]
-    for name, value, comment in values:
-        suffix = "L" if abs(value) > 32767 else ""
+    for name, value, comment in fixed + list(cfg.firmware_values()):
+        suffix = "UL" if name == "SERIAL_BAUD" or name == "F_CPU_HZ" else (
+            "L" if abs(value) > 32767 else "")
         line = f"#define CFG_{name} ({value}{suffix})"
         out.append(f"{line:<44} /* {comment} */" if comment else line)
+    out += ["", "#if defined(F_CPU) && F_CPU != CFG_F_CPU_HZ",
+            '#error "F_CPU differs from CFG_F_CPU_HZ: step timing and baud would be wrong"',
+            "#endif"]
     if cfg.home_pulloff_steps <= cfg.home_debounce_reads - 1:
         out.append('#error "HOME_PULLOFF_STEPS must exceed HOME_DEBOUNCE_READS - 1"')
-    out += ["", f"#define CFG_N_BANDS {len(BAND_SIN_Q16)}",
+    out += ["", "/* The banner's `config` field and the `C` query's answer (docs/protocol.md). */",
+            f'#define CFG_DIGEST "{cfg.firmware_digest()}"',
+            f'#define CFG_VALUES_TEXT "{cfg.firmware_text()}"',
+            "", f"#define CFG_N_BANDS {len(BAND_SIN_Q16)}",
             "/* Arc timing bands (docs/motion.md §5.3): sin of the band edges, Q16, and",
             " * the mean path length per event inside each band, Q15. */",
             "#define CFG_BAND_SIN_Q16 { \\",
@@ -183,20 +166,29 @@ def write_if_changed(path: str | Path, text: str) -> bool:
     return True
 
 
+FIRMWARE_DIR = Path("firmware/galileo")
+
+
 def main(argv: list[str] | None = None) -> int:
     import argparse
-    parser = argparse.ArgumentParser(prog="python -m galileo_cnc.firmware_headers",
-                                     description="Generate the firmware's C headers.")
-    parser.add_argument("--protocol-header", metavar="PATH")
-    parser.add_argument("--config-header", metavar="PATH")
-    parser.add_argument("--config", metavar="TOML", help="machine profile (default: the seed)")
+    parser = argparse.ArgumentParser(
+        prog="python -m galileo_cnc.firmware_headers",
+        description="Write the firmware's generated headers, protocol.h and config.h.")
+    parser.add_argument("--config", metavar="TOML",
+                        help="machine profile to build for (default: the seed's machine)")
+    parser.add_argument("--out", metavar="DIR", default=str(FIRMWARE_DIR),
+                        help=f"where the sketch is (default: {FIRMWARE_DIR})")
     args = parser.parse_args(argv)
-    if args.protocol_header:
-        write_if_changed(args.protocol_header, protocol_header())
-    if args.config_header:
-        cfg = load_config(args.config)
-        write_if_changed(args.config_header,
-                         config_header(cfg, args.config or "the defaults"))
+    out = Path(args.out)
+    if not out.is_dir():
+        parser.error(f"{out}: no such folder (run from the checkout, or give --out)")
+    cfg = load_config(args.config)
+    for name, text in (("protocol.h", protocol_header()),
+                       ("config.h", config_header(cfg, args.config or "the defaults"))):
+        changed = write_if_changed(out / name, text)
+        print(f"{out / name}: {'written' if changed else 'unchanged'}")
+    print(f"config digest {cfg.firmware_digest()}: reflash the board (make -C firmware upload)"
+          " so its banner names it")
     return 0
 
 

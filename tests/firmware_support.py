@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from galileo_cnc import protocol as P
-from galileo_cnc import simavr
+from galileo_cnc.simavr import board as simavr
 
 REPO = Path(__file__).resolve().parents[1]
 FIRMWARE_DIR = REPO / "firmware"
@@ -158,7 +158,7 @@ def check_bad_input_replies(link: "FirmwareLink", idle_timeout_s: float) -> None
     One sequence for every machine behind the protocol: the firmware in simavr
     and sim:// must answer it identically.
     """
-    from galileo_cnc.machine import Jog, LineTo, SetFeed
+    from galileo_cnc.job import Jog, LineTo, SetFeed
 
     assert link.send(P.QueryStatus()).kind == "ok"               # N0
     assert link.send_raw(b"\x01\xfegarbage#$%\n") == P.Reply("rs", 1)

@@ -178,7 +178,7 @@ def ours_summary(program) -> PeerSummary:
     a MOVE there starts a new contour. A segment starts where the previous
     positioned row (MOVE/LINE/ARC/FLASH) ended, (0, 0) before the first one.
     """
-    from galileo_cnc.program import KIND, X, Y, I, J, TOOL, OpKind
+    from galileo_cnc.program.ops import KIND, X, Y, I, J, TOOL, OpKind
 
     t = program.table
     kind = t[:, KIND]

@@ -84,6 +84,7 @@ static void print_banner(void)
     serial_print_int(PROTO_RX_BUFFER_BYTES);
     serial_print_P(PSTR(" queue "));
     serial_print_int(PROTO_QUEUE_BLOCKS);
+    serial_print_P(PSTR(" config " CFG_DIGEST));
 }
 
 static uint8_t machine_state(void)
@@ -221,7 +222,8 @@ static void handle_line(char *s, uint8_t len)
 static void execute_pending(void)
 {
     uint8_t cmd = pending.cmd, err = 0;
-    uint8_t protocol_only = cmd == CMD_STATUS || cmd == CMD_VERSION || cmd == CMD_UNLOCK;
+    uint8_t protocol_only = cmd == CMD_STATUS || cmd == CMD_VERSION || cmd == CMD_UNLOCK
+                            || cmd == CMD_CONFIG;
     if (!protocol_only && alarm_code)
         err = ERR_LOCKED;
     else if (!protocol_only && pl.ended)
@@ -251,6 +253,8 @@ static void execute_pending(void)
     } else if (cmd == CMD_VERSION) {
         serial_write(' ');
         print_banner();
+    } else if (cmd == CMD_CONFIG) {
+        serial_print_P(PSTR(" config " CFG_VALUES_TEXT));
     }
     serial_write('\n');
 }

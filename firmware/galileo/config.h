@@ -1,18 +1,25 @@
-/* Machine configuration, generated from galileo_cnc/config.py (the defaults) by
- *   python -m galileo_cnc.firmware_headers --config-header firmware/galileo/config.h
- * Edit the machine's TOML file and regenerate (--config FILE), or edit the
- * values here for a one-off build; docs/motion.md defines what they mean. */
+/* Machine configuration, generated from galileo_cnc/config/ (the defaults) by
+ *   python -m galileo_cnc.firmware_headers [--config PROFILE.toml]
+ * Edit the machine's profile and regenerate, then reflash: the banner's digest
+ * tells the host which profile this build is for. docs/motion.md defines the
+ * values. */
 #ifndef GALILEO_CONFIG_H
 #define GALILEO_CONFIG_H
 
-#define CFG_TICKS_PER_S (2000000L)           /* Timer1 at 16 MHz / 8: one tick is 0.5 us */
+#define CFG_F_CPU_HZ (16000000UL)            /* the board's clock */
+#define CFG_TIMER1_PRESCALER (8)
+#define CFG_TICKS_PER_S (2000000L)           /* Timer1 at F_CPU / 8: one tick is 0.5 us */
+#define CFG_SERIAL_BAUD (115200UL)
 #define CFG_FRAC_BITS (8)                    /* subtick = 1/256 tick */
 #define CFG_RHO_BITS (15)                    /* path length per event in Q15 */
+#define CFG_MIN_FEED_STEPS_PER_S (10)
+#define CFG_MAX_ARC_COORD (32767)            /* |coordinate| relative to an arc centre */
+#define CFG_STEPS_PER_REV (200)              /* mechanics (informational: the host converts) */
+#define CFG_PITCH_NM (1250000L)
 #define CFG_FEED_STEPS_PER_S (800)           /* default feed */
 #define CFG_RAPID_STEPS_PER_S (1000)         /* pen-up travel */
 #define CFG_Z_FEED_STEPS_PER_S (800)         /* pen up / down */
 #define CFG_HOME_FEED_STEPS_PER_S (160)      /* homing seek and pull-off */
-#define CFG_MIN_FEED_STEPS_PER_S (10)
 #define CFG_MAX_FEED_STEPS_PER_S (40000L)    /* = TICKS_PER_S / MIN_STEP_PERIOD */
 #define CFG_MIN_STEP_PERIOD_TICKS (50)
 #define CFG_ACCEL_STEPS_PER_S2 (40000L)      /* axis acceleration bound A */
@@ -40,7 +47,14 @@
 #define CFG_Z_HOME_DIR (1)
 #define CFG_HOME_DEBOUNCE_READS (4)          /* consecutive active reads */
 #define CFG_HOME_PULLOFF_STEPS (160)
-#define CFG_MAX_ARC_COORD (32767)            /* |coordinate| relative to an arc centre */
+
+#if defined(F_CPU) && F_CPU != CFG_F_CPU_HZ
+#error "F_CPU differs from CFG_F_CPU_HZ: step timing and baud would be wrong"
+#endif
+
+/* The banner's `config` field and the `C` query's answer (docs/protocol.md). */
+#define CFG_DIGEST "60d6fe2c"
+#define CFG_VALUES_TEXT "STEPS_PER_REV=200 PITCH_NM=1250000 FEED_STEPS_PER_S=800 RAPID_STEPS_PER_S=1000 Z_FEED_STEPS_PER_S=800 HOME_FEED_STEPS_PER_S=160 MAX_FEED_STEPS_PER_S=40000 MIN_STEP_PERIOD_TICKS=50 ACCEL_STEPS_PER_S2=40000 RAMP_START_FACTOR=3 PEN_DOWN_Z_STEPS=0 PEN_UP_Z_STEPS=300 FLASH_DWELL_MS=200 X_TRAVEL_MIN_STEPS=0 X_TRAVEL_MAX_STEPS=32000 Y_TRAVEL_MIN_STEPS=0 Y_TRAVEL_MAX_STEPS=32000 Z_TRAVEL_MIN_STEPS=0 Z_TRAVEL_MAX_STEPS=600 X_STEP_PIN=11 X_DIR_PIN=10 Y_STEP_PIN=9 Y_DIR_PIN=8 Z_STEP_PIN=13 Z_DIR_PIN=12 X_HOME_PIN=7 Y_HOME_PIN=6 Z_HOME_PIN=-1 X_HOME_DIR=-1 Y_HOME_DIR=-1 Z_HOME_DIR=1 HOME_DEBOUNCE_READS=4 HOME_PULLOFF_STEPS=160"
 
 #define CFG_N_BANDS 32
 /* Arc timing bands (docs/motion.md §5.3): sin of the band edges, Q16, and

@@ -3,6 +3,7 @@
  * every division and square root done here, never in the interrupt. Blocks of
  * one command are staged and committed together, so a refused command leaves
  * nothing behind (the reference refuses a command before any of its steps). */
+#include <avr/pgmspace.h>
 #include <string.h>
 
 #include "arcs.h"
@@ -256,18 +257,12 @@ static uint8_t home(void)
     return 0;
 }
 
+/* The blocks each command reserves come from the generated table (protocol.h),
+ * the one definition the simulated machine reads too. */
 uint8_t planner_blocks_needed(uint8_t cmd)
 {
-    switch (cmd) {
-    case CMD_RAPID: return 2;
-    case CMD_FLASH: return 3;
-    case CMD_HOME: return 3 * HOME_AXES;
-    case CMD_LINE: case CMD_ARC_CW: case CMD_ARC_CCW: case CMD_PEN_UP: case CMD_PEN_DOWN:
-    case CMD_DWELL: case CMD_JOG: case CMD_ORIGIN: case CMD_END_JOB:
-        return 1;
-    default:
-        return 0;
-    }
+    uint8_t blocks = pgm_read_byte(&proto_commands[cmd].blocks);
+    return cmd == CMD_HOME ? blocks * HOME_AXES : blocks;
 }
 
 /* Every command but the arcs. On an error, pl is restored: only pos can have

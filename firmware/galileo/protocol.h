@@ -1,5 +1,5 @@
-/* Generated from galileo_cnc/protocol.py by
- *   python -m galileo_cnc.protocol --header firmware/galileo/protocol.h
+/* Generated from galileo_cnc/protocol/spec.py by
+ *   python -m galileo_cnc.firmware_headers
  * Do not edit: change the Python definition and regenerate (docs/protocol.md). */
 #ifndef GALILEO_PROTOCOL_H
 #define GALILEO_PROTOCOL_H
@@ -7,7 +7,7 @@
 #include <stdint.h>
 #include <avr/pgmspace.h>
 
-#define PROTO_VERSION 1
+#define PROTO_VERSION 2
 #define PROTO_FIRMWARE_VERSION "0.1.0"
 #define PROTO_BANNER_NAME "galileo-cnc"
 #define PROTO_MAX_LINE_BYTES 64 /* including the newline */
@@ -58,6 +58,7 @@ enum proto_command {
     CMD_STATUS,
     CMD_VERSION,
     CMD_UNLOCK,
+    CMD_CONFIG,
     CMD_COUNT
 };
 
@@ -91,6 +92,7 @@ enum proto_state {
 struct proto_command_spec {
     char mnemonic[4];
     uint8_t min_args, max_args;
+    uint8_t blocks; /* queue room reserved before planning (HOME: per axis) */
     uint8_t kinds[4];
 };
 
@@ -104,23 +106,24 @@ extern const uint8_t proto_crc8_table[256] PROGMEM;
 #ifdef PROTO_TABLES
 
 const struct proto_command_spec proto_commands[CMD_COUNT] PROGMEM = {
-    {"R", 2, 2, {ARG_COORD, ARG_COORD, 0, 0}}, /* Rapid */
-    {"L", 2, 3, {ARG_COORD, ARG_COORD, ARG_COORD, 0}}, /* LineTo */
-    {"CW", 4, 4, {ARG_COORD, ARG_COORD, ARG_COORD, ARG_COORD}}, /* ArcTo */
-    {"CCW", 4, 4, {ARG_COORD, ARG_COORD, ARG_COORD, ARG_COORD}}, /* ArcTo */
-    {"PU", 0, 0, {0, 0, 0, 0}}, /* PenUp */
-    {"PD", 0, 0, {0, 0, 0, 0}}, /* PenDown */
-    {"FL", 0, 1, {ARG_MS, 0, 0, 0}}, /* Flash */
-    {"DW", 1, 1, {ARG_MS, 0, 0, 0}}, /* Dwell */
-    {"F", 1, 1, {ARG_FEED, 0, 0, 0}}, /* SetFeed */
-    {"J", 3, 3, {ARG_COORD, ARG_COORD, ARG_COORD, 0}}, /* Jog */
-    {"O", 0, 0, {0, 0, 0, 0}}, /* SetOrigin */
-    {"H", 0, 0, {0, 0, 0, 0}}, /* Home */
-    {"M", 1, 1, {ARG_FLAG, 0, 0, 0}}, /* Motors */
-    {"E", 0, 0, {0, 0, 0, 0}}, /* EndJob */
-    {"S", 0, 0, {0, 0, 0, 0}}, /* QueryStatus */
-    {"V", 0, 0, {0, 0, 0, 0}}, /* QueryVersion */
-    {"U", 0, 0, {0, 0, 0, 0}}, /* Unlock */
+    {"R", 2, 2, 2, {ARG_COORD, ARG_COORD, 0, 0}}, /* Rapid */
+    {"L", 2, 3, 1, {ARG_COORD, ARG_COORD, ARG_COORD, 0}}, /* LineTo */
+    {"CW", 4, 4, 1, {ARG_COORD, ARG_COORD, ARG_COORD, ARG_COORD}}, /* ArcTo */
+    {"CCW", 4, 4, 1, {ARG_COORD, ARG_COORD, ARG_COORD, ARG_COORD}}, /* ArcTo */
+    {"PU", 0, 0, 1, {0, 0, 0, 0}}, /* PenUp */
+    {"PD", 0, 0, 1, {0, 0, 0, 0}}, /* PenDown */
+    {"FL", 0, 1, 3, {ARG_MS, 0, 0, 0}}, /* Flash */
+    {"DW", 1, 1, 1, {ARG_MS, 0, 0, 0}}, /* Dwell */
+    {"F", 1, 1, 0, {ARG_FEED, 0, 0, 0}}, /* SetFeed */
+    {"J", 3, 3, 1, {ARG_COORD, ARG_COORD, ARG_COORD, 0}}, /* Jog */
+    {"O", 0, 0, 1, {0, 0, 0, 0}}, /* SetOrigin */
+    {"H", 0, 0, 3, {0, 0, 0, 0}}, /* Home */
+    {"M", 1, 1, 0, {ARG_FLAG, 0, 0, 0}}, /* Motors */
+    {"E", 0, 0, 1, {0, 0, 0, 0}}, /* EndJob */
+    {"S", 0, 0, 0, {0, 0, 0, 0}}, /* QueryStatus */
+    {"V", 0, 0, 0, {0, 0, 0, 0}}, /* QueryVersion */
+    {"U", 0, 0, 0, {0, 0, 0, 0}}, /* Unlock */
+    {"C", 0, 0, 0, {0, 0, 0, 0}}, /* QueryConfig */
 };
 
 static const char proto_error_text_1[] PROGMEM = "malformed line";

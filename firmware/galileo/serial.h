@@ -7,7 +7,9 @@
 #include <stdint.h>
 #include <avr/pgmspace.h>
 
-#define SERIAL_BAUD 115200UL
+#include "config.h"
+
+#define SERIAL_BAUD CFG_SERIAL_BAUD
 
 enum serial_line { LINE_NONE, LINE_READY, LINE_TOO_LONG };
 

@@ -8,8 +8,8 @@ from prompt_toolkit.application import create_app_session
 from prompt_toolkit.input import Input
 from prompt_toolkit.output import Output
 
-from ..config import MachineConfig
-from .. import userdirs
+from galileo_cnc.config.machine import MachineConfig
+from galileo_cnc.config import userdirs
 
 
 def run_console(port: str | None, baud: int, config: MachineConfig, *,
@@ -17,7 +17,7 @@ def run_console(port: str | None, baud: int, config: MachineConfig, *,
                 output: Output | None = None, config_path: Path | None = None) -> int:
     """Run the console until `exit` or Ctrl-D; the exit code (0). `config_path`
     is the profile behind `config`, simulated by `sim://`."""
-    from .app import Console
+    from galileo_cnc.console.app import Console
 
     with create_app_session(input=input, output=output):
         console = Console(port, baud, config, history_path or userdirs.history_path(),

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from prompt_toolkit.completion import PathCompleter, WordCompleter
 
-from . import getg, machine_commands, resume, setup, show_help
-from .registry import ConsoleCommand, Registry
+from galileo_cnc.console import getg, machine_commands, resume, setup, show_help
+from galileo_cnc.console.registry import ConsoleCommand, Registry
 
 
 def _leave(console, arguments: list[str]) -> None:

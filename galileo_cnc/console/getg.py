@@ -9,14 +9,15 @@ from __future__ import annotations
 
 from prompt_toolkit.completion import PathCompleter
 
-from ..estimate import duration_text, job_timing
-from ..info import DEFAULT_MARGIN_NM, extents, offset_from_text, proposed_offset
-from ..journal import Journal
-from ..plan import plan_program
-from ..program import NM_PER_MM, Program
-from ..readers import read_file
-from ..stream import JobStreamer
-from .job_screen import JobScreen, report
+from galileo_cnc.machine.timing import duration_text, job_timing
+from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM, offset_from_text, proposed_offset
+from galileo_cnc.program.extents import extents
+from galileo_cnc.stream.journal import Journal
+from galileo_cnc.plan.planner import plan_program
+from galileo_cnc.program.ops import NM_PER_MM, Program
+from galileo_cnc.readers import read_file
+from galileo_cnc.stream.streamer import JobStreamer
+from galileo_cnc.console.job_screen import JobScreen, report
 
 
 def run(console, arguments: list[str]) -> None:

@@ -15,8 +15,8 @@ from prompt_toolkit.key_binding import KeyBindings
 from prompt_toolkit.shortcuts import ProgressBar
 from prompt_toolkit.shortcuts.progress_bar import formatters
 
-from ..estimate import duration_text
-from ..stream import PenChange, Progress, StreamAborted, StreamResult
+from galileo_cnc.machine.timing import duration_text
+from galileo_cnc.stream.streamer import PenChange, Progress, StreamAborted, StreamResult
 
 BELL = "\a"
 #: How often a pen-change wait looks for a stop request.

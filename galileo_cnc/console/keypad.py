@@ -13,9 +13,9 @@ from prompt_toolkit.key_binding import KeyBindings
 from prompt_toolkit.layout import Layout, Window
 from prompt_toolkit.layout.controls import FormattedTextControl
 
-from ..errors import GalileoError
-from ..machine import Jog, SetOrigin
-from .units import jog_units_to_steps, position_mm_text
+from galileo_cnc.errors import GalileoError
+from galileo_cnc.job import Jog, SetOrigin
+from galileo_cnc.console.units import jog_units_to_steps, position_mm_text
 
 #: key -> direction (x, y, z); each key has a NumLock-off twin.
 KEYPAD = {

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Callable
 from prompt_toolkit.completion import Completer, NestedCompleter
 
 if TYPE_CHECKING:
-    from .app import Console
+    from galileo_cnc.console.app import Console
 
 
 @dataclass(frozen=True, slots=True)

@@ -3,9 +3,10 @@ confirmed command (the streamer replans the file and checks the machine's positi
 
 from __future__ import annotations
 
-from ..journal import Journal
-from ..stream import JobStreamer, plan_resume
-from .job_screen import JobScreen, report
+from galileo_cnc.stream.journal import Journal
+from galileo_cnc.stream.streamer import JobStreamer
+from galileo_cnc.stream.resume import plan_resume
+from galileo_cnc.console.job_screen import JobScreen, report
 
 
 def run(console, arguments: list[str]) -> None:

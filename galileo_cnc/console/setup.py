@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import math
 
-from ..config import MIN_FEED_STEPS_PER_S
-from ..machine import SetFeed
-from .keypad import jog_with_keypad
-from .units import NM_PER_JOG_UNIT
+from galileo_cnc.config.machine import MIN_FEED_STEPS_PER_S
+from galileo_cnc.job import SetFeed
+from galileo_cnc.console.keypad import jog_with_keypad
+from galileo_cnc.console.units import NM_PER_JOG_UNIT
 
 MENU = """setup
   1) jog the head with the numeric keypad (and set the origin)

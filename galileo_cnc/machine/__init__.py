@@ -1,21 +1,18 @@
 """The reference machine: the Python mirror of the firmware (docs/motion.md).
 
+Files are named after the firmware files they mirror: planner.py ~ planner.cpp,
+stepper.py ~ stepper.cpp (the per-step interrupt), arcs.py ~ arcs.cpp,
+blocks.py ~ struct block (stepper.h); vector.py is the same spec over whole jobs.
+
 Commands in steps go in; the step trace (tick, axis, dir per step) comes out.
 `simulate` runs a job with the vectorised reference; `backend="loop"` runs the
 per-step form the firmware implements, for cross-checks and benchmarks.
 """
 
-from .commands import (AXIS_NAMES, ArcTo, Axis, Command, Dwell, EndJob, Flash, Home, Jog,
-                       LineTo, MachineError, Motors, PenDown, PenUp, Rapid, SetFeed,
-                       SetOrigin)
-from .machine import ReferenceMachine, estimate_seconds, simulate
-from .moves import Hold
-from .ramps import SUBTICKS_PER_TICK, TICKS_PER_S
-from .trace import TRACE_KEYS, Trace
+from galileo_cnc.machine.planner import ReferenceMachine, estimate_seconds, simulate
+from galileo_cnc.machine.blocks import Hold
+from galileo_cnc.machine.ramps import SUBTICKS_PER_TICK
+from galileo_cnc.machine.trace import TRACE_KEYS, Trace
 
-__all__ = [
-    "AXIS_NAMES", "ArcTo", "Axis", "Command", "Dwell", "EndJob", "Flash", "Home", "Hold",
-    "Jog", "LineTo", "MachineError", "Motors", "PenDown", "PenUp", "Rapid", "SetFeed",
-    "SetOrigin", "ReferenceMachine", "SUBTICKS_PER_TICK", "TICKS_PER_S", "TRACE_KEYS",
-    "Trace", "estimate_seconds", "simulate",
-]
+__all__ = ["Hold", "ReferenceMachine", "SUBTICKS_PER_TICK", "TRACE_KEYS", "Trace",
+           "estimate_seconds", "simulate"]

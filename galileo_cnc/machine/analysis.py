@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .ramps import TICKS_PER_S
-from .trace import Trace
+from galileo_cnc.config.hardware import TICKS_PER_S
+from galileo_cnc.machine.trace import Trace
 
 
 def event_positions(trace: Trace, start: tuple[int, int, int] = (0, 0, 0)

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .ramps import _ranges
+from galileo_cnc.machine.ramps import _ranges
 
 
 def line_events(delta: tuple[int, int, int]) -> int:

@@ -26,7 +26,8 @@ from math import isqrt
 
 import numpy as np
 
-TICKS_PER_S = 2_000_000
+from galileo_cnc.config.hardware import TICKS_PER_S
+
 FRAC_BITS = 8
 SUBTICKS_PER_TICK = 1 << FRAC_BITS
 SUBTICKS_PER_S = TICKS_PER_S * SUBTICKS_PER_TICK  # 512_000_000

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .ramps import TICKS_PER_S
+from galileo_cnc.config.hardware import TICKS_PER_S
 
 TRACE_KEYS = ("tick", "axis", "dir")
 

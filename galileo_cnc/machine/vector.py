@@ -11,10 +11,10 @@ from typing import Sequence
 
 import numpy as np
 
-from .arcs import arc_points
-from .lines import bresenham_points, fill_line_steps
-from .moves import ArcMove, Hold, Item, LineMove, Pause, SeekMove
-from .ramps import Run, run_ticks
+from galileo_cnc.machine.arcs import arc_points
+from galileo_cnc.machine.lines import bresenham_points, fill_line_steps
+from galileo_cnc.machine.blocks import ArcMove, Hold, Item, LineMove, Pause, SeekMove
+from galileo_cnc.machine.ramps import Run, run_ticks
 
 
 def build_events(items: Sequence[Item]) -> tuple[np.ndarray, np.ndarray, list[Run], int]:

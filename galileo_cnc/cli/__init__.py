@@ -1,0 +1,2 @@
+"""The `galileo-cnc` command line: info, plot, preview, ports (and the console).
+"""

@@ -1,0 +1,108 @@
+"""`galileo-cnc info FILE`: what a file holds and the offsets getg proposes.
+
+All geometry is computed in nm from the Program table; millimetres appear only in
+the returned summary (the edge where floats are allowed).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM, proposed_offset
+from galileo_cnc.program.extents import extents, region_mask
+from galileo_cnc.program.ops import KIND, NM_PER_MM, TOOL, OpKind, Program
+
+
+def per_aperture_counts(program: Program) -> dict[int, dict[str, int]]:
+    """Draws, arcs and flashes per aperture, region contours excluded."""
+    table = program.table[~region_mask(program.table)]
+    result: dict[int, dict[str, int]] = {}
+    for name, kinds in (("draws", [OpKind.LINE]), ("arcs", [OpKind.ARC_CW, OpKind.ARC_CCW]),
+                        ("flashes", [OpKind.FLASH])):
+        rows = table[np.isin(table[:, KIND], [int(k) for k in kinds])]
+        codes, counts = np.unique(rows[:, TOOL], return_counts=True)
+        for code, count in zip(codes.tolist(), counts.tolist()):
+            result.setdefault(code, {"draws": 0, "arcs": 0, "flashes": 0})[name] = count
+    return result
+
+
+def _mm(nm: int) -> float:
+    return round(nm / NM_PER_MM, 6)
+
+
+def _box_mm(box):
+    if box is None:
+        return None
+    return {"min_x": _mm(box[0]), "min_y": _mm(box[1]), "max_x": _mm(box[2]), "max_y": _mm(box[3])}
+
+
+def summarize(program: Program, margin_nm: int = DEFAULT_MARGIN_NM) -> dict:
+    """Everything `galileo-cnc info --json` prints, as plain data (lengths in mm)."""
+    table = program.table
+    kind = table[:, KIND]
+    in_region = region_mask(table)
+    box = extents(program)
+    offset = proposed_offset(program, margin_nm)
+    per_aperture = per_aperture_counts(program)
+    return {
+        "file": program.source,
+        "format": program.format,
+        "units": program.units,
+        "format_spec": program.metadata.get("format"),
+        "line_count": program.line_count,
+        "operations": len(program),
+        "apertures": [
+            {"code": code, "shape": ap.shape, "description": ap.describe(),
+             "size_mm": [_mm(v) for v in ap.params_nm], "hole_mm": [_mm(v) for v in ap.hole_nm],
+             "macro": ap.macro, **per_aperture.get(code, {"draws": 0, "arcs": 0, "flashes": 0})}
+            for code, ap in sorted(program.apertures.items())],
+        "counts": {
+            "draws": int(((kind == OpKind.LINE) & ~in_region).sum()),
+            "arcs": int((np.isin(kind, [int(OpKind.ARC_CW), int(OpKind.ARC_CCW)]) & ~in_region).sum()),
+            "flashes": int((kind == OpKind.FLASH).sum()),
+            "regions": int((kind == OpKind.REGION_BEGIN).sum()),
+        },
+        "bbox_mm": _box_mm(box),
+        "bbox_with_apertures_mm": _box_mm(extents(program, with_apertures=True)),
+        "min_mm": None if box is None else {"x": _mm(box[0]), "y": _mm(box[1])},
+        "margin_mm": _mm(margin_nm),
+        "proposed_offset_mm": {"x": _mm(offset[0]), "y": _mm(offset[1])},
+        "warnings": [str(w) for w in program.warnings],
+        "warning_counts": program.metadata.get("warning_counts", {}),
+    }
+
+
+def format_summary(summary: dict) -> str:
+    """The human-readable `info` report."""
+    lines = [
+        f"file        {summary['file']}",
+        f"format      {summary['format']}  units {summary['units']}"
+        + (f"  digits {summary['format_spec']}" if summary["format_spec"] else ""),
+        f"lines       {summary['line_count']}   operations {summary['operations']}",
+    ]
+    counts = summary["counts"]
+    lines.append(f"counts      {counts['draws']} draws, {counts['arcs']} arcs, "
+                 f"{counts['flashes']} flashes, {counts['regions']} regions")
+    if summary["apertures"]:
+        lines.append("apertures")
+        for ap in summary["apertures"]:
+            lines.append(f"  D{ap['code']:<4} {ap['description']:<32} {ap['draws']:>6} draws "
+                         f"{ap['arcs']:>6} arcs {ap['flashes']:>6} flashes")
+    box, full = summary["bbox_mm"], summary["bbox_with_apertures_mm"]
+    if box:
+        lines.append(f"extent      X {box['min_x']:.4f} .. {box['max_x']:.4f} mm, "
+                     f"Y {box['min_y']:.4f} .. {box['max_y']:.4f} mm (centre lines)")
+        lines.append(f"            X {full['min_x']:.4f} .. {full['max_x']:.4f} mm, "
+                     f"Y {full['min_y']:.4f} .. {full['max_y']:.4f} mm (with apertures)")
+        offset = summary["proposed_offset_mm"]
+        lines.append(f"minimum     X {box['min_x']:.4f} mm, Y {box['min_y']:.4f} mm")
+        lines.append(f"offset      X {offset['x']:.4f} mm, Y {offset['y']:.4f} mm "
+                     f"(minimum minus a {summary['margin_mm']} mm margin)")
+    else:
+        lines.append("extent      nothing is drawn")
+    if summary["warnings"]:
+        total = sum(summary["warning_counts"].values()) or len(summary["warnings"])
+        lines.append(f"warnings    {total}")
+        for warning in summary["warnings"]:
+            lines.append(f"  {warning}")
+    return "\n".join(lines)

@@ -1,0 +1,165 @@
+"""The `galileo-cnc` command line: one sub-command per user task."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+
+from galileo_cnc import __version__
+from galileo_cnc.config.hardware import DEFAULT_BAUD
+from galileo_cnc.errors import GalileoError
+from galileo_cnc.program.ops import NM_PER_MM
+
+
+def _run_info(args: argparse.Namespace) -> int:
+    from galileo_cnc.cli.info import format_summary, summarize
+    from galileo_cnc.readers import read_file
+
+    program = read_file(args.file)
+    summary = summarize(program, margin_nm=round(args.margin * NM_PER_MM))
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        print(format_summary(summary))
+    return 0
+
+
+def _profile(args: argparse.Namespace):
+    from galileo_cnc.config.profile import load_profile
+    return load_profile(args.profile, port=args.port, baud=args.baud)
+
+
+def _run_plot(args: argparse.Namespace) -> int:
+    from galileo_cnc.cli.plot import PlotOptions, run_plot
+
+    options = PlotOptions(args.file, _profile(args), offset=args.offset,
+                          margin_nm=round(args.margin * NM_PER_MM), yes=args.yes,
+                          preview=args.preview, trace=args.trace, resume=args.resume,
+                          group=not args.file_order)
+    return run_plot(options)
+
+
+def _run_preview(args: argparse.Namespace) -> int:
+    from galileo_cnc.plan.offsets import parse_offset
+    from galileo_cnc.machine import simulate
+    from galileo_cnc.plan.planner import plan_program
+    from galileo_cnc.readers import read_file
+    from galileo_cnc.preview.render import render_preview
+
+    config = _profile(args).config
+    program = read_file(args.file)
+    offset = parse_offset(args.offset, program, round(args.margin * NM_PER_MM))
+    job = plan_program(program, config, offset, group=not args.file_order)
+    trace = simulate(job.commands, config)
+    info = render_preview(program, trace, config, offset, args.output)
+    print(f"{args.output}: {info.summary()}")
+    return 0
+
+
+def _run_ports(args: argparse.Namespace) -> int:
+    from galileo_cnc.transport.discovery import answers_with_banner, list_ports
+
+    found = list_ports()
+    for port in found:
+        mark = "known board" if port.known_board else ""
+        line = f"{port.device:<20} {port.description} {mark}".rstrip()
+        if args.probe:
+            line += "  [galileo-cnc firmware]" if answers_with_banner(port.device, args.baud) \
+                else "  [no banner]"
+        print(line)
+    print(f"{'sim://':<20} built-in simulated machine (always there)")
+    print(f"{'simavr://':<20} the firmware running in simavr (after make -C firmware "
+          f"and make -C firmware/harness)")
+    return 0
+
+
+def _run_console(args: argparse.Namespace) -> int:
+    from galileo_cnc.console import run_console
+
+    profile = _profile(args)
+    return run_console(profile.port, profile.baud, profile.config, config_path=profile.path)
+
+
+def _add_connection_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--port", help="COMx, /dev/tty..., a pty path or a pyserial URL "
+                        "(sim:// is the built-in simulated machine); default: find a board, "
+                        "else sim://")
+    parser.add_argument("--baud", type=int,
+                        help=f"baud rate (default {DEFAULT_BAUD}; 9600 accepted)")
+    parser.add_argument("--profile", metavar="TOML", help="machine profile (default: "
+                        "~/.config/galileo-cnc/profile.toml if present, else the seed's machine)")
+
+
+def _add_job_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("file", help="Gerber (RS-274X) or G-code file")
+    parser.add_argument("--offset", default="auto", metavar="auto|none|X,Y",
+                        help="subtracted from every coordinate: auto = the minimum minus the "
+                        "margin (default), none, or X,Y in mm")
+    parser.add_argument("--margin", type=float, default=1.0, metavar="MM",
+                        help="margin kept from the origin by --offset auto (default 1 mm)")
+    parser.add_argument("--file-order", action="store_true",
+                        help="keep the file's order (default: group Gerber work by aperture)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="galileo-cnc",
+        description="Plot Gerber RS-274X artwork and G-code drawings on a home-built CNC plotter.")
+    parser.add_argument("--version", action="version", version=f"galileo-cnc {__version__}")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    info = commands.add_parser("info", help="describe a Gerber or G-code file")
+    info.add_argument("file", help="Gerber (RS-274X) or G-code file")
+    info.add_argument("--json", action="store_true", help="print machine-readable JSON")
+    info.add_argument("--margin", type=float, default=1.0, metavar="MM",
+                      help="margin kept from the origin by the proposed offset (default 1 mm)")
+    info.set_defaults(run=_run_info)
+
+    plot = commands.add_parser("plot", help="plot a file without questions (batch getg)")
+    _add_job_options(plot)
+    _add_connection_options(plot)
+    plot.add_argument("--yes", action="store_true",
+                      help="announce pen changes instead of waiting for Enter")
+    plot.add_argument("--preview", metavar="PNG", help="write a preview of what was plotted")
+    plot.add_argument("--trace", metavar="NPZ", help="write the step trace (tick, axis, dir)")
+    plot.add_argument("--resume", action="store_true",
+                      help="continue the interrupted job of FILE after its last confirmed line")
+    plot.set_defaults(run=_run_plot)
+
+    preview = commands.add_parser("preview", help="draw what the machine will plot, as PNG")
+    _add_job_options(preview)
+    preview.add_argument("-o", "--output", required=True, metavar="PNG")
+    preview.add_argument("--profile", metavar="TOML", help="machine profile")
+    preview.set_defaults(run=_run_preview, port=None, baud=None)
+
+    ports = commands.add_parser("ports", help="list serial ports (and sim://)")
+    ports.add_argument("--probe", action="store_true",
+                       help="open each port and look for the galileo-cnc banner")
+    ports.add_argument("--baud", type=int, default=DEFAULT_BAUD)
+    ports.set_defaults(run=_run_ports)
+
+    console = commands.add_parser("console", help="the interactive console (the default)")
+    _add_connection_options(console)
+    console.set_defaults(run=_run_console)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else argv
+    if not argv or argv[0].startswith("--") and argv[0] not in ("--help", "--version"):
+        argv = ["console", *argv]          # no command: the console, as the seed started
+    args = parser.parse_args(argv)
+    try:
+        return args.run(args)
+    except GalileoError as error:
+        print(f"galileo-cnc: {error}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("galileo-cnc: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:  # output piped into `head` and the like
+        sys.stdout = open(os.devnull, "w")
+        return 0

@@ -1,0 +1,148 @@
+"""`galileo-cnc plot`: the console's getg without questions, for shells and scripts.
+
+Reads the file, applies the offset (`auto`: the proposed one, `none`, or X,Y in
+mm), plans, streams with a one-line progress display, announces pen changes
+(waits for Enter unless --yes), and can write the step trace and a preview.
+Exit codes: 0 done, 1 bad input or refused job, 3 port lost (resume with
+--resume), 130 stopped with Ctrl-C (the machine ramped down).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TextIO
+
+from galileo_cnc.errors import GalileoError
+from galileo_cnc.machine.timing import duration_text
+from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM, parse_offset
+from galileo_cnc.program.extents import extents
+from galileo_cnc.stream.journal import Journal
+from galileo_cnc.transport.link import MachineLink, PortGone
+from galileo_cnc.job import Job
+from galileo_cnc.plan.planner import plan_program
+from galileo_cnc.config.profile import Profile
+from galileo_cnc.program.ops import NM_PER_MM, Program
+from galileo_cnc.stream.streamer import JobStreamer, PenChange, Progress, StreamResult
+from galileo_cnc.stream.resume import plan_resume
+
+EXIT_OK, EXIT_FAILED, EXIT_PORT_LOST, EXIT_INTERRUPTED = 0, 1, 3, 130
+
+
+class TextProgress:
+    """One self-rewriting line on a terminal; a line per 10 % elsewhere."""
+
+    def __init__(self, out: TextIO):
+        self.out = out
+        self.tty = out.isatty()
+        self._shown = -1
+
+    def __call__(self, p: Progress) -> None:
+        percent = 100 * p.confirmed // max(p.total, 1)
+        eta = duration_text(p.eta_s) if p.eta_s is not None else "?"
+        text = (f"{percent:3d}% {p.confirmed}/{p.total} lines  line {p.source_line} of the file"
+                f"  ETA {eta}")
+        if self.tty:
+            bar = "#" * (percent // 4)
+            self.out.write(f"\r[{bar:<25}] {text}\x1b[K")
+            self.out.flush()
+        elif percent // 10 != self._shown:
+            self._shown = percent // 10
+            self.out.write(text + "\n")
+
+    def message(self, text: str) -> None:
+        self.out.write(("\r\x1b[K" if self.tty else "") + text + "\n")
+        self.out.flush()
+
+
+@dataclass
+class PlotOptions:
+    file: str
+    profile: Profile
+    offset: str = "auto"
+    margin_nm: int = DEFAULT_MARGIN_NM
+    yes: bool = False
+    preview: str | None = None
+    trace: str | None = None
+    resume: bool = False
+    group: bool = True
+
+
+def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.stderr) -> int:
+    from galileo_cnc.readers import read_file
+
+    profile = options.profile
+    journal = Journal.default()
+    program = read_file(options.file)
+    offset = parse_offset(options.offset, program, options.margin_nm)
+    job = plan_program(program, profile.config, offset, group=options.group)
+
+    link = MachineLink.open(profile.port, profile.baud, profile.config, profile.path)
+    progress = TextProgress(out)
+    link.on_message = progress.message
+    try:
+        found = " (no board found)" if profile.port is None and link.simulated else ""
+        out.write(link.describe() + found + "\n")
+        start = 0
+        if options.resume:
+            entry = journal.pending()
+            if entry is None or Path(entry.source) != Path(options.file).resolve():
+                raise GalileoError(f"no interrupted job of {options.file} to resume")
+            job, program, start = plan_resume(link, entry)
+            offset = job.offset_nm                  # the interrupted job's, not --offset
+            out.write(f"resuming after command {start} of {len(job)}\n")
+        box = extents(program)
+        if box is not None:
+            out.write(f"{program.source}: minimum X {box[0] / NM_PER_MM:.3f} mm, "
+                      f"Y {box[1] / NM_PER_MM:.3f} mm; offset {offset[0] / NM_PER_MM:.3f}, "
+                      f"{offset[1] / NM_PER_MM:.3f} mm\n")
+        streamer = JobStreamer(link, job, program, journal=journal, start=start)
+        out.write(f"{len(job) - start} commands, about "
+                  f"{duration_text(streamer.timing.seconds_between(start, len(job)))} "
+                  f"of machine time\n")
+
+        def pen_change(change: PenChange) -> None:
+            progress.message(f"\ainsert pen for aperture {change.description}"
+                             + ("" if options.yes else ", then press Enter"))
+            if not options.yes:
+                sys.stdin.readline()
+
+        began = time.monotonic()
+        try:
+            result: StreamResult = streamer.run(on_progress=progress, on_pen_change=pen_change)
+        except PortGone as gone:
+            progress.message(f"galileo-cnc: {gone}")
+            progress.message(f"the job can continue: galileo-cnc plot {options.file} --resume")
+            return EXIT_PORT_LOST
+        if not result.completed:
+            progress.message(f"stopped: {result.reason}; the machine ramped down "
+                             f"({result.confirmed} of {result.total} commands confirmed)")
+            return EXIT_INTERRUPTED
+        progress.message(f"\aprocess has finished in {duration_text(time.monotonic() - began)}")
+        _write_outputs(options, link, job, program, offset, out)
+    finally:
+        link.close()
+    return EXIT_OK
+
+
+def _write_outputs(options: PlotOptions, link: MachineLink, job: Job, program: Program,
+                   offset: tuple[int, int], out: TextIO) -> None:
+    if not (options.trace or options.preview):
+        return
+    trace = job_trace(link, job)
+    if options.trace:
+        trace.save(options.trace)
+        out.write(f"step trace: {options.trace} ({len(trace)} steps)\n")
+    if options.preview:
+        from galileo_cnc.preview.render import render_preview
+        info = render_preview(program, trace, link.config, offset, options.preview)
+        out.write(f"preview: {options.preview}: {info.summary()}\n")
+
+
+def job_trace(link: MachineLink, job: Job):
+    """The reference machine's trace of the job: what the machine steps, from any
+    port (a real board cannot report its steps; sim:// steps the same)."""
+    from galileo_cnc.machine import simulate
+    return simulate(job.commands, link.config)

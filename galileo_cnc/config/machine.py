@@ -1,0 +1,303 @@
+"""Machine configuration: one frozen record, the seed's machine as defaults.
+
+Everything the host, the reference machine and the firmware header must agree on
+lives here (DESIGN.md §3 rule 6): mechanics, feeds, ramps, pen heights, travel,
+pins and homing. A user edits it as a TOML file; any field may be overridden.
+
+Units are in the field names. Lengths the user thinks of in millimetres (feeds,
+travel) are given in mm; the integer values the machine works with (steps,
+steps/s, ticks) are derived properties, rounded once, here.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import math
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any, Mapping
+
+try:  # Python 3.11+
+    import tomllib
+except ModuleNotFoundError:  # pragma: no cover - Python 3.10
+    import tomli as tomllib  # type: ignore[no-redef]
+
+from galileo_cnc.config.hardware import TICKS_PER_S
+from galileo_cnc.errors import GalileoError
+
+NO_PIN = -1
+
+
+class ConfigError(GalileoError):
+    """A configuration file or override is malformed."""
+
+
+@dataclass(frozen=True, slots=True)
+class MachineConfig:
+    """The plotter's mechanics, speeds, pen heights, travel, pins and homing."""
+
+    # Mechanics: 200 steps/rev motor on an M8x1.25 threaded rod -> 160 steps/mm.
+    steps_per_rev: int = 200
+    pitch_mm: float = 1.25
+    # Feeds. The seed ran 5 mm/s (240 rpm) and warned above 6.25 mm/s (300 rpm).
+    feed_mm_s: float = 5.0
+    feed_warn_mm_s: float = 6.25
+    # Pen-up travel runs at the fastest feed the seed considered safe.
+    rapid_feed_mm_s: float = 6.25
+    # Pen lift/lower (Z) moves.
+    z_feed_mm_s: float = 5.0
+    # Ramps (docs/motion.md §5): start at ramp_start_factor x the step period and
+    # approach 1x; the ramp length follows from the axis acceleration bound.
+    accel_mm_s2: float = 250.0
+    ramp_start_factor: int = 3
+    # Fastest step rate the firmware supports on one axis: 50 ticks = 25 us = 40 kHz.
+    min_step_period_ticks: int = 50
+    # Pen: Z = pen_down_z_steps draws, pen_lift_steps above it is "up".
+    pen_down_z_steps: int = 0
+    pen_lift_steps: int = 300
+    flash_dwell_ms: int = 200
+    # Travel (soft limits) in machine coordinates; 0 is the power-on / homed position.
+    x_travel_mm: float = 200.0
+    y_travel_mm: float = 200.0
+    z_min_steps: int = 0
+    z_max_steps: int = 600
+    # Pins (Arduino Uno numbering), the seed's wiring. NO_PIN (-1): not fitted.
+    x_dir_pin: int = 10
+    x_step_pin: int = 11
+    y_dir_pin: int = 8
+    y_step_pin: int = 9
+    z_dir_pin: int = 12
+    z_step_pin: int = 13
+    x_home_pin: int = 7
+    y_home_pin: int = 6
+    z_home_pin: int = NO_PIN
+    # Homing: seek toward the switch (-1: toward the low end) at a constant slow
+    # rate, trip after `home_debounce_reads` consecutive active reads, back off.
+    x_home_dir: int = -1
+    y_home_dir: int = -1
+    z_home_dir: int = 1
+    home_feed_mm_s: float = 1.0
+    home_debounce_reads: int = 4
+    home_pulloff_steps: int = 160
+    # Simulated machine only: where the end-stop switches trip, in steps relative
+    # to the power-on position (the reference machine needs a physical world).
+    sim_x_endstop_steps: int = -400
+    sim_y_endstop_steps: int = -400
+    sim_z_endstop_steps: int = 700
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if f.type == "int" and (not isinstance(value, int) or isinstance(value, bool)):
+                raise ConfigError(f"config: {f.name} must be an integer, got {value!r}")
+            if f.type == "float":
+                if isinstance(value, bool) or not isinstance(value, (int, float)):
+                    raise ConfigError(f"config: {f.name} must be a number, got {value!r}")
+                object.__setattr__(self, f.name, float(value))
+        positive = ("steps_per_rev", "pitch_mm", "feed_mm_s", "feed_warn_mm_s",
+                    "rapid_feed_mm_s", "z_feed_mm_s", "accel_mm_s2", "ramp_start_factor",
+                    "min_step_period_ticks", "x_travel_mm", "y_travel_mm",
+                    "home_feed_mm_s", "home_debounce_reads")
+        for name in positive:
+            if getattr(self, name) <= 0:
+                raise ConfigError(f"config: {name} must be > 0, got {getattr(self, name)!r}")
+        for name in ("pen_lift_steps", "flash_dwell_ms", "home_pulloff_steps"):
+            if getattr(self, name) < 0:
+                raise ConfigError(f"config: {name} must be >= 0, got {getattr(self, name)!r}")
+        for name in ("x_home_dir", "y_home_dir", "z_home_dir"):
+            if getattr(self, name) not in (-1, 1):
+                raise ConfigError(f"config: {name} must be -1 or 1, got {getattr(self, name)!r}")
+        if self.z_min_steps > self.z_max_steps:
+            raise ConfigError("config: z_min_steps must not exceed z_max_steps")
+        for name in ("feed_mm_s", "rapid_feed_mm_s", "z_feed_mm_s", "home_feed_mm_s"):
+            sps = self.feed_steps_per_s_of(getattr(self, name))
+            if not MIN_FEED_STEPS_PER_S <= sps <= self.max_feed_steps_per_s:
+                raise ConfigError(
+                    f"config: {name} = {getattr(self, name)} mm/s is {sps} steps/s, outside "
+                    f"{MIN_FEED_STEPS_PER_S}..{self.max_feed_steps_per_s} steps/s")
+
+    # ---- derived integer values -------------------------------------------------
+    @property
+    def steps_per_mm(self) -> float:
+        """160.0 for the seed's mechanics."""
+        return self.steps_per_rev / self.pitch_mm
+
+    @property
+    def pitch_nm(self) -> int:
+        return round(self.pitch_mm * 1_000_000)
+
+    def nm_to_steps(self, nm: int) -> int:
+        """Nearest step (halves away from zero), in exact integer arithmetic."""
+        num = abs(nm) * self.steps_per_rev
+        steps = (2 * num + self.pitch_nm) // (2 * self.pitch_nm)
+        return steps if nm >= 0 else -steps
+
+    def mm_to_steps(self, mm: float) -> int:
+        return self.nm_to_steps(round(mm * 1_000_000))
+
+    def feed_steps_per_s_of(self, mm_s: float) -> int:
+        """A feed in mm/s as the integer steps/s the machine commands carry."""
+        return int(math.floor(mm_s * self.steps_per_mm + 0.5))
+
+    def feed_rpm(self, mm_s: float) -> float:
+        """Motor speed for a feed: rpm = mm/s * 60 / pitch (= feed * 48 for the seed)."""
+        return mm_s * 60.0 / self.pitch_mm
+
+    @property
+    def feed_steps_per_s(self) -> int:
+        return self.feed_steps_per_s_of(self.feed_mm_s)
+
+    @property
+    def rapid_steps_per_s(self) -> int:
+        return self.feed_steps_per_s_of(self.rapid_feed_mm_s)
+
+    @property
+    def z_feed_steps_per_s(self) -> int:
+        return self.feed_steps_per_s_of(self.z_feed_mm_s)
+
+    @property
+    def home_feed_steps_per_s(self) -> int:
+        return self.feed_steps_per_s_of(self.home_feed_mm_s)
+
+    @property
+    def accel_steps_per_s2(self) -> int:
+        return max(1, round(self.accel_mm_s2 * self.steps_per_mm))
+
+    @property
+    def max_feed_steps_per_s(self) -> int:
+        """The step rate that keeps one axis at or above the minimum step period."""
+        return TICKS_PER_S // self.min_step_period_ticks
+
+    @property
+    def pen_up_z_steps(self) -> int:
+        return self.pen_down_z_steps + self.pen_lift_steps
+
+    @property
+    def travel_min_steps(self) -> tuple[int, int, int]:
+        return (0, 0, self.z_min_steps)
+
+    @property
+    def travel_max_steps(self) -> tuple[int, int, int]:
+        return (self.mm_to_steps(self.x_travel_mm), self.mm_to_steps(self.y_travel_mm),
+                self.z_max_steps)
+
+    @property
+    def home_pins(self) -> tuple[int, int, int]:
+        return (self.x_home_pin, self.y_home_pin, self.z_home_pin)
+
+    @property
+    def home_dirs(self) -> tuple[int, int, int]:
+        return (self.x_home_dir, self.y_home_dir, self.z_home_dir)
+
+    @property
+    def sim_endstop_steps(self) -> tuple[int, int, int]:
+        return (self.sim_x_endstop_steps, self.sim_y_endstop_steps, self.sim_z_endstop_steps)
+
+    # ---- construction -----------------------------------------------------------
+    def firmware_values(self) -> tuple[tuple[str, int, str], ...]:
+        """What the firmware is built with from this profile: config.h's `CFG_` names,
+        integer values and comments, in header order. The digest in the firmware's
+        banner covers exactly these, so the host can tell a board built for another
+        machine (docs/protocol.md, Banner)."""
+        tmin, tmax = self.travel_min_steps, self.travel_max_steps
+        return (
+            ("STEPS_PER_REV", self.steps_per_rev, "mechanics (informational: the host converts)"),
+            ("PITCH_NM", round(self.pitch_mm * 1_000_000), ""),
+            ("FEED_STEPS_PER_S", self.feed_steps_per_s, "default feed"),
+            ("RAPID_STEPS_PER_S", self.rapid_steps_per_s, "pen-up travel"),
+            ("Z_FEED_STEPS_PER_S", self.z_feed_steps_per_s, "pen up / down"),
+            ("HOME_FEED_STEPS_PER_S", self.home_feed_steps_per_s, "homing seek and pull-off"),
+            ("MAX_FEED_STEPS_PER_S", self.max_feed_steps_per_s, "= TICKS_PER_S / MIN_STEP_PERIOD"),
+            ("MIN_STEP_PERIOD_TICKS", self.min_step_period_ticks, ""),
+            ("ACCEL_STEPS_PER_S2", self.accel_steps_per_s2, "axis acceleration bound A"),
+            ("RAMP_START_FACTOR", self.ramp_start_factor, "a move starts at this x the period"),
+            ("PEN_DOWN_Z_STEPS", self.pen_down_z_steps, ""),
+            ("PEN_UP_Z_STEPS", self.pen_up_z_steps, ""),
+            ("FLASH_DWELL_MS", self.flash_dwell_ms, ""),
+            ("X_TRAVEL_MIN_STEPS", tmin[0], "soft limits, machine steps"),
+            ("X_TRAVEL_MAX_STEPS", tmax[0], ""),
+            ("Y_TRAVEL_MIN_STEPS", tmin[1], ""),
+            ("Y_TRAVEL_MAX_STEPS", tmax[1], ""),
+            ("Z_TRAVEL_MIN_STEPS", tmin[2], ""),
+            ("Z_TRAVEL_MAX_STEPS", tmax[2], ""),
+            ("X_STEP_PIN", self.x_step_pin, "Arduino pin numbers"),
+            ("X_DIR_PIN", self.x_dir_pin, ""),
+            ("Y_STEP_PIN", self.y_step_pin, ""),
+            ("Y_DIR_PIN", self.y_dir_pin, ""),
+            ("Z_STEP_PIN", self.z_step_pin, ""),
+            ("Z_DIR_PIN", self.z_dir_pin, ""),
+            ("X_HOME_PIN", self.x_home_pin, f"{NO_PIN}: no end-stop; INPUT_PULLUP, active LOW"),
+            ("Y_HOME_PIN", self.y_home_pin, ""),
+            ("Z_HOME_PIN", self.z_home_pin, ""),
+            ("X_HOME_DIR", self.x_home_dir, "seek direction"),
+            ("Y_HOME_DIR", self.y_home_dir, ""),
+            ("Z_HOME_DIR", self.z_home_dir, ""),
+            ("HOME_DEBOUNCE_READS", self.home_debounce_reads, "consecutive active reads"),
+            ("HOME_PULLOFF_STEPS", self.home_pulloff_steps, ""),
+        )
+
+    def firmware_text(self) -> str:
+        """`NAME=value` pairs of `firmware_values`, as the firmware's `C` query answers."""
+        return " ".join(f"{name}={value}" for name, value, _ in self.firmware_values())
+
+    def firmware_digest(self) -> str:
+        """Eight hex digits naming `firmware_values`; the banner's `config` field."""
+        return hashlib.sha256(self.firmware_text().encode("ascii")).hexdigest()[:8]
+
+    def replace(self, **overrides: Any) -> "MachineConfig":
+        _check_keys(overrides, "override")
+        return dataclasses.replace(self, **overrides)
+
+    @classmethod
+    def from_mapping(cls, data: Mapping[str, Any], source: str = "config") -> "MachineConfig":
+        """Build from a TOML-like mapping: top-level keys or a `[machine]` table."""
+        if "machine" in data and isinstance(data["machine"], Mapping):
+            extra = [k for k in data if k != "machine" and not isinstance(data[k], Mapping)]
+            data = {**{k: data[k] for k in extra}, **data["machine"]}
+        else:  # other tables (serial port, console) belong to other parts of the program
+            data = {k: v for k, v in data.items() if not isinstance(v, Mapping)}
+        _check_keys(data, source)
+        return cls(**data)
+
+    @classmethod
+    def from_toml(cls, path: str | Path, **overrides: Any) -> "MachineConfig":
+        config = cls.from_mapping(read_toml(path), source=str(path))
+        return config.replace(**overrides) if overrides else config
+
+    def to_toml(self) -> str:
+        """The config as a `[machine]` TOML table (for writing a starter file)."""
+        lines = ["[machine]"]
+        for f in fields(self):
+            value = getattr(self, f.name)
+            lines.append(f"{f.name} = {value!r}")
+        return "\n".join(lines) + "\n"
+
+
+MIN_FEED_STEPS_PER_S = 10
+_FIELD_NAMES = frozenset(f.name for f in fields(MachineConfig))
+
+
+def _check_keys(data: Mapping[str, Any], source: str) -> None:
+    unknown = sorted(set(data) - _FIELD_NAMES)
+    if unknown:
+        raise ConfigError(f"{source}: unknown machine setting(s): {', '.join(unknown)}")
+
+
+def read_toml(path: str | Path, what: str = "config") -> dict:
+    """A TOML file as a dict; ConfigError naming the file when it cannot be read."""
+    path = Path(path)
+    try:
+        with path.open("rb") as fh:
+            return tomllib.load(fh)
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read {what}: {exc.strerror}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: bad TOML: {exc}") from None
+
+
+def load_config(path: str | Path | None = None, **overrides: Any) -> MachineConfig:
+    """The seed defaults, or a TOML file, with keyword overrides applied last."""
+    if path is None:
+        return MachineConfig().replace(**overrides) if overrides else MachineConfig()
+    return MachineConfig.from_toml(path, **overrides)

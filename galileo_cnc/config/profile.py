@@ -1,0 +1,56 @@
+"""The machine profile: one TOML file with the machine and how to reach it.
+
+```toml
+[machine]            # any MachineConfig field (galileo_cnc/config.py); the seed's machine by default
+steps_per_rev = 200
+pitch_mm = 1.25
+
+[serial]
+port = "/dev/ttyACM0"   # COMx, /dev/tty..., a pty path or a pyserial URL; absent: auto-detect
+baud = 115200
+```
+
+Found at `--profile FILE`, else `$GALILEO_CNC_HOME/profile.toml` or
+`$XDG_CONFIG_HOME/galileo-cnc/profile.toml` (~/.config/galileo-cnc) if it exists,
+else the defaults. Command-line `--port`/`--baud` win over the file.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from galileo_cnc.config.machine import ConfigError, MachineConfig, read_toml
+from galileo_cnc.config.hardware import BAUD_RATES, DEFAULT_BAUD
+from galileo_cnc.config.userdirs import config_dir
+
+PROFILE_NAME = "profile.toml"
+
+
+@dataclass(frozen=True)
+class Profile:
+    config: MachineConfig
+    port: str | None = None
+    baud: int = DEFAULT_BAUD
+    path: Path | None = None
+
+
+def load_profile(path: str | os.PathLike | None = None, *, port: str | None = None,
+                 baud: int | None = None) -> Profile:
+    """The profile at `path` (or the user's, or the defaults), with `port`/`baud` applied."""
+    found = Path(path) if path is not None else config_dir() / PROFILE_NAME
+    if path is None and not found.exists():
+        found = None
+    data = read_toml(found, "the profile") if found is not None else {}
+    serial_table = data.get("serial", {})
+    unknown = sorted(set(serial_table) - {"port", "baud"})
+    if unknown:
+        raise ConfigError(f"{found}: [serial] has unknown key(s): {', '.join(unknown)} "
+                          f"(known: port, baud)")
+    config = MachineConfig.from_mapping(data, str(found)) if data else MachineConfig()
+    baud = baud or serial_table.get("baud", DEFAULT_BAUD)
+    if baud not in BAUD_RATES:
+        raise ConfigError(f"baud rate {baud} not supported (use one of "
+                          f"{', '.join(map(str, BAUD_RATES))})")
+    return Profile(config, port or serial_table.get("port") or None, baud, found)

@@ -1,0 +1,298 @@
+"""The reference machine: executes commands, keeps state, yields the step trace.
+
+State: machine position (steps from power-on or from the last homing), the work
+origin, the feed, motor enable, the simulated world (where the end-stops are)
+and the clock. Commands are planned into moves once (soft limits are checked
+here, before any step of the command); the moves are then stepped by the
+vectorised reference or, for cross-checks, by the per-step loop.
+"""
+
+from __future__ import annotations
+
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from galileo_cnc.config.machine import MIN_FEED_STEPS_PER_S, MachineConfig
+from galileo_cnc.machine import stepper as loop, vector
+from galileo_cnc.machine.arcs import MAX_ARC_COORD, arc_bbox, arc_geometry
+from galileo_cnc.job import (AXIS_NAMES, ArcTo, Command, Dwell, EndJob, Flash, Home, Jog,
+                             LineTo, MachineError, Motors, PenDown, PenUp, Rapid, SetFeed,
+                             SetOrigin)
+from galileo_cnc.machine.blocks import ArcMove, Hold, Item, LineMove, Pause, SeekMove
+from galileo_cnc.machine.ramps import (FRAC_BITS, TICKS_PER_MS, axial_interval_sub,
+                                       line_rho_q15, ramp_events, ramp_step_sub,
+                                       weighted_interval_sub)
+from galileo_cnc.machine.trace import Trace
+
+BACKENDS = {"numpy": vector.execute, "loop": loop.execute}
+
+
+class ReferenceMachine:
+    """The Python mirror of the firmware (DESIGN.md §2, docs/motion.md)."""
+
+    def __init__(self, config: MachineConfig | None = None,
+                 position: tuple[int, int, int] = (0, 0, 0)):
+        self.config = config or MachineConfig()
+        self.position = list(position)          # machine steps
+        self.origin = [0, 0, 0]                 # machine steps of work zero
+        self.phys_offset = [0, 0, 0]            # simulated world: physical - machine
+        self.feed_steps_per_s = self.config.feed_steps_per_s
+        self.motors_on = True
+        self.ended = False
+        self.clock_ticks = 0
+        self._index = 0
+        self._command: Command | None = None
+
+    # ---- public API -------------------------------------------------------------
+    @property
+    def work_position(self) -> tuple[int, int, int]:
+        p, o = self.position, self.origin
+        return (p[0] - o[0], p[1] - o[1], p[2] - o[2])
+
+    def plan(self, commands: Iterable[Command]) -> list[Item]:
+        """Turn commands into moves; raises MachineError before any step of a bad one.
+
+        A refused job leaves the machine state as it was (nothing has moved).
+        """
+        items: list[Item] = []
+        saved = self._state()
+        try:
+            for index, cmd in enumerate(commands):
+                self._index, self._command = index, cmd
+                if self.ended:
+                    raise MachineError(f"command {index} ({cmd}): the job has ended",
+                                       index=index)
+                handler = _HANDLERS.get(type(cmd))
+                if handler is None:
+                    raise MachineError(f"command {index}: unknown command {cmd!r}", index=index)
+                handler(self, cmd, items)
+        except MachineError:
+            self._restore(saved)
+            raise
+        return items
+
+    def _state(self) -> tuple:
+        return (list(self.position), list(self.origin), list(self.phys_offset),
+                self.feed_steps_per_s, self.motors_on, self.ended)
+
+    def _restore(self, state: tuple) -> None:
+        (self.position, self.origin, self.phys_offset, self.feed_steps_per_s,
+         self.motors_on, self.ended) = state
+
+    def run(self, commands: Iterable[Command], holds: Sequence[Hold] = (),
+            abort_at_tick: int | None = None, backend: str = "numpy") -> Trace:
+        """Plan and step `commands`; ticks continue from this machine's clock."""
+        commands = list(commands)
+        start_state = self._state()
+        items = self.plan(commands)
+        tick, axis, direction, end, aborted = BACKENDS[backend](
+            items, self.clock_ticks, holds, abort_at_tick)
+        self.clock_ticks = end
+        if aborted:
+            moved = np.bincount(axis, weights=direction, minlength=3).astype(int)
+            self.origin = self._origin_when_stopped(commands, start_state,
+                                                    events_done=len(np.unique(tick)))
+            self.position = [start_state[0][a] + int(moved[a]) for a in range(3)]
+        return Trace(tick, axis, direction, self.work_position, end)
+
+    def _origin_when_stopped(self, commands: list[Command], start_state: tuple,
+                             events_done: int) -> list[int]:
+        """The work origin as the machine had it when an abort stopped it (§6).
+
+        A SetOrigin is a queued block: it took effect only if every move before it
+        ran; the abort drops the rest of the queue. The feed, by contrast, is the
+        planner's and stays as the last command received set it (the firmware's
+        rule), so it is left as planned.
+        """
+        probe = ReferenceMachine(self.config)
+        probe._restore(tuple(list(v) if isinstance(v, list) else v for v in start_state))
+        origin, done = list(start_state[1]), 0
+        for command in commands:
+            if done >= events_done:
+                break
+            done += sum(item.n for item in probe.plan([command]) if not isinstance(item, Pause))
+            origin = list(probe.origin)
+        return origin
+
+    # ---- helpers ----------------------------------------------------------------
+    def _fail(self, message: str, axis: str = "", limit: int | None = None) -> MachineError:
+        return MachineError(f"command {self._index} ({self._command}): {message}",
+                            axis=axis, limit=limit, index=self._index)
+
+    def _check_travel(self, lo: Sequence[int], hi: Sequence[int]) -> None:
+        """Refuse a move whose visited box [lo, hi] (machine steps) leaves the travel."""
+        tmin, tmax = self.config.travel_min_steps, self.config.travel_max_steps
+        for a in range(3):
+            if lo[a] < tmin[a]:
+                raise self._fail(f"{AXIS_NAMES[a]} would reach {lo[a]} steps, below the "
+                                 f"travel minimum {AXIS_NAMES[a]}={tmin[a]}",
+                                 AXIS_NAMES[a], tmin[a])
+            if hi[a] > tmax[a]:
+                raise self._fail(f"{AXIS_NAMES[a]} would reach {hi[a]} steps, beyond the "
+                                 f"travel maximum {AXIS_NAMES[a]}={tmax[a]}",
+                                 AXIS_NAMES[a], tmax[a])
+
+    def _work_to_machine(self, x: int, y: int, z: int | None) -> list[int]:
+        o = self.origin
+        return [x + o[0], y + o[1], self.position[2] if z is None else z + o[2]]
+
+    def _line(self, target: list[int], feed: int, items: list[Item], ramped: bool = True,
+              check: bool = True) -> None:
+        if check:
+            self._check_travel([min(p, t) for p, t in zip(self.position, target)],
+                               [max(p, t) for p, t in zip(self.position, target)])
+        delta = (target[0] - self.position[0], target[1] - self.position[1],
+                 target[2] - self.position[2])
+        n = max(abs(delta[0]), abs(delta[1]), abs(delta[2]))
+        if n == 0:
+            return
+        self.motors_on = True
+        cfg = self.config
+        base = weighted_interval_sub(axial_interval_sub(feed), line_rho_q15(*delta, n))
+        ramp = ramp_events(feed, cfg.accel_steps_per_s2) if ramped else 0
+        items.append(LineMove(tuple(self.position), delta, n, base, ramp,
+                              ramp_step_sub(base, ramp, cfg.ramp_start_factor)))
+        self.position = list(target)
+
+    def _z_to(self, z_work: int, items: list[Item]) -> None:
+        target = list(self.position)
+        target[2] = z_work + self.origin[2]
+        self._line(target, self.config.z_feed_steps_per_s, items)
+
+    # ---- command handlers ---------------------------------------------------------
+    def _rapid(self, cmd: Rapid, items: list[Item]) -> None:
+        target = self._work_to_machine(cmd.x_steps, cmd.y_steps, None)
+        target[2] = self.config.pen_up_z_steps + self.origin[2]
+        self._check_travel([min(p, t) for p, t in zip(self.position, target)],
+                           [max(p, t) for p, t in zip(self.position, target)])
+        self._z_to(self.config.pen_up_z_steps, items)
+        self._line(target, self.config.rapid_steps_per_s, items)
+
+    def _line_to(self, cmd: LineTo, items: list[Item]) -> None:
+        self._line(self._work_to_machine(cmd.x_steps, cmd.y_steps, cmd.z_steps),
+                   self.feed_steps_per_s, items)
+
+    def _arc_to(self, cmd: ArcTo, items: list[Item]) -> None:
+        end = self._work_to_machine(cmd.x_steps, cmd.y_steps, None)
+        center = (self.position[0] + cmd.i_steps, self.position[1] + cmd.j_steps)
+        rel_s = (self.position[0] - center[0], self.position[1] - center[1])
+        rel_e = (end[0] - center[0], end[1] - center[1])
+        if max(abs(rel_s[0]), abs(rel_s[1]), abs(rel_e[0]), abs(rel_e[1])) > MAX_ARC_COORD:
+            raise self._fail(f"arc radius too large (more than {MAX_ARC_COORD} steps "
+                             f"from the centre on an axis)")
+        geom = arc_geometry(rel_s, rel_e, not cmd.cw)
+        x0, x1, y0, y1 = arc_bbox(geom)
+        z = self.position[2]
+        self._check_travel([x0 + center[0], y0 + center[1], z], [x1 + center[0], y1 + center[1], z])
+        if geom.n == 0:
+            return
+        self.motors_on = True
+        cfg = self.config
+        axial = axial_interval_sub(self.feed_steps_per_s)
+        ramp = ramp_events(self.feed_steps_per_s, cfg.accel_steps_per_s2)
+        # The length scale (§5.3) can take a band below 1 step per event: the
+        # minimum step period still bounds the major axis (§5.6).
+        floor = cfg.min_step_period_ticks << FRAC_BITS
+        items.append(ArcMove(tuple(self.position), center, geom,
+                             tuple(max(weighted_interval_sub(axial, r), floor)
+                                   for r in geom.band_rho),
+                             geom.n, ramp, ramp_step_sub(axial, ramp, cfg.ramp_start_factor)))
+        self.position = [end[0], end[1], z]
+
+    def _pen_up(self, cmd: PenUp, items: list[Item]) -> None:
+        self._z_to(self.config.pen_up_z_steps, items)
+
+    def _pen_down(self, cmd: PenDown, items: list[Item]) -> None:
+        self._z_to(self.config.pen_down_z_steps, items)
+
+    def _flash(self, cmd: Flash, items: list[Item]) -> None:
+        ms = self.config.flash_dwell_ms if cmd.dwell_ms is None else cmd.dwell_ms
+        if ms < 0:
+            raise self._fail(f"negative dwell {ms} ms")
+        self._z_to(self.config.pen_down_z_steps, items)
+        items.append(Pause(ms * TICKS_PER_MS))
+        self._z_to(self.config.pen_up_z_steps, items)
+
+    def _dwell(self, cmd: Dwell, items: list[Item]) -> None:
+        if cmd.ms < 0:
+            raise self._fail(f"negative dwell {cmd.ms} ms")
+        items.append(Pause(cmd.ms * TICKS_PER_MS))
+
+    def _set_feed(self, cmd: SetFeed, items: list[Item]) -> None:
+        hi = self.config.max_feed_steps_per_s
+        if not MIN_FEED_STEPS_PER_S <= cmd.feed_steps_per_s <= hi:
+            raise self._fail(f"feed {cmd.feed_steps_per_s} steps/s outside "
+                             f"{MIN_FEED_STEPS_PER_S}..{hi} steps/s")
+        self.feed_steps_per_s = cmd.feed_steps_per_s
+
+    def _jog(self, cmd: Jog, items: list[Item]) -> None:
+        p = self.position
+        self._line([p[0] + cmd.dx_steps, p[1] + cmd.dy_steps, p[2] + cmd.dz_steps],
+                   self.feed_steps_per_s, items)
+
+    def _set_origin(self, cmd: SetOrigin, items: list[Item]) -> None:
+        self.origin = list(self.position)
+
+    def _home(self, cmd: Home, items: list[Item]) -> None:
+        cfg = self.config
+        base = axial_interval_sub(cfg.home_feed_steps_per_s)
+        for a in (2, 0, 1):
+            if cfg.home_pins[a] == -1:
+                continue
+            direction = cfg.home_dirs[a]
+            phys = self.position[a] + self.phys_offset[a]
+            switch_at = cfg.sim_endstop_steps[a]
+            reads = cfg.home_debounce_reads
+            if direction * (phys - switch_at) >= 0:
+                raise self._fail(f"{AXIS_NAMES[a]} end-stop already active; jog away "
+                                 f"before homing", AXIS_NAMES[a])
+            span = cfg.travel_max_steps[a] - cfg.travel_min_steps[a]
+            max_steps = span + 2 * cfg.home_pulloff_steps + reads
+            n = direction * (switch_at - phys) + reads - 1
+            if n > max_steps:
+                raise self._fail(f"{AXIS_NAMES[a]} end-stop not found within {max_steps} "
+                                 f"steps", AXIS_NAMES[a])
+            self.motors_on = True
+            items.append(SeekMove(tuple(self.position), a, direction, n, base, reads,
+                                  phys, switch_at, max_steps))
+            self.position[a] += direction * n
+            if cfg.home_pulloff_steps <= reads - 1:
+                raise self._fail(f"{AXIS_NAMES[a]} end-stop still active after the "
+                                 f"pull-off; raise home_pulloff_steps", AXIS_NAMES[a])
+            target = list(self.position)
+            target[a] -= direction * cfg.home_pulloff_steps
+            self._line(target, cfg.home_feed_steps_per_s, items, ramped=False, check=False)
+            self.phys_offset[a] += self.position[a]
+            self.position[a] = 0
+            self.origin[a] = 0
+
+    def _motors(self, cmd: Motors, items: list[Item]) -> None:
+        self.motors_on = bool(cmd.on)
+
+    def _end_job(self, cmd: EndJob, items: list[Item]) -> None:
+        self._z_to(self.config.pen_up_z_steps, items)
+        self.ended = True
+
+
+_HANDLERS = {
+    Rapid: ReferenceMachine._rapid, LineTo: ReferenceMachine._line_to,
+    ArcTo: ReferenceMachine._arc_to, PenUp: ReferenceMachine._pen_up,
+    PenDown: ReferenceMachine._pen_down, Flash: ReferenceMachine._flash,
+    Dwell: ReferenceMachine._dwell, SetFeed: ReferenceMachine._set_feed,
+    Jog: ReferenceMachine._jog, SetOrigin: ReferenceMachine._set_origin,
+    Home: ReferenceMachine._home, Motors: ReferenceMachine._motors,
+    EndJob: ReferenceMachine._end_job,
+}
+
+
+def simulate(commands: Iterable[Command], config: MachineConfig | None = None,
+             holds: Sequence[Hold] = (), abort_at_tick: int | None = None,
+             backend: str = "numpy", position: tuple[int, int, int] = (0, 0, 0)) -> Trace:
+    """Run a job on a fresh reference machine and return its step trace."""
+    return ReferenceMachine(config, position).run(commands, holds, abort_at_tick, backend)
+
+
+def estimate_seconds(commands: Iterable[Command], config: MachineConfig | None = None) -> float:
+    """Job duration from the same computation that makes the trace."""
+    return simulate(commands, config).seconds

@@ -1,0 +1,59 @@
+"""Offsets: where the artwork goes on the machine (the seed's minimum-coordinate rule).
+
+The offset is subtracted from every coordinate. The proposal brings the artwork's
+lower-left corner to (margin, margin); the user may type their own in mm or keep
+the file's coordinates.
+"""
+
+from __future__ import annotations
+
+import math
+
+from galileo_cnc.errors import GalileoError
+from galileo_cnc.program.extents import extents
+from galileo_cnc.program.ops import NM_PER_MM, Program
+
+DEFAULT_MARGIN_NM = 1 * NM_PER_MM
+
+
+class OffsetError(GalileoError):
+    """An offset the user gave cannot be read."""
+
+
+def proposed_offset(program: Program, margin_nm: int = DEFAULT_MARGIN_NM) -> tuple[int, int]:
+    """The offset getg proposes (seed rule): minimum coordinate minus a margin.
+
+    Subtracting it from every coordinate puts the artwork's lower-left corner at
+    (margin, margin) from the machine origin.
+    """
+    box = extents(program)
+    if box is None:
+        return (0, 0)
+    return (box[0] - margin_nm, box[1] - margin_nm)
+
+
+def offset_from_text(text: str) -> tuple[int, int]:
+    """An offset the user typed, 'X,Y' or 'X Y' in mm, in nm; ValueError otherwise."""
+    parts = text.replace(",", " ").split()
+    if len(parts) != 2:
+        raise ValueError(f"expected two numbers, X,Y in mm, got {text!r}")
+    try:
+        x_mm, y_mm = float(parts[0]), float(parts[1])
+    except ValueError:
+        raise ValueError(f"expected two numbers, X,Y in mm, got {text!r}") from None
+    if not (math.isfinite(x_mm) and math.isfinite(y_mm)):
+        raise ValueError("the offsets must be finite numbers")
+    return round(x_mm * NM_PER_MM), round(y_mm * NM_PER_MM)
+
+
+def parse_offset(text: str, program: Program, margin_nm: int = DEFAULT_MARGIN_NM) -> tuple[int, int]:
+    """`auto` (minimum minus margin), `none`, or `X,Y` in mm -> offset in nm."""
+    if text == "auto":
+        return proposed_offset(program, margin_nm)
+    if text == "none":
+        return (0, 0)
+    try:
+        return offset_from_text(text)
+    except ValueError:
+        raise OffsetError(f"--offset: expected auto, none or X,Y in mm (e.g. 5,4), "
+                          f"got {text!r}") from None

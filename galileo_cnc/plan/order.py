@@ -1,0 +1,89 @@
+"""Ordering Gerber artwork for a pen plotter: all the work of one aperture together.
+
+The seed stopped for a pen change at every aperture switch, and Gerber files
+switch often (pads, then tracks, then pads again). Drawing order does not change
+what ink ends up on the board, so the work is cut into pieces and the pieces are
+stably sorted by the order in which their aperture first appears: one pen change
+per aperture, and the file's order within an aperture.
+
+A piece starts at every MOVE (D02), every FLASH (D03), and wherever the aperture
+of a draw changes without a move. A piece whose path does not start with a MOVE
+(after a flash, or at an aperture change mid-path) gets one to the point where
+it starts (a synthetic row carrying the first op's index), so it draws exactly
+what it drew in file order. Pieces that draw nothing (a lone MOVE,
+markers) are dropped: they would only add travel.
+"""
+
+from __future__ import annotations
+
+from galileo_cnc.program.ops import KIND, NO_TOOL, TOOL, X, Y, OpKind, Program
+
+DRAWING_KINDS = (int(OpKind.LINE), int(OpKind.ARC_CW), int(OpKind.ARC_CCW), int(OpKind.FLASH))
+_POSITIONED = (int(OpKind.MOVE),) + DRAWING_KINDS
+_PATH_KINDS = (int(OpKind.LINE), int(OpKind.ARC_CW), int(OpKind.ARC_CCW))
+
+
+def drawing_apertures(program: Program) -> set[int]:
+    """Apertures (pens) that draw or flash something, region outlines included."""
+    used, selected = set(), NO_TOOL
+    for row in program.table[:, [KIND, TOOL]].tolist():
+        if row[0] == OpKind.SELECT:
+            selected = row[1]
+        elif row[0] in DRAWING_KINDS:
+            used.add(row[1] if row[1] != NO_TOOL else selected)
+    return used - {NO_TOOL}
+
+
+def group_by_aperture(program: Program) -> list[tuple[int, list[int]]]:
+    """(op index, row) pairs in plotting order (see module doc).
+
+    The file's SELECT rows are left out: each piece starts with a SELECT of its
+    aperture, and each drawing row carries it in `tool` (region outlines, which
+    carry none, get the one selected), so the planner sees the right pen
+    whatever order the pieces end up in."""
+    pieces: list[tuple[int, list[tuple[int, list[int]]]]] = []   # (aperture, rows)
+    current: list[tuple[int, list[int]]] = []
+    piece_aperture: int | None = None        # None: the piece has drawn nothing yet
+    point = (0, 0)
+    selected = NO_TOOL
+
+    def close_piece() -> None:
+        nonlocal current, piece_aperture
+        if piece_aperture is not None:
+            pieces.append((piece_aperture, current))
+        current, piece_aperture = [], None
+
+    for index, row in enumerate(program.table.tolist()):
+        kind = row[KIND]
+        if kind == OpKind.SELECT:
+            selected = row[TOOL]
+            continue
+        if kind in DRAWING_KINDS and row[TOOL] == NO_TOOL:
+            row[TOOL] = selected
+        if kind == OpKind.MOVE or kind == OpKind.FLASH \
+                or kind in DRAWING_KINDS and piece_aperture not in (None, row[TOOL]):
+            close_piece()
+        if kind in _PATH_KINDS and not any(r[KIND] == OpKind.MOVE for _i, r in current):
+            move = list(row)                    # the path starts where the head was
+            move[KIND], move[X], move[Y] = int(OpKind.MOVE), point[0], point[1]
+            current.append((index, move))
+        if kind in DRAWING_KINDS:
+            piece_aperture = row[TOOL]
+        current.append((index, row))
+        if kind in _POSITIONED:
+            point = (row[X], row[Y])
+        if kind == OpKind.FLASH:
+            close_piece()
+    close_piece()
+
+    rank: dict[int, int] = {}
+    for aperture, _rows in pieces:
+        rank.setdefault(aperture, len(rank))
+    pieces.sort(key=lambda piece: rank[piece[0]])          # stable: file order within
+    ordered = []
+    for aperture, rows in pieces:
+        select = [0] * len(rows[0][1])
+        select[KIND], select[TOOL] = int(OpKind.SELECT), aperture
+        ordered.append((rows[0][0], select))
+        ordered.extend(rows)
+    return ordered

@@ -1,0 +1,151 @@
+"""The planner: a Program (ops in nm) becomes a Job (machine commands in steps).
+
+One pass over the op table (docs/plan.md). Gerber artwork with more than one
+aperture is first grouped by aperture (`order.group_by_aperture`), so each pen is
+inserted once; G-code keeps its file order, where feeds and pen moves are modal.
+
+- subtract the offset from every coordinate, then nm -> steps with
+  `MachineConfig.nm_to_steps` (nearest step, halves away from zero);
+- MOVE -> Rapid (the machine lifts the pen itself), LINE -> PenDown if the pen is
+  not known to be down, then LineTo; ARC_CW/CCW -> PenDown if needed, then ArcTo
+  with the centre rounded to the nearest step and given relative to the rounded
+  start; FLASH -> Rapid to the point (unless there), Flash; PEN_UP/PEN_DOWN,
+  DWELL, FEED (nm/s -> steps/s) as themselves; SELECT, POLARITY and the REGION
+  markers emit nothing (region contours are drawn as outlines);
+- a MOVE or LINE that lands on the step it starts from is dropped;
+- at the first draw or flash of each aperture (when there are several) the pen is
+  lifted and `Job.pen_changes` records the command where the user swaps pens;
+- the job ends with PenUp and EndJob;
+- soft limits: the finished command list is planned (not stepped) by the reference
+  machine, whose travel check is the firmware's; a refusal becomes a PlanError that
+  names the op's file:line:col and the axis, and no Job is returned.
+
+Every command carries the index of the op it came from (-1 for the closing
+PenUp/EndJob) and the aperture in force, for progress, resume and pen changes.
+"""
+
+from __future__ import annotations
+
+from galileo_cnc.config.machine import MachineConfig
+from galileo_cnc.errors import GalileoError, SourcePos
+from galileo_cnc.job import (NO_OP, ArcTo, Command, Dwell, EndJob, Flash, Job, LineTo, MachineError,
+                             PenDown, PenUp, Rapid, SetFeed)
+from galileo_cnc.machine import ReferenceMachine
+from galileo_cnc.plan.order import DRAWING_KINDS, drawing_apertures, group_by_aperture
+from galileo_cnc.program.ops import (I, J, KIND, LINE, COL, NO_TOOL, TOOL, VALUE, X, Y,
+                                     OpKind, Program)
+
+
+class PlanError(GalileoError):
+    """The job cannot run (e.g. leaves the travel); names the op's source position."""
+
+    def __init__(self, message: str, pos: SourcePos | None = None, axis: str = "",
+                 op_index: int = NO_OP):
+        self.pos = pos
+        self.axis = axis
+        self.op_index = op_index
+        self.message = message
+        super().__init__(f"{pos}: {message}" if pos else message)
+
+
+def plan_program(program: Program, config: MachineConfig | None = None,
+                 offset_nm: tuple[int, int] = (0, 0), group: bool = True) -> Job:
+    """Plan `program` for the machine `config` with `offset_nm` subtracted (see module
+    doc); `group=False` keeps a Gerber file's own order."""
+    config = config or MachineConfig()
+    steps = config.nm_to_steps
+    ox, oy = offset_nm
+    job = Job(program.source, (int(ox), int(oy)))
+    several_pens = len(drawing_apertures(program)) > 1
+    if group and several_pens and program.format == "gerber":
+        ordered = group_by_aperture(program)
+        job.grouped = True
+    else:
+        ordered = list(enumerate(program.table.tolist()))
+    aperture = NO_TOOL
+    pen = None                         # the aperture whose pen is in the holder
+    pen_down: bool | None = None       # unknown until the job sets it
+    at: tuple[int, int] | None = None  # position in steps; unknown at the start
+    at_nm = (-ox, -oy)                 # the program's current point (nm, offset applied)
+
+    for index, row in ordered:
+        kind = row[KIND]
+        if kind == OpKind.SELECT:
+            aperture = row[TOOL]
+            continue
+        if kind in DRAWING_KINDS and row[TOOL] != NO_TOOL:
+            aperture = row[TOOL]
+        if several_pens and kind in DRAWING_KINDS and aperture != pen:
+            if pen_down is not False:
+                job.add(PenUp(), index, aperture)
+                pen_down = False
+            job.pen_changes[len(job)] = aperture
+            pen = aperture
+        x_nm, y_nm = row[X] - ox, row[Y] - oy
+        target = (steps(x_nm), steps(y_nm))
+
+        def add(command: Command) -> None:
+            job.add(command, index, aperture)
+
+        if kind == OpKind.MOVE:
+            if target != at:
+                add(Rapid(*target))
+                pen_down = False
+            at, at_nm = target, (x_nm, y_nm)
+        elif kind == OpKind.LINE:
+            if pen_down is not True:
+                add(PenDown())
+                pen_down = True
+            if target != at:
+                add(LineTo(*target))
+            at, at_nm = target, (x_nm, y_nm)
+        elif kind in (OpKind.ARC_CW, OpKind.ARC_CCW):
+            if pen_down is not True:
+                add(PenDown())
+                pen_down = True
+            start = at if at is not None else (steps(at_nm[0]), steps(at_nm[1]))
+            centre = (steps(at_nm[0] + row[I]), steps(at_nm[1] + row[J]))
+            add(ArcTo(target[0], target[1], centre[0] - start[0], centre[1] - start[1],
+                      cw=kind == OpKind.ARC_CW))
+            at, at_nm = target, (x_nm, y_nm)
+        elif kind == OpKind.FLASH:
+            if target != at:
+                add(Rapid(*target))
+            add(Flash())
+            pen_down = False
+            at, at_nm = target, (x_nm, y_nm)
+        elif kind == OpKind.PEN_UP:
+            add(PenUp())
+            pen_down = False
+        elif kind == OpKind.PEN_DOWN:
+            add(PenDown())
+            pen_down = True
+        elif kind == OpKind.DWELL:
+            add(Dwell(row[VALUE]))
+        elif kind == OpKind.FEED:
+            add(SetFeed(steps(row[VALUE])))
+        # POLARITY, REGION_BEGIN, REGION_END: nothing to do on a pen plotter.
+
+    job.add(PenUp(), NO_OP, aperture)
+    job.add(EndJob(), NO_OP, aperture)
+    check_job(job, program, config)
+    return job
+
+
+def check_job(job: Job, program: Program, config: MachineConfig) -> None:
+    """Soft limits (and feed range) by the reference machine's own checks, from a
+    machine at its origin; raises PlanError naming the op behind the refused command."""
+    try:
+        ReferenceMachine(config).plan(job.commands)
+    except MachineError as problem:
+        at = problem.index if problem.index is not None else NO_OP
+        op = job.op_index[at] if 0 <= at < len(job) else NO_OP
+        pos = None
+        if op != NO_OP:
+            row = program.table[op]
+            pos = SourcePos(program.source, int(row[LINE]), int(row[COL]))
+            what = OpKind(int(row[KIND])).name
+        else:
+            what = "end of job"
+        detail = str(problem).split(": ", 1)[-1]
+        raise PlanError(f"{what} (op {op}): {detail}", pos, problem.axis, op) from None

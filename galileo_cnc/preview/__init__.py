@@ -1,0 +1,2 @@
+"""Previews: the reference trace drawn over the artwork, as PNG.
+"""

@@ -1,0 +1,253 @@
+"""Lines on the wire: framing with sequence and CRC-8, encoding and decoding commands,
+and reading the firmware's replies (docs/protocol.md).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import NamedTuple
+
+from galileo_cnc.errors import GalileoError
+from galileo_cnc.protocol.spec import (BANNER_NAME, BY_MNEMONIC, COMMANDS, CRC8_TABLE,
+                                       ERROR_BY_CODE, FLAG, MAX_LINE_BYTES, PROTOCOL_VERSION,
+                                       SEQ_MAX, STATES, CommandSpec, ErrorSpec)
+
+
+# ---- errors on the host ---------------------------------------------------------------
+class ProtocolError(GalileoError):
+    """A line or reply that does not follow docs/protocol.md."""
+
+
+class ProtocolVersionError(ProtocolError):
+    """The firmware speaks a different protocol version: the host refuses it."""
+
+
+class LineRejected(ProtocolError):
+    """A command line the machine side refuses: `code` set, or a resend request."""
+
+    def __init__(self, message: str, code: int | None = None, resend: bool = False,
+                 seq: int | None = None):
+        self.code = code
+        self.resend = resend
+        self.seq = seq  # the accepted sequence number, if it got that far
+        super().__init__(message)
+
+
+# ---- framing ----
+def crc8(data: bytes) -> int:
+    crc = 0
+    for byte in data:
+        crc = CRC8_TABLE[crc ^ byte]
+    return crc
+
+
+def next_seq(seq: int) -> int:
+    """The sequence number after `seq` (1 .. SEQ_MAX, then 1 again)."""
+    return 1 if seq >= SEQ_MAX else seq + 1
+
+
+def frame_line(seq: int, text: str) -> bytes:
+    """`N<seq> <text>*HH\\n`; raises ProtocolError if it would exceed MAX_LINE_BYTES."""
+    if not 0 <= seq <= SEQ_MAX:
+        raise ProtocolError(f"sequence number {seq} outside 0..{SEQ_MAX}")
+    body = f"N{seq} {text}".encode("ascii")
+    line = body + b"*%02X\n" % crc8(body)
+    if len(line) > MAX_LINE_BYTES:
+        raise ProtocolError(f"line of {len(line)} bytes exceeds {MAX_LINE_BYTES}: {line!r}")
+    return line
+
+
+def _spec_of(cmd: object) -> CommandSpec:
+    for spec in COMMANDS:
+        if type(cmd) is spec.cls and all(getattr(cmd, f) == v for f, v in spec.fixed):
+            return spec
+    raise ProtocolError(f"no wire form for {cmd!r}")
+
+
+def command_text(cmd: object) -> str:
+    """The mnemonic and arguments of a command, without framing: `L 100 -20`."""
+    spec = _spec_of(cmd)
+    parts = [spec.mnemonic]
+    for i, (field, kind) in enumerate(spec.args):
+        value = getattr(cmd, field)
+        if value is None:
+            if spec.optional_from is None or i < spec.optional_from:
+                raise ProtocolError(f"{cmd!r}: {field} is required on the wire")
+            break
+        value = int(value)
+        if not kind.lo <= value <= kind.hi:
+            raise ProtocolError(f"{cmd!r}: {field}={value} outside {kind.lo}..{kind.hi}")
+        parts.append(str(value))
+    return " ".join(parts)
+
+
+def encode_command(cmd: object, seq: int) -> bytes:
+    """A complete framed line for a machine (or protocol-only) command."""
+    return frame_line(seq, command_text(cmd))
+
+
+class DecodedLine(NamedTuple):
+    seq: int
+    command: object
+    mnemonic: str
+
+
+_SEQUENCE = re.compile(r"N(\d{1,6})")
+_MNEMONIC = re.compile(r"[A-Z]{0,3}")
+_ARGUMENT = re.compile(r"(-?)(\d*)")
+
+
+def decode_line(line: bytes, expected_seq: int | None = None) -> DecodedLine:
+    """Parse one received line exactly as the firmware's `handle_line` does, check for
+    check and in the same order (the simulated machine answers with it; its tests
+    compare every reply with the firmware's in simavr).
+
+    Raises LineRejected: `resend` for a missing or bad checksum or a sequence
+    mismatch, else an error `code`; `seq` is set once the sequence number was
+    accepted (the firmware counts the line even if its command is then refused).
+    """
+    line = line.rstrip(b"\n").replace(b"\r", b"")
+    if len(line) + 1 > MAX_LINE_BYTES:
+        raise LineRejected("line too long", code=2)
+    n = len(line)
+    if n < 4 or line[n - 3:n - 2] != b"*":
+        raise LineRejected("checksum", resend=True)
+    check = line[n - 2:]
+    if not re.fullmatch(rb"[0-9A-F]{2}", check) or int(check, 16) != crc8(line[:n - 3]):
+        raise LineRejected("checksum", resend=True)
+    body = line[:n - 3].decode("latin-1")
+    m = _SEQUENCE.match(body)
+    rest = body[m.end():] if m else ""
+    if m is None or len(m.group(1)) > 5 or int(m.group(1)) > SEQ_MAX or not rest.startswith(" "):
+        raise LineRejected("malformed line", code=1)
+    seq = int(m.group(1))
+    if expected_seq is not None and seq != 0 and seq != expected_seq:
+        raise LineRejected(f"expected N{expected_seq}", resend=True)
+    mm = _MNEMONIC.match(rest, 1)
+    mnemonic, p = mm.group(0), rest[mm.end():]
+    spec = BY_MNEMONIC.get(mnemonic) if mnemonic else None
+    if spec is None or (p and p[0] != " "):
+        raise LineRejected("unknown command", code=3, seq=seq)
+    values: list[int] = []
+    while p.startswith(" ") and len(values) < len(spec.args):
+        am = _ARGUMENT.match(p, 1)
+        digits = am.group(2)
+        if not 1 <= len(digits) <= 9:
+            raise LineRejected("bad argument", code=4, seq=seq)
+        value = -int(digits) if am.group(1) else int(digits)
+        kind = spec.args[len(values)][1]
+        if not kind.lo <= value <= kind.hi:
+            raise LineRejected("bad argument", code=4, seq=seq)
+        values.append(value)
+        p = p[am.end():]
+    if p or len(values) < spec.min_args:
+        raise LineRejected("bad argument", code=4, seq=seq)
+    kwargs = dict(spec.fixed)
+    for (field, kind), value in zip(spec.args, values):
+        kwargs[field] = bool(value) if kind is FLAG else value
+    return DecodedLine(seq, spec.cls(**kwargs), spec.mnemonic)
+
+
+# ---- replies --------------------------------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class Status:
+    state: str
+    x_steps: int          # work position
+    y_steps: int
+    z_steps: int
+    queue_blocks: int
+    last_seq: int         # last line the firmware accepted
+
+    def text(self) -> str:
+        return (f"status:{self.state} X{self.x_steps} Y{self.y_steps} Z{self.z_steps} "
+                f"Q{self.queue_blocks} N{self.last_seq}")
+
+
+@dataclass(frozen=True, slots=True)
+class Banner:
+    firmware_version: str
+    protocol_version: int
+    rx_buffer_bytes: int
+    queue_blocks: int
+    config_digest: str = ""       # MachineConfig.firmware_digest() of the build ("" before proto 2)
+
+    def text(self) -> str:
+        digest = f" config {self.config_digest}" if self.config_digest else ""
+        return (f"{BANNER_NAME} {self.firmware_version} proto {self.protocol_version} "
+                f"rx {self.rx_buffer_bytes} queue {self.queue_blocks}{digest}")
+
+
+@dataclass(frozen=True, slots=True)
+class Reply:
+    """One line from the firmware. `kind`: ok, error, rs, status, alarm, msg, banner."""
+
+    kind: str
+    seq: int | None = None
+    code: int | None = None
+    text: str = ""
+    status: Status | None = None
+    banner: Banner | None = None
+
+    @property
+    def error(self) -> ErrorSpec | None:
+        return ERROR_BY_CODE.get(self.code) if self.code is not None else None
+
+
+_STATUS_RE = re.compile(r"^status:([a-z]+) X(-?\d+) Y(-?\d+) Z(-?\d+) Q(\d+) N(\d+)$")
+_BANNER_RE = re.compile(rf"^{BANNER_NAME} (\S+) proto (\d+) rx (\d+) queue (\d+)"
+                        r"(?: config ([0-9a-f]{8}))?$")
+_CODE_RE = re.compile(r"^(error|alarm|msg):(\d+)(?: N(\d+))?(?: (.*))?$")
+_OK_RE = re.compile(r"^ok N(\d+)(?: (.*))?$")
+
+
+def _status(text: str) -> Status | None:
+    m = _STATUS_RE.match(text)
+    if m is None or m.group(1) not in STATES:
+        return None
+    return Status(m.group(1), *(int(g) for g in m.group(2, 3, 4, 5, 6)))
+
+
+def _banner(text: str) -> Banner | None:
+    m = _BANNER_RE.match(text)
+    if m is None:
+        return None
+    return Banner(m.group(1), *(int(g) for g in m.group(2, 3, 4)), m.group(5) or "")
+
+
+def parse_reply(line: bytes | str) -> Reply:
+    """Decode one firmware line; raises ProtocolError for anything undocumented."""
+    text = line.decode("ascii", "replace") if isinstance(line, bytes) else line
+    text = text.rstrip("\r\n")
+    if (m := _OK_RE.match(text)) is not None:
+        payload = m.group(2) or ""
+        return Reply("ok", int(m.group(1)), text=payload, status=_status(payload),
+                     banner=_banner(payload))
+    if (m := _CODE_RE.match(text)) is not None:
+        return Reply(m.group(1), None if m.group(3) is None else int(m.group(3)),
+                     int(m.group(2)), m.group(4) or "")
+    if text.startswith("rs N") and text[4:].isdigit():
+        return Reply("rs", int(text[4:]))
+    if (status := _status(text)) is not None:
+        return Reply("status", status.last_seq, text=text, status=status)
+    if (banner := _banner(text)) is not None:
+        return Reply("banner", text=text, banner=banner)
+    raise ProtocolError(f"unexpected reply from the machine: {text!r}")
+
+
+def check_banner(banner: Banner) -> Banner:
+    """Refuse firmware whose protocol version differs from ours."""
+    if banner.protocol_version != PROTOCOL_VERSION:
+        raise ProtocolVersionError(
+            f"firmware {banner.firmware_version} speaks protocol {banner.protocol_version}, "
+            f"this host speaks {PROTOCOL_VERSION}: update the firmware (make -C firmware) "
+            f"or the host")
+    return banner
+
+
+def format_error(code: int, seq: int | None = None, detail: str = "") -> str:
+    """The firmware's error reply text for `code` (used by the simulated machine)."""
+    spec = ERROR_BY_CODE[code]
+    prefix = "alarm" if spec.alarm else "error"
+    where = "" if seq is None else f" N{seq}"
+    return f"{prefix}:{code}{where} {spec.text}{(': ' + detail) if detail else ''}"

@@ -1,0 +1,36 @@
+"""Pick the right reader for a file by its content, not its extension."""
+
+from __future__ import annotations
+
+import os
+
+from galileo_cnc.errors import GalileoError, UnknownFormatError
+from galileo_cnc.readers.gcode import looks_like_gcode, read_gcode
+from galileo_cnc.readers.gerber import looks_like_gerber, read_gerber
+from galileo_cnc.program.ops import Program
+
+
+def detect_format(text: str) -> str | None:
+    """'gerber', 'gcode' or None for text that is neither."""
+    if looks_like_gerber(text):
+        return "gerber"
+    if looks_like_gcode(text):
+        return "gcode"
+    return None
+
+
+def read_file(path: str | os.PathLike) -> Program:
+    """Read a Gerber or G-code file into a Program; errors name the file and line."""
+    try:
+        with open(path, "rb") as handle:
+            text = handle.read().decode("utf-8", errors="replace")
+    except OSError as problem:
+        raise GalileoError(f"{path}: cannot read: {problem.strerror or problem}") from None
+    fmt = detect_format(text)
+    if fmt == "gerber":
+        return read_gerber(path, text)
+    if fmt == "gcode":
+        return read_gcode(path, text)
+    raise UnknownFormatError(
+        f"{path}: neither a Gerber RS-274X nor a G-code file "
+        "(Gerber starts with %FS/%MO/G04, G-code with G/M/N words)")

@@ -1,0 +1,2 @@
+"""`sim://`: the reference machine behind the wire protocol, as a pyserial port.
+"""

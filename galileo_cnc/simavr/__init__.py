@@ -1,0 +1,2 @@
+"""`simavr://`: the real firmware running in simavr, as a pyserial port.
+"""

@@ -1,0 +1,2 @@
+"""Sending a Job: the streamer (character counting, resend), the journal, resume.
+"""

@@ -1,0 +1,323 @@
+"""Streaming a planned job to the machine (docs/protocol.md, Host rules; docs/streaming.md).
+
+- Character counting: the bytes of lines sent and not yet answered stay within
+  the receive buffer the banner advertises, so the firmware's queue never runs
+  dry for want of a line and its receive ring never overflows.
+- Every line that arrives gets exactly one reply, in order; a reply frees the
+  bytes of the oldest transmission. `ok N<s>` confirms line s and every line
+  sent before it (the firmware accepts lines only in order, so a lost `ok` is
+  confirmed by the next). `rs N<e>` resends every unconfirmed line from e on;
+  the `rs N<e>` that lines already in flight draw are ignored until e is
+  answered. `error` stops the job, naming the file line behind the command.
+- A stall (no reply while the machine stands idle with an empty queue, e.g. a
+  line or its reply lost to noise) is settled by the machine's status: lines up to its `N` were
+  accepted, the rest are sent again.
+- Pen changes: before the command where the planner put one, the streamer
+  waits until the machine stands still (pen up), then asks (`on_pen_change`).
+- Abort (`abort()`, `q` in the console, Ctrl-C): the machine ramps down and
+  drops its queue; nothing more is sent.
+- The journal records every confirmation, so a job whose port died resumes
+  after its last confirmed command (`resume_job`).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+from galileo_cnc import protocol as P
+from galileo_cnc.errors import GalileoError, SourcePos
+from galileo_cnc.machine.timing import JobTiming, job_timing
+from galileo_cnc.stream.journal import (ABORTED, FAILED, FINISHED, INTERRUPTED, Journal,
+                                        JournalEntry, file_digest)
+from galileo_cnc.transport.link import LinkError, MachineLink, PortGone
+from galileo_cnc.job import NO_OP, Job
+from galileo_cnc.program.ops import COL, LINE, Program
+
+#: No reply for this long while the machine stands idle with an empty queue: a stall.
+STALL_S = 2.0
+
+
+class StreamAborted(GalileoError):
+    """The user stopped the job (raise it from `on_pen_change` to stop there)."""
+
+
+@dataclass
+class Progress:
+    confirmed: int          # commands the machine has confirmed
+    total: int
+    elapsed_s: float
+    eta_s: float | None     # time left: the reference's machine time (at sim:// speed)
+    source_line: int        # line of the file the last confirmed command came from
+
+
+@dataclass
+class PenChange:
+    aperture: int
+    description: str        # "D11 (0.254 mm round)"
+    command_index: int
+
+
+@dataclass
+class StreamResult:
+    completed: bool
+    confirmed: int          # commands confirmed, from the job's start
+    total: int
+    elapsed_s: float
+    reason: str = ""
+
+
+@dataclass
+class _Transmission:
+    index: int              # command index in the job
+    seq: int
+    line: bytes
+
+
+def describe_aperture(program: Program | None, aperture: int) -> str:
+    ap = program.apertures.get(aperture) if program is not None else None
+    return f"D{aperture} ({ap.describe()})" if ap is not None else f"D{aperture}"
+
+
+class JobStreamer:
+    """Sends `job` over `link` from command `start` (0 for a new job)."""
+
+    def __init__(self, link: MachineLink, job: Job, program: Program | None = None, *,
+                 journal: Journal | None = None, start: int = 0,
+                 timing: JobTiming | None = None):
+        self.link = link
+        self.job = job
+        self.program = program
+        self.journal = journal
+        self.start = start
+        self.timing = timing or job_timing(job.commands, link.config)
+        self._abort = threading.Event()
+        self._rx_bytes = link.banner.rx_buffer_bytes if link.banner else P.RX_BUFFER_BYTES
+
+    def abort(self) -> None:
+        """Stop the job from any thread; `run` ramps the machine down and returns."""
+        self._abort.set()
+
+    # ---- the loop ------------------------------------------------------------------------
+    def run(self, *, on_progress: Callable[[Progress], None] | None = None,
+            on_pen_change: Callable[[PenChange], None] | None = None) -> StreamResult:
+        self.link.check_config()        # a board built for another machine gets no job
+        total = len(self.job)
+        began = time.monotonic()
+        self.confirmed = self.start - 1                 # last confirmed command index
+        self._next = self.start                         # next command to send
+        self._wire: deque[_Transmission] = deque()      # sent, awaiting one reply each
+        self._unconfirmed: dict[int, _Transmission] = {}  # by seq, in the order first sent
+        self._resend: deque[_Transmission] = deque()
+        self._resend_from: int | None = None            # `rs N<e>` being answered
+        self._changes = self._pen_changes_from(self.start)
+        self._asked: set[int] = set()
+        self._on_progress = on_progress
+        self._began = began
+        self._journal_begin()
+
+        def result(completed: bool, reason: str = "") -> StreamResult:
+            return StreamResult(completed, self.confirmed + 1 - self.start, total - self.start,
+                                time.monotonic() - began, reason)
+
+        try:
+            while self.confirmed < total - 1:
+                if self._abort.is_set():
+                    raise StreamAborted("stopped by the user")
+                if self._pen_change_due():
+                    self._wait_until_confirmed()
+                    self._wait_standing()
+                    self._asked.add(self._next)
+                    if on_pen_change is not None:
+                        aperture = self._changes[self._next]
+                        on_pen_change(PenChange(aperture, describe_aperture(self.program, aperture),
+                                                self._next))
+                    continue
+                self._fill()
+                self._take_reply(self._await_reply())
+            self._wait_standing()
+        except (StreamAborted, KeyboardInterrupt) as stop:
+            reason = str(stop) or "stopped by the user"
+            self._stop_machine()
+            self._journal_end(ABORTED, reason)
+            return result(False, reason)
+        except PortGone as gone:
+            self._journal_end(INTERRUPTED, str(gone))
+            raise
+        except LinkError as refused:
+            self._stop_machine()
+            self._journal_end(FAILED, str(refused))
+            raise
+        self._journal_end(FINISHED)
+        return result(True)
+
+    def _pen_changes_from(self, start: int) -> dict[int, int]:
+        """The job's pen changes; a resumed job first asks for the pen in force where
+        it continues (it may have been taken out while the job was stopped)."""
+        changes = dict(self.job.pen_changes)
+        before = [k for k in changes if k <= start]
+        if start > 0 and before:
+            changes[start] = changes[max(before)]
+        return changes
+
+    def _pen_change_due(self) -> bool:
+        return (not self._resend and self._next in self._changes
+                and self._next not in self._asked)
+
+    def _fill(self) -> None:
+        """Send resends first, then new lines, while they fit the receive buffer."""
+        in_flight = sum(len(t.line) for t in self._wire)
+        while self._resend and in_flight + len(self._resend[0].line) <= self._rx_bytes:
+            sent = self._resend.popleft()
+            self.link.write(sent.line)
+            self._wire.append(sent)
+            in_flight += len(sent.line)
+        while (not self._resend and self._next < len(self.job)
+               and not self._pen_change_due()):
+            seq = self.link.next_seq()
+            line = P.encode_command(self.job.commands[self._next], seq)
+            if in_flight + len(line) > self._rx_bytes:
+                break
+            self.link.seq = seq
+            self.link.write(line)
+            sent = _Transmission(self._next, seq, line)
+            self._wire.append(sent)
+            self._unconfirmed[seq] = sent
+            in_flight += len(line)
+            self._next += 1
+
+    def _await_reply(self) -> P.Reply | None:
+        """The next reply; on a stall, settle the wire by the machine's status."""
+        waited = 0.0
+        while not self._abort.is_set():
+            reply = self.link.next_reply(0.2)
+            if reply is not None:
+                return reply
+            waited += 0.2
+            if waited >= STALL_S and self._unconfirmed:
+                status = self.link.status()
+                if self.link.standing(status):
+                    # an empty queue makes room for any line: this is no flow control
+                    self._settle_by_status(status.last_seq)
+                waited = 0.0
+        return None
+
+    def _settle_by_status(self, last_seq: int) -> None:
+        """Nothing is in flight: lines up to the machine's `N` were accepted, the
+        rest are sent again; no reply is owed any more."""
+        if last_seq in self._unconfirmed:
+            self._confirm_through(last_seq)
+        self._resend = deque(self._unconfirmed.values())
+        self._resend_from = None
+        self._wire.clear()
+
+    def _take_reply(self, reply: P.Reply | None) -> None:
+        if reply is None:
+            return
+        if reply.kind == "ok" and reply.seq not in self._unconfirmed:
+            self._message(f"ignored a stray reply: ok N{reply.seq}")   # not to a job line
+            return
+        if self._wire:
+            self._wire.popleft()                # one reply per transmission: frees its bytes
+        if reply.kind == "ok":
+            if reply.seq == self._resend_from:
+                self._resend_from = None
+            self._confirm_through(reply.seq)
+        elif reply.kind == "rs":
+            if reply.seq == self._resend_from:
+                return                          # a line that was in flight: already resent
+            if reply.seq not in self._unconfirmed:
+                raise LinkError(f"the machine asks for line N{reply.seq}, which this job "
+                                f"never sent: was it reset?", reply)
+            self._resend_from = reply.seq
+            seqs = list(self._unconfirmed)
+            self._resend = deque(self._unconfirmed[s] for s in seqs[seqs.index(reply.seq):])
+        else:
+            sent = self._unconfirmed.get(reply.seq)
+            what = (f"{self._where(sent.index)}the machine refused "
+                    f"{P.command_text(self.job.commands[sent.index])!r}: " if sent else
+                    "the machine refused a line: ")
+            raise LinkError(f"{what}error:{reply.code} {reply.text}", reply)
+
+    def _confirm_through(self, seq: int) -> None:
+        """The machine accepts lines only in order: `ok N<seq>` confirms every
+        unconfirmed line sent before it too (its own reply may have been lost)."""
+        while self._unconfirmed:
+            first_seq, sent = next(iter(self._unconfirmed.items()))
+            del self._unconfirmed[first_seq]
+            self._confirm(sent)
+            if first_seq == seq:
+                return
+
+    def _confirm(self, sent: _Transmission) -> None:
+        self.confirmed = max(self.confirmed, sent.index)
+        if self.journal is not None:
+            self.journal.confirm(self.confirmed)
+        if self._on_progress is not None:
+            self._on_progress(self.progress())
+
+    def progress(self) -> Progress:
+        done = self.confirmed + 1
+        ops = [op for op in self.job.op_index[max(self.confirmed - 2, 0):done] if op != NO_OP]
+        line = int(self.program.table[ops[-1], LINE]) if self.program is not None and ops else 0
+        left = self.timing.remaining_s(done)
+        eta = left / self.link.speed if self.link.speed > 0 else 0.0
+        return Progress(done - self.start, len(self.job) - self.start,
+                        time.monotonic() - self._began, eta, line)
+
+    def _wait_until_confirmed(self) -> None:
+        while self._unconfirmed:
+            self._fill()
+            self._take_reply(self._await_reply())
+            if self._abort.is_set():
+                raise StreamAborted("stopped by the user")
+
+    def _wait_standing(self) -> None:
+        """Until the machine has run its queue (a stop request still ramps it down)."""
+        while True:
+            if self._abort.is_set():
+                raise StreamAborted("stopped by the user")
+            if self.link.standing(self.link.status()):
+                return
+            time.sleep(0.05)
+
+    def _stop_machine(self) -> None:
+        """Ramp down and unlock; replies to lines in flight are collected."""
+        try:
+            self.link.abort()
+        except LinkError as exc:
+            self._message(f"could not stop the machine cleanly: {exc}")
+
+    def _where(self, index: int) -> str:
+        op = self.job.op_index[index]
+        if self.program is None or op == NO_OP:
+            return ""
+        row = self.program.table[op]
+        return f"{SourcePos(self.program.source, int(row[LINE]), int(row[COL]))}: "
+
+    def _message(self, text: str) -> None:
+        if self.link.on_message is not None:
+            self.link.on_message(text)
+
+    # ---- journal --------------------------------------------------------------------------
+    def _journal_begin(self) -> None:
+        if self.journal is None:
+            return
+        source = str(Path(self.job.source).resolve())
+        try:
+            digest = file_digest(source)
+        except OSError:
+            digest = ""
+        first_seq = self.link.next_seq()
+        self.journal.begin(JournalEntry(
+            source, digest, self.job.offset_nm, self.link.config.to_toml(),
+            self.job.grouped, len(self.job), self.start - 1, self.start, first_seq))
+
+    def _journal_end(self, state: str, reason: str = "") -> None:
+        if self.journal is not None and self.journal.entry is not None:
+            self.journal.entry.confirmed = self.confirmed
+            self.journal.end(state, reason)

@@ -1,0 +1,3 @@
+"""Reaching the machine: opening ports (pyserial), finding boards, and the link
+(greeting, reader thread, status).
+"""

@@ -1,0 +1,96 @@
+"""Finding the plotter: which serial ports there are and which one is ours.
+
+With no `--port`, the console and `plot` look for a known board by its USB
+VID:PID (Arduino, CH340, FTDI, CP210x and Intel Galileo bridges), then for any
+other USB serial port that answers with our banner (plain UARTs such as ttyS0
+are never probed: name them with --port), and fall back to the built-in simulated
+machine `sim://`, saying so on the connection line.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass
+
+import serial
+from serial.tools import list_ports as pyserial_list_ports
+
+from galileo_cnc import protocol as P
+from galileo_cnc.config.hardware import BANNER_WAIT_S, DEFAULT_BAUD
+from galileo_cnc.transport.port import SIM_URL, open_port
+
+#: USB bridges found on Arduino-class boards (VID, PID) -> what they usually are.
+KNOWN_BOARDS = {
+    (0x2341, 0x0043): "Arduino Uno",
+    (0x2341, 0x0001): "Arduino Uno",
+    (0x2341, 0x0243): "Arduino Uno R3",
+    (0x2A03, 0x0043): "Arduino Uno (arduino.org)",
+    (0x2341, 0x0042): "Arduino Mega 2560",
+    (0x1A86, 0x7523): "CH340 USB-serial (Uno clone)",
+    (0x0403, 0x6001): "FTDI FT232 USB-serial",
+    (0x10C4, 0xEA60): "CP210x USB-serial",
+    (0x8086, 0xBABE): "Intel Galileo",
+}
+
+#: Set to skip probing real ports (tests, machines with unrelated serial devices).
+NO_PROBE_ENV = "GALILEO_CNC_NO_PROBE"
+
+
+@dataclass(frozen=True, slots=True)
+class PortInfo:
+    device: str
+    description: str
+    known_board: bool
+    usb: bool = False
+
+
+def list_ports() -> list[PortInfo]:
+    """The serial ports pyserial sees, known boards first."""
+    found = []
+    for port in pyserial_list_ports.comports():
+        board = KNOWN_BOARDS.get((port.vid, port.pid)) if port.vid is not None else None
+        description = board or (port.description if port.description != "n/a" else "")
+        found.append(PortInfo(port.device, description or "serial port", board is not None,
+                              port.vid is not None))
+    found.sort(key=lambda p: (not p.known_board, p.device))
+    return found
+
+
+def answers_with_banner(device: str, baud: int, wait_s: float = BANNER_WAIT_S) -> bool:
+    """Open `device`, wait for our banner (boards reset on open) or ask with `N0 V`."""
+    try:
+        with open_port(device, baud, timeout=0.2) as port:
+            deadline = time.monotonic() + wait_s
+            asked = False
+            while time.monotonic() < deadline:
+                line = port.readline()
+                if line.endswith(b"\n") and _carries_banner(line):
+                    return True
+                if not line and not asked and time.monotonic() > deadline - wait_s / 2:
+                    port.write(P.frame_line(0, "V"))
+                    asked = True
+    except (serial.SerialException, OSError, ValueError):
+        return False
+    return False
+
+
+def _carries_banner(line: bytes) -> bool:
+    try:
+        return P.parse_reply(line).banner is not None
+    except P.ProtocolError:
+        return False
+
+
+def find_port(baud: int = DEFAULT_BAUD) -> str:
+    """A known board, else a port answering with our banner, else `sim://`."""
+    if os.environ.get(NO_PROBE_ENV):
+        return SIM_URL
+    ports = list_ports()
+    for port in ports:
+        if port.known_board and answers_with_banner(port.device, baud):
+            return port.device
+    for port in ports:    # other USB bridges; plain UARTs (ttyS*) need --port
+        if port.usb and not port.known_board and answers_with_banner(port.device, baud):
+            return port.device
+    return SIM_URL

@@ -1,0 +1,378 @@
+"""A session with the machine over one pyserial port (docs/protocol.md, Host rules).
+
+`MachineLink.open` opens the port (a board, a pseudo-terminal to the firmware in
+simavr, or `sim://`), greets the firmware with `N0 V`, checks its protocol version
+and keeps a reader thread that sorts what arrives: line replies (`ok`, `error`,
+`rs`) in order for whoever sent the lines, `status:` lines for `status()`, and
+`alarm:`/`msg:` lines (and anything undocumented) for `on_message`.
+
+A port that vanishes, or stops answering the real-time status query, raises
+`PortGone` within SILENT_S: a motion line may legitimately wait unanswered while
+the machine's queue is full, so silence is judged by `?`, never by line replies.
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+import time
+from typing import Callable
+
+import serial
+
+from galileo_cnc import protocol as P
+from galileo_cnc.config.machine import MachineConfig
+from galileo_cnc.errors import GalileoError
+from galileo_cnc.job import Command
+from galileo_cnc.config.hardware import BANNER_WAIT_S, DEFAULT_BAUD
+from galileo_cnc.transport.port import SIMAVR_URL, is_simulated, open_port, with_sim_config
+
+#: Ask for a status when no reply came for this long...
+POLL_S = 1.0
+#: ...and give the port up when the status did not come within this.
+SILENT_S = 3.0
+#: The greeting's reply comes after any the machine still owed the last session.
+GREETING_S = 10.0
+
+
+class LinkError(GalileoError):
+    """The machine refused a line, raised an alarm, or the link failed."""
+
+    def __init__(self, message: str, reply: P.Reply | None = None):
+        self.reply = reply
+        super().__init__(message)
+
+
+class PortGone(LinkError):
+    """The port vanished or fell silent: the job can be resumed from its journal."""
+
+
+class ConfigMismatch(LinkError):
+    """The flashed firmware was built for another machine than the profile plans for."""
+
+
+class MachineLink:
+    """An open, greeted port; thread-safe for real-time bytes and status."""
+
+    def __init__(self, port: serial.SerialBase, name: str, baud: int,
+                 config: MachineConfig, config_path=None):
+        self.port_name = name
+        self.baud = baud
+        self.config = config
+        self.config_path = config_path
+        #: (name, firmware's value, profile's value) where the build and the profile differ
+        self.config_differences: tuple[tuple[str, str, int], ...] = ()
+        self.simulated = is_simulated(name)
+        # machine seconds per wall second: sim://?speed=S runs S times faster (0: instantly)
+        self.speed = float(getattr(getattr(port, "machine", None), "speed", 1.0))
+        self.banner: P.Banner | None = None
+        self.initial_status: P.Status | None = None   # before our greeting reset the count
+        self.on_message: Callable[[str], None] | None = None
+        self.seq = 0                                   # the last sequence number sent
+        self._port = port
+        self._replies: queue.Queue = queue.Queue()
+        self._status_cond = threading.Condition()
+        self._status: P.Status | None = None
+        self._status_count = 0
+        self._alarm: P.Reply | None = None
+        self._failure: Exception | None = None
+        self._write_lock = threading.Lock()
+        self._closed = False
+        self._reader = threading.Thread(target=self._read_loop, name=f"link {name}",
+                                        daemon=True)
+
+    # ---- opening ------------------------------------------------------------------
+    @classmethod
+    def open(cls, port: str | None = None, baud: int = DEFAULT_BAUD,
+             config: MachineConfig | None = None, config_path=None) -> "MachineLink":
+        """Open `port` (None: find one, else `sim://`) and greet the firmware;
+        `config_path` (the profile of `config`) is what `sim://` simulates."""
+        from galileo_cnc.transport.discovery import find_port
+
+        name = with_sim_config(port or find_port(baud), config_path)
+        try:
+            handle = open_port(name, baud, timeout=0.1)
+        except (serial.SerialException, OSError, ValueError) as exc:
+            raise LinkError(f"cannot open {name}: {exc}") from None
+        return cls.attach(handle, name, baud, config, config_path)
+
+    @classmethod
+    def attach(cls, handle: serial.SerialBase, name: str, baud: int = DEFAULT_BAUD,
+               config: MachineConfig | None = None, config_path=None) -> "MachineLink":
+        """Greet the machine over an already open pyserial port."""
+        link = cls(handle, name, baud, config or MachineConfig(), config_path)
+        link._reader.start()
+        try:
+            link._greet()
+            link._compare_config()
+        except BaseException:
+            link.close()
+            raise
+        return link
+
+    def _greet(self) -> None:
+        """Wait out a board's reset, note its status, then `N0 V` (restarts the count).
+
+        A board that kept power while the cable was out may still be running lines
+        of the last session: wait until its queue has run (so that its status `N`
+        counts every line it will ever accept from that session, which resuming
+        needs), and skip the replies it still owed, which arrive before ours.
+        """
+        deadline = time.monotonic() + (0.3 if self.simulated else BANNER_WAIT_S)
+        while self.banner is None and time.monotonic() < deadline:
+            time.sleep(0.02)
+        try:
+            status = self.status(timeout_s=SILENT_S)
+        except PortGone:
+            raise PortGone(f"{self.port_name}: no answer from a galileo-cnc machine "
+                           f"(is the firmware flashed, and the baud rate {self.baud}?)") from None
+        while status.state in ("run", "homing"):
+            time.sleep(0.05)
+            status = self.status()
+        self.initial_status = status
+        self.seq = -1                       # so that the greeting goes out as N0
+        seq, line = self.frame(P.QueryVersion())
+        self.write(line)
+        while True:
+            reply = self.next_reply(GREETING_S)
+            if reply is None:
+                raise PortGone(f"{self.port_name}: no reply to {line.decode().strip()!r}")
+            if reply.kind == "ok" and reply.seq == seq and reply.banner is not None:
+                break
+            if reply.kind == "rs":          # our line was garbled: N0 is always accepted
+                self.write(line)
+        self.banner = P.check_banner(reply.banner)
+        self._alarm = None
+
+    def _compare_config(self) -> None:
+        """Note what differs between the build (its banner's digest, then its `C` list)
+        and the profile the host plans with; `check_config` refuses jobs then."""
+        if self.banner.config_digest == self.config.firmware_digest():
+            self.config_differences = ()
+            return
+        reply = self.send_protocol(P.QueryConfig())
+        flashed = dict(pair.split("=", 1) for pair in reply.text.split()[1:] if "=" in pair)
+        self.config_differences = tuple(
+            (name, flashed.get(name, "missing"), value)
+            for name, value, _ in self.config.firmware_values()
+            if flashed.get(name) != str(value))
+
+    def check_config(self) -> None:
+        """ConfigMismatch, naming the fields, when the firmware was built for another machine."""
+        if not self.config_differences:
+            return
+        fields = "; ".join(f"{name} {fw} in the firmware, {ours} in the profile"
+                           for name, fw, ours in self.config_differences)
+        profile = str(self.config_path) if self.config_path else "the default machine"
+        raise ConfigMismatch(
+            f"the firmware on {self.port_name} was built for another machine than "
+            f"{profile} ({fields}). Regenerate its config with `python -m "
+            f"galileo_cnc.firmware_headers --config {self.config_path or 'PROFILE.toml'}` "
+            f"and reflash (make -C firmware upload), or plan with the profile it was built for")
+
+    def describe(self) -> str:
+        """The console's connection line."""
+        if self.simulated:
+            what = f"{self.port_name} (built-in simulated machine)"
+        elif self.port_name.startswith(SIMAVR_URL):
+            what = f"{self.port_name} (the firmware running in simavr)"
+        else:
+            what = self.port_name
+        fw = f"firmware {self.banner.firmware_version}" if self.banner else "no banner"
+        line = f"connected to {what}, {fw}, protocol {P.PROTOCOL_VERSION}, {self.baud} baud"
+        if self.config_differences:
+            names = ", ".join(name for name, _, _ in self.config_differences)
+            line += (f"\nwarning: the firmware was built for another machine ({names} differ "
+                     f"from the profile); jobs are refused until it is reflashed")
+        return line
+
+    def close(self) -> None:
+        self._closed = True
+        try:
+            self._port.close()
+        except (serial.SerialException, OSError):
+            pass
+
+    # ---- the reader thread ----------------------------------------------------------
+    def _read_loop(self) -> None:
+        buffer = b""
+        while not self._closed:
+            try:
+                data = self._port.readline()
+            except (serial.SerialException, OSError, TypeError, AttributeError) as exc:
+                if not self._closed:
+                    self._fail(PortGone(f"{self.port_name}: the port went away ({exc})"))
+                return
+            if not data:
+                continue
+            buffer += data
+            if not buffer.endswith(b"\n"):
+                continue
+            line, buffer = buffer, b""
+            self._dispatch(line)
+
+    def _fail(self, error: Exception) -> None:
+        self._failure = error
+        self._replies.put(error)
+        with self._status_cond:
+            self._status_cond.notify_all()
+
+    def _dispatch(self, raw: bytes) -> None:
+        try:
+            reply = P.parse_reply(raw)
+        except P.ProtocolError:
+            text = raw.decode("ascii", "replace").strip()
+            if text:
+                self._message(f"ignored from the machine: {text!r}")
+            return
+        if reply.kind in ("ok", "error", "rs"):
+            self._replies.put(reply)
+        elif reply.kind == "status":
+            with self._status_cond:
+                self._status = reply.status
+                self._status_count += 1
+                self._status_cond.notify_all()
+        elif reply.kind == "banner":
+            self.banner = reply.banner
+        else:                                       # alarm:, msg:
+            if reply.kind == "alarm":
+                self._alarm = reply
+            self._message(f"{reply.kind}:{reply.code} {reply.text}".rstrip())
+
+    def _message(self, text: str) -> None:
+        if self.on_message is not None:
+            self.on_message(text)
+
+    # ---- writing ------------------------------------------------------------------------
+    def write(self, data: bytes) -> None:
+        if self._failure is not None:
+            raise self._failure
+        try:
+            with self._write_lock:
+                self._port.write(data)
+        except (serial.SerialException, OSError) as exc:
+            error = PortGone(f"{self.port_name}: cannot write, the port went away ({exc})")
+            self._fail(error)
+            raise error from None
+
+    def next_seq(self) -> int:
+        return 0 if self.seq < 0 else P.next_seq(self.seq)
+
+    def frame(self, command: object) -> tuple[int, bytes]:
+        """Take the next sequence number and frame `command` with it."""
+        self.seq = self.next_seq()
+        return self.seq, P.encode_command(command, self.seq)
+
+    # ---- replies --------------------------------------------------------------------------
+    def take_alarm(self) -> P.Reply | None:
+        """The alarm raised since the last call, if any."""
+        alarm, self._alarm = self._alarm, None
+        return alarm
+
+    def next_reply(self, timeout_s: float | None = None) -> P.Reply | None:
+        """The next line reply; None after `timeout_s`. Raises PortGone when the port
+        died or stays silent to `?` (checked every POLL_S while waiting)."""
+        deadline = None if timeout_s is None else time.monotonic() + timeout_s
+        while True:
+            wait = POLL_S if deadline is None else min(POLL_S, deadline - time.monotonic())
+            if wait <= 0:
+                return None
+            try:
+                item = self._replies.get(timeout=wait)
+            except queue.Empty:
+                if deadline is not None and time.monotonic() >= deadline:
+                    return None
+                self.status()                       # raises PortGone if silent
+                continue
+            if isinstance(item, Exception):
+                self._replies.put(item)             # every later wait fails the same way
+                raise item
+            return item
+
+    def send_protocol(self, command: object, timeout_s: float | None = None) -> P.Reply:
+        """Send one line and wait for its reply (resending on `rs`); LinkError on `error`."""
+        seq, line = self.frame(command)
+        for _attempt in range(4):
+            self.write(line)
+            reply = self.next_reply(timeout_s)
+            if reply is None:
+                raise PortGone(f"{self.port_name}: no reply to {line.decode().strip()!r}")
+            if reply.kind == "ok" and reply.seq == seq:
+                return reply
+            if reply.kind == "error":
+                raise LinkError(f"the machine refused {P.command_text(command)!r}: "
+                                f"error:{reply.code} {reply.text}", reply)
+            if reply.kind == "rs" and reply.seq != seq:
+                # the firmware expects another number (its count was reset): renumber
+                self.seq = reply.seq - 1 if reply.seq > 0 else -1
+                seq, line = self.frame(command)
+        raise LinkError(f"{self.port_name}: line {line!r} not accepted after 4 tries")
+
+    def send(self, command: Command, timeout_s: float | None = None) -> P.Reply:
+        """One machine command (jog, origin, feed, home...): waits for its `ok`."""
+        return self.send_protocol(command, timeout_s)
+
+    # ---- real-time ----------------------------------------------------------------------
+    def status(self, timeout_s: float = SILENT_S) -> P.Status:
+        """A fresh status (real-time `?`); PortGone when none comes in `timeout_s`."""
+        with self._status_cond:
+            count = self._status_count
+        self.write(P.RT_STATUS)
+        deadline = time.monotonic() + timeout_s
+        with self._status_cond:
+            while self._status_count == count:
+                if self._failure is not None:
+                    raise self._failure
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    raise PortGone(f"{self.port_name}: no status reply for {timeout_s:g} s")
+                self._status_cond.wait(left)
+            return self._status
+
+    def wait_idle(self, timeout_s: float | None = None, poll_s: float = 0.05) -> P.Status:
+        """Poll until the queue is empty and the machine stands still."""
+        deadline = None if timeout_s is None else time.monotonic() + timeout_s
+        while True:
+            status = self.status()
+            if self.standing(status):
+                return status
+            if deadline is not None and time.monotonic() > deadline:
+                raise LinkError(f"machine still busy after {timeout_s:g} s: {status.text()}")
+            time.sleep(poll_s)
+
+    def standing(self, status: P.Status) -> bool:
+        """Idle with an empty queue; LinkError if the machine is in alarm."""
+        if status.state == "alarm":
+            alarm = self.take_alarm()
+            raise LinkError(f"machine alarm: {alarm.code} {alarm.text}" if alarm
+                            else "machine in alarm state (send U)")
+        return status.state == "idle" and status.queue_blocks == 0
+
+    def hold(self) -> None:
+        self.write(P.RT_HOLD)
+
+    def resume(self) -> None:
+        self.write(P.RT_RESUME)
+
+    def abort(self, timeout_s: float = 30.0) -> P.Status:
+        """Ramp down and drop the queue (`alarm:14`), then unlock; the position stays known."""
+        self.write(P.RT_ABORT)
+        deadline = time.monotonic() + timeout_s
+        while True:
+            status = self.status()
+            if status.state == "alarm" and status.queue_blocks == 0:
+                break
+            if time.monotonic() > deadline:
+                raise LinkError(f"machine did not stop within {timeout_s:g} s: {status.text()}")
+            time.sleep(0.02)
+        self.drain_replies()
+        self.send_protocol(P.Unlock())
+        self.take_alarm()
+        return self.status()
+
+    def drain_replies(self, quiet_s: float = 0.1) -> list[P.Reply]:
+        """Collect line replies still on their way (after an abort) until quiet."""
+        replies = []
+        while (reply := self.next_reply(quiet_s)) is not None:
+            replies.append(reply)
+        return replies

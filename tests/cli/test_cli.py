@@ -1,0 +1,160 @@
+"""The galileo-cnc command as a user runs it: a real subprocess."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+from galileo_cnc.plan.offsets import proposed_offset
+from galileo_cnc.machine import Trace, simulate
+from galileo_cnc.plan.planner import plan_program
+from galileo_cnc.readers import read_file
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def galileo(*args: str, home: Path | None = None, stdin: str = "") -> subprocess.CompletedProcess:
+    env = dict(os.environ, GALILEO_CNC_NO_PROBE="1")
+    if home is not None:
+        env["GALILEO_CNC_HOME"] = str(home)
+    return subprocess.run([sys.executable, "-m", "galileo_cnc", *args], cwd=ROOT, env=env,
+                          input=stdin, capture_output=True, text=True, timeout=120)
+
+
+def test_info_json_of_the_sample_board():
+    result = galileo("info", "samples/led-blinker.gbr", "--json", "--margin", "2")
+    assert result.returncode == 0, result.stderr
+    info = json.loads(result.stdout)
+    assert (info["format"], info["units"], info["format_spec"]) == ("gerber", "mm", "4.6")
+    assert info["counts"] == {"draws": 12, "arcs": 3, "flashes": 10, "regions": 1}
+    assert info["bbox_mm"] == {"min_x": 6.0, "min_y": 5.0, "max_x": 46.0, "max_y": 36.0}
+    assert info["bbox_with_apertures_mm"]["min_y"] == 4.8  # the 0.4 mm track at Y 5
+    assert info["proposed_offset_mm"] == {"x": 4.0, "y": 3.0}
+    d13 = next(a for a in info["apertures"] if a["code"] == 13)
+    assert (d13["description"], d13["draws"], d13["arcs"]) == ("0.4 mm round", 7, 1)
+
+
+def test_info_text_of_a_gcode_drawing():
+    result = galileo("info", "samples/square-and-circle.nc")
+    assert result.returncode == 0, result.stderr
+    assert "format      gcode" in result.stdout and "4 draws, 1 arcs" in result.stdout
+
+
+def test_bad_files_give_one_line_with_the_position_and_exit_1(tmp_path):
+    broken = tmp_path / "broken.gbr"
+    broken.write_text("%FSLAX46Y46*%\n%MOMM*%\n%ADD10C,0.1*%\nD11*\n")
+    result = galileo("info", str(broken))
+    assert result.returncode == 1
+    assert result.stderr.startswith(f"galileo-cnc: {broken}:4:1: aperture D11 is used but not defined")
+    assert "Traceback" not in result.stderr
+
+    result = galileo("info", str(tmp_path / "missing.gbr"))
+    assert result.returncode == 1 and "cannot read" in result.stderr
+
+    notes = tmp_path / "notes.txt"
+    notes.write_text("shopping list: pens, paper\n")
+    result = galileo("info", str(notes))
+    assert result.returncode == 1 and "neither a Gerber RS-274X nor a G-code file" in result.stderr
+
+
+def test_plot_the_sample_board_on_sim_with_trace_and_preview(tmp_path):
+    trace_file, png = tmp_path / "board.npz", tmp_path / "board.png"
+    result = galileo("plot", "samples/led-blinker.gbr", "--port", "sim://?speed=0", "--yes",
+                     "--trace", str(trace_file), "--preview", str(png), home=tmp_path)
+    assert result.returncode == 0, result.stderr
+    out = result.stdout
+    assert "connected to sim://?speed=0 (built-in simulated machine)" in out
+    assert "minimum X 6.000 mm, Y 5.000 mm; offset 5.000, 4.000 mm" in out
+    assert "58 commands, about 1:28 of machine time" in out
+    assert out.count("insert pen for aperture") == 6
+    assert "insert pen for aperture D13 (0.4 mm round)" in out
+    assert "process has finished" in out and "\a" in out
+    program = read_file(ROOT / "samples" / "led-blinker.gbr")
+    expected = simulate(plan_program(program, None, proposed_offset(program)).commands)
+    assert Trace.load(trace_file).same_steps(expected)
+    with Image.open(png) as image:
+        assert image.size == (908, 724)
+    assert json.loads((tmp_path / "journal.json").read_text())["state"] == "finished"
+
+
+def test_plot_waits_for_enter_at_pen_changes_without_yes(tmp_path):
+    result = galileo("plot", "samples/led-blinker.gbr", "--port", "sim://?speed=0",
+                     "--offset", "4,3", home=tmp_path, stdin="\n" * 6)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.count("then press Enter") == 6
+    assert "offset 4.000, 3.000 mm" in result.stdout
+
+
+def test_plot_refuses_bad_offsets_and_jobs_past_the_travel(tmp_path):
+    result = galileo("plot", "samples/led-blinker.gbr", "--offset", "4;3", home=tmp_path)
+    assert result.returncode == 1
+    assert "--offset: expected auto, none or X,Y in mm" in result.stderr
+    result = galileo("plot", "samples/led-blinker.gbr", "--offset", "10,0", "--yes",
+                     "--port", "sim://?speed=0", home=tmp_path)
+    assert result.returncode == 1
+    assert result.stderr.startswith("galileo-cnc: ") and ":70:" in result.stderr
+    assert "X would reach" in result.stderr and "Traceback" not in result.stderr
+
+
+def test_a_profile_sets_the_machine_and_the_port(tmp_path):
+    profile = tmp_path / "profile.toml"
+    profile.write_text('[machine]\nx_travel_mm = 30.0\n[serial]\nport = "sim://?speed=0"\n')
+    # the board is 41 mm wide with the offset: the profile's 30 mm travel refuses it
+    result = galileo("plot", "samples/led-blinker.gbr", "--yes", home=tmp_path)
+    assert result.returncode == 1 and "X would reach" in result.stderr
+    result = galileo("plot", "samples/square-and-circle.nc", "--yes", home=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert "connected to sim://?speed=0" in result.stdout
+    profile.write_text('[serial]\nbaud = 1234\n')
+    result = galileo("plot", "samples/square-and-circle.nc", home=tmp_path)
+    assert result.returncode == 1 and "baud rate 1234 not supported" in result.stderr
+
+
+def test_preview_of_a_gcode_drawing(tmp_path):
+    png = tmp_path / "drawing.png"
+    result = galileo("preview", "samples/square-and-circle.nc", "-o", str(png))
+    assert result.returncode == 0, result.stderr
+    assert "2 pen strokes, 111.4 mm drawn" in result.stdout
+    with Image.open(png) as image:
+        pixels = np.asarray(image.convert("RGB"))
+    assert pixels.shape[2] == 3 and (pixels.sum(axis=2) < 300).any()    # dark pen strokes
+
+
+def test_ports_always_lists_the_simulated_machine():
+    result = galileo("ports")
+    assert result.returncode == 0, result.stderr
+    assert "sim://" in result.stdout and "built-in simulated machine" in result.stdout
+
+
+def test_plot_resume_continues_the_interrupted_job(tmp_path, monkeypatch):
+    """In one process: `sim://NAME` machines keep power only within a process."""
+    from galileo_cnc.cli.main import main
+    from galileo_cnc.stream.journal import Journal
+    from galileo_cnc.transport.link import MachineLink, PortGone
+    from galileo_cnc.sim.simulator import forget_named_machines, named_machine
+    from galileo_cnc.stream.streamer import JobStreamer
+    from galileo_cnc.transport.port import open_port
+
+    from faults import FaultyPort
+
+    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path))
+    forget_named_machines()
+    url = "sim://cli?speed=0"
+    program = read_file(ROOT / "samples" / "led-blinker.gbr")
+    job = plan_program(program, None, proposed_offset(program))
+    link = MachineLink.attach(FaultyPort(open_port(url, timeout=0.1), die_after=20), url)
+    try:
+        JobStreamer(link, job, program, journal=Journal.default()).run()
+    except PortGone:
+        pass
+    link.close()
+    assert main(["plot", str(ROOT / "samples" / "led-blinker.gbr"), "--resume", "--yes",
+                 "--port", url]) == 0
+    assert named_machine("cli").trace().same_steps(simulate(job.commands))
+    assert main(["plot", str(ROOT / "samples" / "led-blinker.gbr"), "--resume", "--yes",
+                 "--port", url]) == 1         # nothing left to resume
+    forget_named_machines()

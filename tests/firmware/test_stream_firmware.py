@@ -1,0 +1,138 @@
+"""Our streaming host against the real firmware in simavr, through a pseudo-terminal.
+
+The job is streamed by `galileo_cnc.stream.JobStreamer` over a `MachineLink`,
+exactly as `getg` and `plot` do, once to the firmware in simavr and once to
+`sim://`. The firmware's trace must have the same steps in the same order, and
+every step edge within LATENCY_JITTER_TICKS of the reference tick plus an offset
+that is constant between the points where the machine stands still on purpose
+(pen changes and a resumed connection): the host keeps the firmware's queue
+full in between, so no gap may open inside a run of moves.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from galileo_cnc.plan.offsets import proposed_offset
+from galileo_cnc.stream.journal import INTERRUPTED, Journal
+from galileo_cnc.transport.link import MachineLink, PortGone
+from galileo_cnc.machine import simulate
+from galileo_cnc.plan.planner import plan_program
+from galileo_cnc.readers import read_file
+from galileo_cnc.simavr.board import SimulatedBoard, step_trace
+from galileo_cnc.stream.streamer import JobStreamer
+from galileo_cnc.stream.resume import resume_job
+from galileo_cnc.transport.port import open_port
+
+from faults import FaultyPort
+from firmware_support import ELF, build_firmware, build_harness
+from test_firmware_fitl import LATENCY_JITTER_TICKS
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def firmware():
+    build_firmware()
+    build_harness()
+    return ELF
+
+
+def planned(name: str):
+    program = read_file(REPO / "samples" / name)
+    return program, plan_program(program, None, proposed_offset(program))
+
+
+def steps_before(job, command_index: int) -> int:
+    return len(simulate(job.commands[:command_index]).tick)
+
+
+def assert_same_trace_in_pieces(fw, ref, cuts):
+    """Same steps; ticks equal to the reference's up to one offset per piece."""
+    tick, axis, direction = fw
+    assert len(tick) == len(ref.tick), f"{len(tick)} firmware steps, {len(ref.tick)} reference"
+    assert np.array_equal(axis, ref.axis) and np.array_equal(direction, ref.dir)
+    bounds = sorted({0, *cuts, len(tick)})
+    for lo, hi in zip(bounds, bounds[1:]):
+        if hi > lo:
+            delay = tick[lo:hi] - ref.tick[lo:hi]
+            spread = int(delay.max() - delay.min())
+            assert spread <= LATENCY_JITTER_TICKS, (
+                f"steps {lo}..{hi}: edges spread over {spread} ticks (a gap in the stream?)")
+
+
+def stream_to_sim(job, program):
+    link = MachineLink.open("sim://?speed=0")
+    result = JobStreamer(link, job, program).run()
+    trace = link._port.trace()
+    link.close()
+    assert result.completed
+    return trace
+
+
+def test_the_sample_board_streamed_to_the_firmware_steps_as_on_sim(firmware):
+    program, job = planned("led-blinker.gbr")
+    sim_trace = stream_to_sim(job, program)
+    assert sim_trace.same_steps(simulate(job.commands))
+    changes = []
+    with SimulatedBoard(firmware) as board:
+        link = MachineLink.open(board.port)
+        messages = []
+        link.on_message = messages.append
+        result = JobStreamer(link, job, program).run(on_pen_change=changes.append)
+        final = link.status()
+        link.close()
+        board.stop()
+        fw = step_trace(board.trace())
+    assert result.completed and not messages, messages
+    assert [c.aperture for c in changes] == list(job.pen_changes.values())
+    assert (final.x_steps, final.y_steps, final.z_steps) == sim_trace.final_position
+    assert_same_trace_in_pieces(fw, sim_trace, [steps_before(job, k) for k in job.pen_changes])
+
+
+def test_a_pulled_cable_then_resume_gives_the_uninterrupted_trace(firmware, tmp_path):
+    program, job = planned("square-and-circle.nc")
+    journal = Journal(tmp_path / "journal.json")
+    with SimulatedBoard(firmware) as board:
+        port = FaultyPort(open_port(board.port, timeout=0.1), die_after=9)
+        link = MachineLink.attach(port, board.port)
+        with pytest.raises(PortGone):
+            JobStreamer(link, job, program, journal=journal).run()
+        link.close()
+        entry = journal.pending()
+        assert entry.state == INTERRUPTED and entry.confirmed < len(job) - 2
+
+        link = MachineLink.open(board.port)        # plugged in again; the board kept going
+        result = resume_job(link, journal)
+        link.close()
+        board.stop()
+        fw = step_trace(board.trace())
+    assert result.completed and journal.pending() is None
+    resumed_at = len(job) - result.total
+    assert 0 < resumed_at < len(job)           # some lines ran before the cut, some after
+    assert_same_trace_in_pieces(fw, simulate(job.commands), [steps_before(job, resumed_at)])
+
+
+def test_plot_on_the_simavr_port_runs_the_real_firmware(firmware, tmp_path):
+    env = dict(os.environ, GALILEO_CNC_HOME=str(tmp_path), GALILEO_CNC_NO_PROBE="1")
+    result = subprocess.run(
+        [sys.executable, "-m", "galileo_cnc", "plot", "samples/square-and-circle.nc",
+         "--port", "simavr://?realtime=0", "--yes"],
+        cwd=REPO, env=env, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert "connected to simavr://?realtime=0 (the firmware running in simavr), " \
+        "firmware 0.1.0" in result.stdout
+    assert "process has finished" in result.stdout
+    missing = subprocess.run(
+        [sys.executable, "-m", "galileo_cnc", "plot", "samples/square-and-circle.nc",
+         "--port", f"simavr://?elf={tmp_path}/none.elf", "--yes"],
+        cwd=REPO, env=env, capture_output=True, text=True, timeout=60)
+    assert missing.returncode == 1
+    assert f"no firmware at {tmp_path}/none.elf: build it with `make -C firmware`" \
+        in missing.stderr

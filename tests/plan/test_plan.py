@@ -1,0 +1,184 @@
+"""The planner: Program ops in nm -> machine commands in steps (docs/plan.md)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from galileo_cnc.config.machine import MachineConfig
+from galileo_cnc.plan.offsets import proposed_offset
+from galileo_cnc.job import ArcTo, Dwell, EndJob, Flash, LineTo, PenDown, PenUp, Rapid, SetFeed
+from galileo_cnc.machine import simulate
+from galileo_cnc.job import NO_OP
+from galileo_cnc.plan.planner import PlanError, plan_program
+from galileo_cnc.program.ops import OpKind, ProgramBuilder
+from galileo_cnc.readers import read_file
+
+SAMPLE = Path(__file__).resolve().parents[2] / "samples" / "led-blinker.gbr"
+CFG = MachineConfig()          # 160 steps/mm: 6250 nm per step
+MM = 1_000_000
+END = [PenUp(), EndJob()]
+
+
+def program(*ops):
+    """ops: (kind, x, y, i, j, tool, value); line numbers are 1, 2, 3, ..."""
+    b = ProgramBuilder("t.gbr")
+    for line, op in enumerate(ops, start=1):
+        kind, *rest = op
+        rest = list(rest) + [0] * (6 - len(rest))
+        x, y, i, j, tool, value = rest
+        b.emit(int(kind), x, y, i, j, tool if tool else -1, value, line=line, col=1)
+    return b.build("gerber", "mm")
+
+
+def plan(*ops, offset=(0, 0)):
+    return plan_program(program(*ops), CFG, offset)
+
+
+def test_move_line_flash_mapping_and_bookkeeping():
+    job = plan((OpKind.SELECT, 0, 0, 0, 0, 11),
+               (OpKind.MOVE, 1 * MM, 1 * MM),
+               (OpKind.LINE, 2 * MM, 1 * MM, 0, 0, 11),
+               (OpKind.LINE, 2 * MM, 3 * MM, 0, 0, 11),
+               (OpKind.SELECT, 0, 0, 0, 0, 12),
+               (OpKind.FLASH, 5 * MM, 5 * MM, 0, 0, 12))
+    # two apertures: the pen is lifted before the second, and both are pen changes
+    assert job.commands == [Rapid(160, 160), PenDown(), LineTo(320, 160), LineTo(320, 480),
+                            PenUp(), Rapid(800, 800), Flash()] + END
+    assert job.op_index == [1, 2, 2, 3, 5, 5, 5, NO_OP, NO_OP]
+    assert job.aperture == [11, 11, 11, 11, 12, 12, 12, 12, 12]
+    assert job.pen_changes == {1: 11, 5: 12}
+
+
+def test_gerber_work_is_grouped_by_aperture_one_pen_change_each():
+    job = plan((OpKind.SELECT, 0, 0, 0, 0, 10),
+               (OpKind.FLASH, 1 * MM, 1 * MM, 0, 0, 10),
+               (OpKind.SELECT, 0, 0, 0, 0, 11),
+               (OpKind.MOVE, 2 * MM, 2 * MM),
+               (OpKind.LINE, 3 * MM, 2 * MM, 0, 0, 11),
+               (OpKind.SELECT, 0, 0, 0, 0, 10),
+               (OpKind.FLASH, 4 * MM, 4 * MM, 0, 0, 10),
+               (OpKind.SELECT, 0, 0, 0, 0, 11),
+               (OpKind.LINE, 3 * MM, 5 * MM, 0, 0, 11))     # draws from the flash at (4, 4)
+    assert job.grouped
+    assert job.commands == [PenUp(), Rapid(160, 160), Flash(), Rapid(640, 640), Flash(),
+                            # D11: the path, then the line that started at the D10 flash
+                            Rapid(320, 320), PenDown(), LineTo(480, 320),
+                            Rapid(640, 640), PenDown(), LineTo(480, 800)] + END
+    assert job.pen_changes == {1: 10, 6: 11}   # D11 is inserted over its first stroke
+    assert job.op_index[:5] == [1, 1, 1, 6, 6]
+    # the file's order on request: four pen changes
+    in_order = plan_program(job_program := program(
+        (OpKind.SELECT, 0, 0, 0, 0, 10), (OpKind.FLASH, 1 * MM, 1 * MM, 0, 0, 10),
+        (OpKind.SELECT, 0, 0, 0, 0, 11), (OpKind.MOVE, 2 * MM, 2 * MM),
+        (OpKind.LINE, 3 * MM, 2 * MM, 0, 0, 11), (OpKind.SELECT, 0, 0, 0, 0, 10),
+        (OpKind.FLASH, 4 * MM, 4 * MM, 0, 0, 10)), CFG, group=False)
+    assert not in_order.grouped and len(in_order.pen_changes) == 3
+    assert len(job_program) == 7
+
+
+def test_region_outlines_draw_with_the_selected_aperture_and_one_pen_needs_no_change():
+    job = plan((OpKind.SELECT, 0, 0, 0, 0, 12),
+               (OpKind.REGION_BEGIN,), (OpKind.MOVE, 1 * MM, 1 * MM),
+               (OpKind.LINE, 2 * MM, 1 * MM), (OpKind.LINE, 1 * MM, 1 * MM),
+               (OpKind.REGION_END,),
+               (OpKind.FLASH, 5 * MM, 5 * MM, 0, 0, 12))
+    assert job.pen_changes == {} and not job.grouped
+    assert set(job.aperture) == {12}
+
+
+def test_gcode_keeps_its_order():
+    b = ProgramBuilder("t.nc")
+    b.emit(int(OpKind.SELECT), tool=1, line=1)
+    b.emit(int(OpKind.MOVE), 1 * MM, 1 * MM, line=2)
+    b.emit(int(OpKind.LINE), 2 * MM, 1 * MM, tool=1, line=3)
+    b.emit(int(OpKind.SELECT), tool=2, line=4)
+    b.emit(int(OpKind.LINE), 2 * MM, 2 * MM, tool=2, line=5)
+    b.emit(int(OpKind.SELECT), tool=1, line=6)
+    b.emit(int(OpKind.LINE), 1 * MM, 2 * MM, tool=1, line=7)
+    job = plan_program(b.build("gcode", "mm"), CFG)
+    assert not job.grouped
+    assert [c for c in job.commands if isinstance(c, LineTo)] == [
+        LineTo(320, 160), LineTo(320, 320), LineTo(160, 320)]
+    assert list(job.pen_changes.values()) == [1, 2, 1]
+
+
+def test_pen_ops_dwell_feed_and_markers():
+    job = plan((OpKind.POLARITY, 0, 0, 0, 0, 0, 1),
+               (OpKind.FEED, 0, 0, 0, 0, 0, 10 * MM),            # 10 mm/s = 1600 steps/s
+               (OpKind.PEN_DOWN,), (OpKind.DWELL, 0, 0, 0, 0, 0, 150), (OpKind.PEN_UP,),
+               (OpKind.REGION_BEGIN,),
+               (OpKind.MOVE, 1 * MM, 1 * MM),
+               (OpKind.LINE, 2 * MM, 1 * MM),
+               (OpKind.LINE, 1 * MM, 1 * MM),
+               (OpKind.REGION_END,))
+    assert job.commands == [SetFeed(1600), PenDown(), Dwell(150), PenUp(), Rapid(160, 160),
+                            PenDown(), LineTo(320, 160), LineTo(160, 160)] + END
+
+
+def test_arcs_round_the_centre_and_keep_the_direction():
+    # start (2 mm, 2 mm) = (320, 320); centre x = 3.01 mm = 481.6 -> 482 steps, so
+    # i = 162; the end 4.02 mm = 643.2 -> 643, so on the way back i = 482 - 643 = -161
+    # (rounding i itself would give -162: the centre would move by a step).
+    job = plan((OpKind.MOVE, 2 * MM, 2 * MM),
+               (OpKind.ARC_CCW, 4_020_000, 2 * MM, 1_010_000, 0),
+               (OpKind.ARC_CW, 2 * MM, 2 * MM, -1_010_000, 0))
+    assert job.commands == [Rapid(320, 320), PenDown(),
+                            ArcTo(643, 320, 162, 0, cw=False),
+                            ArcTo(320, 320, -161, 0, cw=True)] + END
+    # The end misses the rounded circle by a step: the machine corrects (motion.md §4.6).
+    simulate(job.commands, CFG)
+
+
+def test_full_circle_stays_a_full_circle():
+    job = plan((OpKind.MOVE, 4 * MM, 4 * MM), (OpKind.ARC_CW, 4 * MM, 4 * MM, -2 * MM, 0))
+    assert job.commands[2] == ArcTo(640, 640, -320, 0, cw=True)
+    trace = simulate(job.commands, CFG)
+    assert len(trace.tick) > 4 * 320
+
+
+def test_offset_is_subtracted_and_rounding_is_the_configs():
+    offset = (10 * MM, 20 * MM)
+    # 3125 nm is half a step: away from zero; 3124 rounds down.
+    job = plan((OpKind.MOVE, 11 * MM + 3125, 21 * MM + 3124),
+               (OpKind.LINE, 12 * MM - 3125, 21 * MM), offset=offset)
+    assert job.commands[0] == Rapid(161, 160)
+    assert job.commands[2] == LineTo(CFG.nm_to_steps(2 * MM - 3125), 160) == LineTo(320, 160)
+
+
+def test_zero_length_moves_are_dropped_but_a_dot_still_lowers_the_pen():
+    job = plan((OpKind.MOVE, 1 * MM, 1 * MM), (OpKind.MOVE, 1 * MM + 1000, 1 * MM),
+               (OpKind.LINE, 1 * MM, 1 * MM + 2000), (OpKind.LINE, 2 * MM, 1 * MM),
+               (OpKind.FLASH, 2 * MM, 1 * MM))
+    assert job.commands == [Rapid(160, 160), PenDown(), LineTo(320, 160), Flash()] + END
+
+
+def test_soft_limit_refuses_the_job_and_names_the_op():
+    with pytest.raises(PlanError) as info:
+        plan((OpKind.MOVE, 1 * MM, 1 * MM), (OpKind.LINE, 5 * MM, 1 * MM),
+             (OpKind.LINE, 5 * MM, -1 * MM), (OpKind.LINE, 1 * MM, 1 * MM))
+    err = info.value
+    assert (err.axis, err.op_index, err.pos.line) == ("Y", 2, 3)
+    assert str(err).startswith("t.gbr:3:1: LINE")
+    assert "below the travel minimum" in str(err)
+    with pytest.raises(PlanError) as info:
+        plan((OpKind.MOVE, 100 * MM, 100 * MM),
+             (OpKind.ARC_CW, 100 * MM, 100 * MM, 0, 60 * MM))   # circle reaches Y = 220 mm
+    assert (info.value.axis, info.value.pos.line) == ("Y", 2)
+    assert "beyond the travel maximum" in str(info.value)
+
+
+def test_sample_board_with_the_proposed_offset_simulates_and_ends_pen_up():
+    program = read_file(SAMPLE)
+    job = plan_program(program, CFG, proposed_offset(program))
+    assert job.commands[-2:] == END
+    assert sum(isinstance(c, Flash) for c in job.commands) == 10
+    assert sum(isinstance(c, ArcTo) for c in job.commands) == 3
+    trace = simulate(job.commands, CFG)
+    assert trace.final_position[2] == CFG.pen_up_z_steps
+    assert len(job.op_index) == len(job.aperture) == len(job.commands)
+    # 10 mm off in X puts the ground region (X = 6 mm, file line 70) out of the travel.
+    with pytest.raises(PlanError) as info:
+        plan_program(program, CFG, (10 * MM, 0))
+    assert info.value.axis == "X" and info.value.pos.line == 70
