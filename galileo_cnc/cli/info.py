@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM, proposed_offset
+from galileo_cnc.plan.pipeline import Artwork
 from galileo_cnc.program.extents import extents, region_mask
 from galileo_cnc.program.ops import KIND, NM_PER_MM, TOOL, OpKind, Program
 
@@ -36,13 +36,14 @@ def _box_mm(box):
     return {"min_x": _mm(box[0]), "min_y": _mm(box[1]), "max_x": _mm(box[2]), "max_y": _mm(box[3])}
 
 
-def summarize(program: Program, margin_nm: int = DEFAULT_MARGIN_NM) -> dict:
+def summarize(artwork: Artwork) -> dict:
     """Everything `galileo-cnc info --json` prints, as plain data (lengths in mm)."""
+    program, margin_nm = artwork.program, artwork.margin_nm
     table = program.table
     kind = table[:, KIND]
     in_region = region_mask(table)
-    box = extents(program)
-    offset = proposed_offset(program, margin_nm)
+    box = artwork.drawn_box_nm
+    offset = artwork.proposal_nm
     per_aperture = per_aperture_counts(program)
     return {
         "file": program.source,

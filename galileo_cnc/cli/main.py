@@ -15,10 +15,9 @@ from galileo_cnc.program.ops import NM_PER_MM
 
 def _run_info(args: argparse.Namespace) -> int:
     from galileo_cnc.cli.info import format_summary, summarize
-    from galileo_cnc.readers import read_file
+    from galileo_cnc.plan.pipeline import load_artwork
 
-    program = read_file(args.file)
-    summary = summarize(program, margin_nm=round(args.margin * NM_PER_MM))
+    summary = summarize(load_artwork(args.file, margin_nm=round(args.margin * NM_PER_MM)))
     if args.json:
         print(json.dumps(summary, indent=2))
     else:
@@ -42,18 +41,15 @@ def _run_plot(args: argparse.Namespace) -> int:
 
 
 def _run_preview(args: argparse.Namespace) -> int:
-    from galileo_cnc.plan.offsets import parse_offset
     from galileo_cnc.machine import simulate
-    from galileo_cnc.plan.planner import plan_program
-    from galileo_cnc.readers import read_file
+    from galileo_cnc.plan.pipeline import plan_file
     from galileo_cnc.preview.render import render_preview
 
     config = _profile(args).config
-    program = read_file(args.file)
-    offset = parse_offset(args.offset, program, round(args.margin * NM_PER_MM))
-    job = plan_program(program, config, offset, group=not args.file_order)
-    trace = simulate(job.commands, config)
-    info = render_preview(program, trace, config, offset, args.output)
+    planned = plan_file(args.file, config, args.offset, margin_nm=round(args.margin * NM_PER_MM),
+                        group=not args.file_order)
+    trace = simulate(planned.job.commands, config)
+    info = render_preview(planned.program, trace, config, planned.offset_nm, args.output)
     print(f"{args.output}: {info.summary()}")
     return 0
 

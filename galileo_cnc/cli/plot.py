@@ -17,12 +17,12 @@ from typing import TextIO
 
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.machine.timing import duration_text
-from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM, parse_offset
+from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
+from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, plan_file
 from galileo_cnc.program.extents import extents
 from galileo_cnc.stream.journal import Journal
 from galileo_cnc.transport.link import MachineLink, PortGone
 from galileo_cnc.job import Job
-from galileo_cnc.plan.planner import plan_program
 from galileo_cnc.config.profile import Profile
 from galileo_cnc.program.ops import NM_PER_MM, Program
 from galileo_cnc.stream.streamer import JobStreamer, PenChange, Progress, StreamResult
@@ -52,6 +52,16 @@ class TextProgress:
             self._shown = percent // 10
             self.out.write(text + "\n")
 
+    def planning(self, done: int, total: int) -> None:
+        """Planning a large file takes seconds: say so, and how far it got on a terminal."""
+        if done == 0 and total >= PLANNING_NOTICE_OPS:
+            self.out.write(f"planning {total} operations ...")
+            self.out.write("\n" if not self.tty else "")
+        elif self.tty and total >= PLANNING_NOTICE_OPS:
+            end = "\n" if done == total else ""
+            self.out.write(f"\rplanning {total} operations ... {100 * done // total}%{end}")
+        self.out.flush()
+
     def message(self, text: str) -> None:
         self.out.write(("\r\x1b[K" if self.tty else "") + text + "\n")
         self.out.flush()
@@ -71,22 +81,24 @@ class PlotOptions:
 
 
 def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.stderr) -> int:
-    from galileo_cnc.readers import read_file
-
     profile = options.profile
     journal = Journal.default()
-    program = read_file(options.file)
-    offset = parse_offset(options.offset, program, options.margin_nm)
-    job = plan_program(program, profile.config, offset, group=options.group)
+    progress = TextProgress(out)
+    planned = None
+    if not options.resume:              # a resumed job is planned from its journal
+        planned = plan_file(options.file, profile.config, options.offset,
+                            margin_nm=options.margin_nm, group=options.group,
+                            on_progress=progress.planning)
 
     link = MachineLink.open(profile.port, profile.baud, profile.config, profile.path)
-    progress = TextProgress(out)
     link.on_message = progress.message
     try:
         found = " (no board found)" if profile.port is None and link.simulated else ""
         out.write(link.describe() + found + "\n")
         start = 0
-        if options.resume:
+        if planned is not None:
+            job, program, offset = planned.job, planned.program, planned.offset_nm
+        else:
             entry = journal.pending()
             if entry is None or Path(entry.source) != Path(options.file).resolve():
                 raise GalileoError(f"no interrupted job of {options.file} to resume")

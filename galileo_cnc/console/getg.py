@@ -7,17 +7,17 @@ changes. Lengths are nm inside; mm only in what is printed and typed.
 
 from __future__ import annotations
 
+import os
+
 from prompt_toolkit.completion import PathCompleter
 
-from galileo_cnc.machine.timing import duration_text, job_timing
-from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM, offset_from_text, proposed_offset
-from galileo_cnc.program.extents import extents
-from galileo_cnc.stream.journal import Journal
-from galileo_cnc.plan.planner import plan_program
-from galileo_cnc.program.ops import NM_PER_MM, Program
-from galileo_cnc.readers import read_file
-from galileo_cnc.stream.streamer import JobStreamer
 from galileo_cnc.console.job_screen import JobScreen, report
+from galileo_cnc.machine.timing import duration_text, job_timing
+from galileo_cnc.plan.offsets import offset_from_text
+from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, Artwork, load_artwork, plan_file
+from galileo_cnc.program.ops import NM_PER_MM
+from galileo_cnc.stream.journal import Journal
+from galileo_cnc.stream.streamer import JobStreamer
 
 
 def run(console, arguments: list[str]) -> None:
@@ -25,11 +25,17 @@ def run(console, arguments: list[str]) -> None:
         "file to plot: ", completer=PathCompleter(expanduser=True))
     if not path:
         return
-    program = read_file(path)                     # GalileoError: one message, no traceback
-    offset_nm = choose_offset(console, program)
+    artwork = load_artwork(os.path.expanduser(path))   # GalileoError: one message, no traceback
+    if (problem := artwork.misfit(console.config)) is not None:
+        console.say(problem)                          # before any question or planning
+        return
+    offset_nm = choose_offset(console, artwork)
     if offset_nm is None:
         return
-    job = plan_program(program, console.config, offset_nm)   # PlanError names file:line, axis
+    if len(artwork.program) >= PLANNING_NOTICE_OPS:
+        console.say(f"planning {len(artwork.program)} operations ...")
+    planned = plan_file(artwork, console.config, offset_nm)   # PlanError names file:line, axis
+    job, program = planned.job, planned.program
     timing = job_timing(job.commands, console.config)
     pens = len(job.pen_changes)
     console.say(f"{len(job)} machine commands, {pens} pen change{'s' * (pens != 1)}, "
@@ -39,16 +45,16 @@ def run(console, arguments: list[str]) -> None:
     report(console, result)
 
 
-def choose_offset(console, program: Program) -> tuple[int, int] | None:
+def choose_offset(console, artwork: Artwork) -> tuple[int, int] | None:
     """The offset to subtract, in nm: the proposal, the user's, or none (None: nothing drawn)."""
-    box = extents(program)
+    box = artwork.drawn_box_nm
     if box is None:
-        console.say(f"{program.source}: nothing is drawn")
+        console.say(f"{artwork.program.source}: nothing is drawn")
         return None
-    proposal = proposed_offset(program)
+    proposal = artwork.proposal_nm
     console.say(f"minimum     X {_mm(box[0])} mm, Y {_mm(box[1])} mm")
     console.say(f"offsets     X {_mm(proposal[0])} mm, Y {_mm(proposal[1])} mm "
-                f"(brings the artwork to the origin plus a {DEFAULT_MARGIN_NM / NM_PER_MM:g} mm "
+                f"(brings the job to the origin plus a {artwork.margin_nm / NM_PER_MM:g} mm "
                 "margin)")
     if console.confirm("use these offsets?"):
         return proposal

@@ -20,16 +20,22 @@ class OffsetError(GalileoError):
     """An offset the user gave cannot be read."""
 
 
-def proposed_offset(program: Program, margin_nm: int = DEFAULT_MARGIN_NM) -> tuple[int, int]:
-    """The offset getg proposes (seed rule): minimum coordinate minus a margin.
+def offset_for_box(box: tuple[int, int, int, int] | None,
+                   margin_nm: int = DEFAULT_MARGIN_NM) -> tuple[int, int]:
+    """The seed's rule: the box's minimum coordinate minus a margin ((0, 0) for no box).
 
-    Subtracting it from every coordinate puts the artwork's lower-left corner at
+    Subtracting it from every coordinate puts the box's lower-left corner at
     (margin, margin) from the machine origin.
     """
-    box = extents(program)
     if box is None:
         return (0, 0)
     return (box[0] - margin_nm, box[1] - margin_nm)
+
+
+def proposed_offset(program: Program, margin_nm: int = DEFAULT_MARGIN_NM) -> tuple[int, int]:
+    """The offset getg proposes: the seed's rule over everything the machine visits
+    (drawn, flashed and travelled to), so a closing `G0 X0 Y0` fits too."""
+    return offset_for_box(extents(program, visited=True), margin_nm)
 
 
 def offset_from_text(text: str) -> tuple[int, int]:
@@ -45,15 +51,3 @@ def offset_from_text(text: str) -> tuple[int, int]:
         raise ValueError("the offsets must be finite numbers")
     return round(x_mm * NM_PER_MM), round(y_mm * NM_PER_MM)
 
-
-def parse_offset(text: str, program: Program, margin_nm: int = DEFAULT_MARGIN_NM) -> tuple[int, int]:
-    """`auto` (minimum minus margin), `none`, or `X,Y` in mm -> offset in nm."""
-    if text == "auto":
-        return proposed_offset(program, margin_nm)
-    if text == "none":
-        return (0, 0)
-    try:
-        return offset_from_text(text)
-    except ValueError:
-        raise OffsetError(f"--offset: expected auto, none or X,Y in mm (e.g. 5,4), "
-                          f"got {text!r}") from None

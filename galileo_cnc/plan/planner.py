@@ -26,6 +26,8 @@ PenUp/EndJob) and the aperture in force, for progress, resume and pen changes.
 
 from __future__ import annotations
 
+from typing import Callable
+
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.errors import GalileoError, SourcePos
 from galileo_cnc.job import (NO_OP, ArcTo, Command, Dwell, EndJob, Flash, Job, LineTo, MachineError,
@@ -34,6 +36,10 @@ from galileo_cnc.machine import ReferenceMachine
 from galileo_cnc.plan.order import DRAWING_KINDS, drawing_apertures, group_by_aperture
 from galileo_cnc.program.ops import (I, J, KIND, LINE, COL, NO_TOOL, TOOL, VALUE, X, Y,
                                      OpKind, Program)
+
+
+#: ops between two progress reports while planning
+PROGRESS_OPS = 2000
 
 
 class PlanError(GalileoError):
@@ -49,9 +55,11 @@ class PlanError(GalileoError):
 
 
 def plan_program(program: Program, config: MachineConfig | None = None,
-                 offset_nm: tuple[int, int] = (0, 0), group: bool = True) -> Job:
+                 offset_nm: tuple[int, int] = (0, 0), group: bool = True,
+                 on_progress: Callable[[int, int], None] | None = None) -> Job:
     """Plan `program` for the machine `config` with `offset_nm` subtracted (see module
-    doc); `group=False` keeps a Gerber file's own order."""
+    doc); `group=False` keeps a Gerber file's own order. `on_progress(done, total)`
+    hears about every PROGRESS_OPS ops, so a front end can show a long plan moving."""
     config = config or MachineConfig()
     steps = config.nm_to_steps
     ox, oy = offset_nm
@@ -68,7 +76,10 @@ def plan_program(program: Program, config: MachineConfig | None = None,
     at: tuple[int, int] | None = None  # position in steps; unknown at the start
     at_nm = (-ox, -oy)                 # the program's current point (nm, offset applied)
 
-    for index, row in ordered:
+    total = len(ordered)
+    for done, (index, row) in enumerate(ordered):
+        if on_progress is not None and done % PROGRESS_OPS == 0:
+            on_progress(done, total)
         kind = row[KIND]
         if kind == OpKind.SELECT:
             aperture = row[TOOL]
@@ -129,6 +140,8 @@ def plan_program(program: Program, config: MachineConfig | None = None,
     job.add(PenUp(), NO_OP, aperture)
     job.add(EndJob(), NO_OP, aperture)
     check_job(job, program, config)
+    if on_progress is not None:
+        on_progress(total, total)
     return job
 
 

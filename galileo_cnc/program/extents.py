@@ -32,16 +32,20 @@ def region_mask(table: np.ndarray) -> np.ndarray:
     return (depth > 0) & (kind != OpKind.REGION_BEGIN)
 
 
-def extents(program: Program, with_apertures: bool = False) -> tuple[int, int, int, int] | None:
+def extents(program: Program, with_apertures: bool = False,
+            visited: bool = False) -> tuple[int, int, int, int] | None:
     """Bounding box in nm of drawn centre lines (incl. arc extremes) and flash points.
 
     With `with_apertures`, each drawn point is widened by its aperture's extent.
-    None when nothing is drawn.
+    With `visited`, the points the machine travels to (moves) count too, so the box
+    holds everything the job does. None when nothing is drawn.
     """
     table = program.table
     kind = table[:, KIND]
     drawn = np.isin(kind, [int(k) for k in _DRAWN])
-    flashes = kind == OpKind.FLASH
+    if not drawn.any() and not (kind == OpKind.FLASH).any():
+        return None
+    flashes = (kind == OpKind.FLASH) | ((kind == OpKind.MOVE) if visited else False)
     starts = start_points(table)
     boxes = []  # rows of (xmin, ymin, xmax, ymax, tool)
     for rows, from_start in ((drawn, True), (flashes, False)):

@@ -12,7 +12,7 @@ from galileo_cnc.config.machine import MachineConfig, tomllib
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.job import Job
 from galileo_cnc.machine import ReferenceMachine
-from galileo_cnc.plan.planner import plan_program
+from galileo_cnc.plan.pipeline import plan_file
 from galileo_cnc.program.ops import Program
 from galileo_cnc.stream.journal import ABORTED, Journal, JournalEntry, file_digest
 from galileo_cnc.stream.streamer import JobStreamer, StreamResult
@@ -32,8 +32,6 @@ def position_after(job: Job, count: int, config: MachineConfig) -> tuple[int, in
 def plan_resume(link: MachineLink, entry: JournalEntry) -> tuple[Job, Program, int]:
     """Replan the journal's job and find where to continue; ResumeError if the file
     changed, the machine was reset or moved, or the job is not resumable."""
-    from galileo_cnc.readers import read_file
-
     if entry.state == ABORTED:
         raise ResumeError(f"the last job was stopped by the user ({entry.reason}); "
                           f"start it again with getg")
@@ -43,8 +41,8 @@ def plan_resume(link: MachineLink, entry: JournalEntry) -> tuple[Job, Program, i
         raise ResumeError(f"{entry.source} changed since the job was planned; "
                           f"start it again with getg")
     config = MachineConfig.from_mapping(tomllib.loads(entry.profile), "journal")
-    program = read_file(entry.source)
-    job = plan_program(program, config, entry.offset_nm, group=entry.group)
+    planned = plan_file(entry.source, config, entry.offset_nm, group=entry.group)
+    job, program = planned.job, planned.program
     if len(job) != entry.total:
         raise ResumeError("the replanned job differs from the interrupted one")
     status = link.wait_idle()

@@ -103,9 +103,11 @@ def test_plot_refuses_bad_offsets_and_jobs_past_the_travel(tmp_path):
 def test_a_profile_sets_the_machine_and_the_port(tmp_path):
     profile = tmp_path / "profile.toml"
     profile.write_text('[machine]\nx_travel_mm = 30.0\n[serial]\nport = "sim://?speed=0"\n')
-    # the board is 41 mm wide with the offset: the profile's 30 mm travel refuses it
+    # the board is 40 mm wide: the profile's 30 mm travel refuses it before any planning
     result = galileo("plot", "samples/led-blinker.gbr", "--yes", home=tmp_path)
-    assert result.returncode == 1 and "X would reach" in result.stderr
+    assert result.returncode == 1
+    assert "the job is 40.0 mm wide" in result.stderr
+    assert "the machine's travel is 30 mm" in result.stderr
     result = galileo("plot", "samples/square-and-circle.nc", "--yes", home=tmp_path)
     assert result.returncode == 0, result.stderr
     assert "connected to sim://?speed=0" in result.stdout

@@ -12,6 +12,7 @@ from corpus import CORPUS, corpus_paths
 from galileo_cnc.errors import GerberError
 from galileo_cnc.readers.gerber import read_gerber
 from galileo_cnc.cli.info import summarize
+from galileo_cnc.plan.pipeline import load_artwork
 
 READABLE = corpus_paths("real", "synthetic", "derived")
 INVALID = corpus_paths("invalid")
@@ -20,7 +21,7 @@ INVALID = corpus_paths("invalid")
 @pytest.mark.parametrize("path", READABLE)
 def test_every_corpus_file_reads(path):
     program = read_gerber(CORPUS / path)
-    summary = summarize(program)
+    summary = summarize(load_artwork(program))
     assert summary["line_count"] > 0
     # Every drawing op was traced back to a line of the file.
     assert program.table[:, -2].min(initial=1) >= 1
@@ -78,7 +79,7 @@ def test_mutated_corpus_files_raise_only_gerber_errors(source, mutations):
                 read_gerber(source, text, min_run=10**9)
             assert str(reference.value) == str(error)
             return
-    summarize(program)
+    summarize(load_artwork(program))
     assert np.array_equal(program.table, read_gerber(source, text, min_run=10**9).table)
 
 

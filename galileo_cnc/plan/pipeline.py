@@ -1,0 +1,106 @@
+"""The one pipeline every front end calls: file -> Program -> offset -> Job.
+
+`load_artwork` reads a file and works out where it sits: the box of everything
+the machine will visit (drawn, flashed and travelled to), the offset that brings
+it to the origin plus a margin, and whether it fits the machine at all.
+`plan_file` plans it with the offset the front end chose. `info` stops after
+the first step; `plot`, `preview`, the console's `getg` and `resume` take both.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Union
+
+from galileo_cnc.config.machine import MachineConfig
+from galileo_cnc.job import Job
+from galileo_cnc.plan.offsets import (DEFAULT_MARGIN_NM, OffsetError, offset_for_box,
+                                      offset_from_text)
+from galileo_cnc.plan.planner import PlanError, plan_program
+from galileo_cnc.program.extents import extents
+from galileo_cnc.program.ops import NM_PER_MM, Program
+from galileo_cnc.readers import read_file
+
+Box = tuple[int, int, int, int]
+#: files with fewer ops plan in well under a second: front ends show no progress for them
+PLANNING_NOTICE_OPS = 5000
+#: "auto" (the proposal), "none" (the file's own coordinates), "X,Y" in mm, or (x, y) nm.
+OffsetChoice = Union[str, tuple[int, int]]
+
+
+@dataclass(frozen=True)
+class Artwork:
+    """A read file and where it sits, in nm."""
+
+    program: Program
+    drawn_box_nm: Box | None     # drawn centre lines (arcs by their extremes) and flashes
+    visited_box_nm: Box | None   # everything the machine goes to: drawn, flashed, moved to
+    margin_nm: int
+
+    @property
+    def proposal_nm(self) -> tuple[int, int]:
+        """The offset the seed proposed, over the whole job: the lower-left corner of
+        everything visited minus the margin (so a closing `G0 X0 Y0` fits too)."""
+        return offset_for_box(self.visited_box_nm, self.margin_nm)
+
+    def misfit(self, config: MachineConfig) -> str | None:
+        """Why no offset can make the job fit the travel (None: one can)."""
+        if self.visited_box_nm is None:
+            return None
+        x0, y0, x1, y1 = self.visited_box_nm
+        for axis, size, travel in (("wide", x1 - x0, config.x_travel_mm),
+                                   ("tall", y1 - y0, config.y_travel_mm)):
+            if size > round(travel * NM_PER_MM):
+                return (f"{self.program.source}: the job is {size / NM_PER_MM:.1f} mm {axis} "
+                        f"(with its travel moves); the machine's travel is {travel:g} mm")
+        return None
+
+
+@dataclass(frozen=True)
+class PlannedFile:
+    """A file planned for one machine: the artwork, the offset used, the Job."""
+
+    artwork: Artwork
+    offset_nm: tuple[int, int]
+    job: Job
+
+    @property
+    def program(self) -> Program:
+        return self.artwork.program
+
+
+def load_artwork(source: str | Path | Program, margin_nm: int = DEFAULT_MARGIN_NM) -> Artwork:
+    """Read `source` (a path, or a Program already read) and find where it sits."""
+    program = source if isinstance(source, Program) else read_file(source)
+    return Artwork(program, extents(program), extents(program, visited=True), margin_nm)
+
+
+def resolve_offset(artwork: Artwork, choice: OffsetChoice) -> tuple[int, int]:
+    """The offset in nm for "auto", "none", "X,Y" (mm) or an (x, y) pair in nm."""
+    if not isinstance(choice, str):
+        return (int(choice[0]), int(choice[1]))
+    if choice == "auto":
+        return artwork.proposal_nm
+    if choice == "none":
+        return (0, 0)
+    try:
+        return offset_from_text(choice)
+    except ValueError:
+        raise OffsetError(f"--offset: expected auto, none or X,Y in mm (e.g. 5,4), "
+                          f"got {choice!r}") from None
+
+
+def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | None = None,
+              offset: OffsetChoice = "auto", *, margin_nm: int = DEFAULT_MARGIN_NM,
+              group: bool = True,
+              on_progress: Callable[[int, int], None] | None = None) -> PlannedFile:
+    """Read (unless given an Artwork), offset and plan; PlanError says why a job cannot
+    run: too big for the travel (before any planning), or the op that leaves it."""
+    config = config or MachineConfig()
+    artwork = source if isinstance(source, Artwork) else load_artwork(source, margin_nm)
+    if (problem := artwork.misfit(config)) is not None:
+        raise PlanError(problem)
+    offset_nm = resolve_offset(artwork, offset)
+    job = plan_program(artwork.program, config, offset_nm, group=group, on_progress=on_progress)
+    return PlannedFile(artwork, offset_nm, job)

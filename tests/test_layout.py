@@ -1,0 +1,96 @@
+"""The package's folders follow the data flow (docs/architecture.md): no module
+imports from a later stage than its own, nor sideways from another folder of its
+stage. Checked on the source, lazy imports inside functions included."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parents[1] / "galileo_cnc"
+
+#: stage of each top-level module or folder; a module may import its own folder and
+#: anything of a lower stage. The reference machine and the wire protocol share a
+#: stage, so neither may import the other.
+STAGES = {
+    "errors": 0,
+    "config": 1, "job": 1, "program": 1,
+    "readers": 2, "machine": 2, "protocol": 2,
+    "plan": 3, "transport": 3, "simavr": 3,
+    "sim": 4, "stream": 4, "preview": 4, "firmware_headers": 4,
+    "console": 5,
+    "cli": 6, "__main__": 7,
+}
+
+
+def _unit(module: str) -> str:
+    """'galileo_cnc.plan.planner' -> 'plan'."""
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else ""
+
+
+def _module_name(path: Path) -> str:
+    rel = path.relative_to(PACKAGE.parent).with_suffix("")
+    parts = [p for p in rel.parts if p != "__init__"]
+    return ".".join(parts)
+
+
+def _imports(source: str, module: str, is_package: bool) -> list[tuple[int, str]]:
+    """(line, absolute module) of every galileo_cnc import in `source`."""
+    package = module if is_package else module.rsplit(".", 1)[0]
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            found += [(node.lineno, a.name) for a in node.names if a.name.startswith("galileo_cnc")]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")[: len(package.split(".")) - node.level + 1]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            if target == "galileo_cnc":                 # from galileo_cnc import protocol
+                found += [(node.lineno, f"galileo_cnc.{a.name}") for a in node.names
+                          if a.name in STAGES]
+            elif target.startswith("galileo_cnc."):
+                found.append((node.lineno, target))
+    return found
+
+
+def backward_imports(source: str, module: str, is_package: bool = False) -> list[str]:
+    """Each import of `module`'s source that reaches a later (or sideways) stage."""
+    own = _unit(module)
+    problems = []
+    for line, target in _imports(source, module, is_package):
+        other = _unit(target)
+        if own and other not in ("", own) and not STAGES[other] < STAGES[own]:
+            problems.append(f"{module}:{line}: {own} (stage {STAGES[own]}) imports "
+                            f"{target} (stage {STAGES[other]})")
+    return problems
+
+
+SOURCES = sorted(p for p in PACKAGE.rglob("*.py") if p.parent.name != "__pycache__")
+
+
+def test_every_folder_and_module_has_a_stage():
+    units = {_unit(_module_name(p)) for p in SOURCES} - {""}
+    assert units <= set(STAGES), f"give these a stage: {sorted(units - set(STAGES))}"
+
+
+@pytest.mark.parametrize("path", SOURCES, ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_no_module_imports_a_later_stage(path):
+    # galileo_cnc/__init__.py (no stage) only registers the URL schemes
+    assert backward_imports(path.read_text(), _module_name(path),
+                            path.name == "__init__.py") == []
+
+
+def test_the_rule_catches_backward_and_sideways_imports():
+    assert backward_imports("from galileo_cnc.plan.planner import plan_program\n",
+                            "galileo_cnc.readers.probe") == [
+        "galileo_cnc.readers.probe:1: readers (stage 2) imports galileo_cnc.plan.planner "
+        "(stage 3)"]
+    # the reference machine never imports the protocol (same stage, another folder)
+    assert len(backward_imports("def f():\n    from galileo_cnc import protocol\n",
+                                "galileo_cnc.machine.planner")) == 1
+    assert backward_imports("from ..job import Rapid\n", "galileo_cnc.protocol.spec") == []
