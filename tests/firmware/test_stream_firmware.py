@@ -19,6 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from galileo_cnc import protocol as P
+from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.plan.offsets import proposed_offset
 from galileo_cnc.stream.journal import INTERRUPTED, Journal
 from galileo_cnc.transport.link import MachineLink, PortGone
@@ -136,3 +138,33 @@ def test_plot_on_the_simavr_port_runs_the_real_firmware(firmware, tmp_path):
     assert missing.returncode == 1
     assert f"no firmware at {tmp_path}/none.elf: build it with `make -C firmware`" \
         in missing.stderr
+
+
+def test_a_profile_other_than_the_flashed_one_is_refused_by_plot(firmware, tmp_path):
+    # the firmware in simavr is built from the default config.h; the user's profile
+    # says the machine is 150 mm wide: the banner's digest differs, the `C` list names
+    # the field, and no line of the job is sent
+    env = dict(os.environ, GALILEO_CNC_HOME=str(tmp_path), GALILEO_CNC_NO_PROBE="1")
+    profile = tmp_path / "profile.toml"
+    profile.write_text("[machine]\nx_travel_mm = 150.0\n")
+    result = subprocess.run(
+        [sys.executable, "-m", "galileo_cnc", "plot", "samples/square-and-circle.nc",
+         "--port", "simavr://?realtime=0", "--yes", "--profile", str(profile)],
+        cwd=REPO, env=env, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 1, result.stdout
+    assert "warning: the firmware was built for another machine (X_TRAVEL_MAX_STEPS" \
+        in result.stdout
+    assert ("X_TRAVEL_MAX_STEPS 32000 in the firmware, 24000 in the profile"
+            in result.stderr), result.stderr
+    assert f"python -m galileo_cnc.firmware_headers --config {profile}" in result.stderr
+    assert "process has finished" not in result.stdout
+
+
+def test_the_firmware_reports_the_config_it_was_built_with(firmware):
+    with SimulatedBoard(firmware, trace=False) as board:
+        link = MachineLink.open(board.port)
+        assert link.banner.config_digest == MachineConfig().firmware_digest()
+        assert link.config_differences == ()
+        reply = link.send_protocol(P.QueryConfig())
+        link.close()
+    assert reply.text == "config " + MachineConfig().firmware_text()
