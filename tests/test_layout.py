@@ -94,3 +94,15 @@ def test_the_rule_catches_backward_and_sideways_imports():
     assert len(backward_imports("def f():\n    from galileo_cnc import protocol\n",
                                 "galileo_cnc.machine.planner")) == 1
     assert backward_imports("from ..job import Rapid\n", "galileo_cnc.protocol.spec") == []
+
+
+def test_pyproject_ships_every_package_and_the_help_file():
+    # a package missing from the list is missing from every `pip install .`
+    import tomllib
+
+    listed = set(tomllib.loads((PACKAGE.parent / "pyproject.toml").read_text())
+                 ["tool"]["setuptools"]["packages"])
+    on_disk = {".".join(p.parent.relative_to(PACKAGE.parent).parts)
+               for p in PACKAGE.rglob("__init__.py")}
+    assert on_disk | {"galileo_cnc.helpfiles"} == listed
+    assert (PACKAGE.parent / "helpfiles" / "helpfile.f").is_file()

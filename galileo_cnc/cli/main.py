@@ -66,8 +66,9 @@ def _run_ports(args: argparse.Namespace) -> int:
                 else "  [no banner]"
         print(line)
     print(f"{'sim://':<20} built-in simulated machine (always there)")
-    print(f"{'simavr://':<20} the firmware running in simavr (after make -C firmware "
-          f"and make -C firmware/harness)")
+    print(f"{'simavr://':<20} the firmware running in simavr (build both with make -C "
+          f"firmware and make -C firmware/harness in a checkout; installed elsewhere, set "
+          f"GALILEO_FIRMWARE and GALILEO_SIMAVR)")
     return 0
 
 

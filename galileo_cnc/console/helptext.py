@@ -21,7 +21,7 @@ from pathlib import Path
 HELPFILE_NAME = "helpfile.f"
 _SECTION_RE = re.compile(r"^\[([A-Za-z][\w-]*)\]\s*$")
 #: helpfiles/ at the top of a source checkout (installed, it is galileo_cnc.helpfiles).
-_CHECKOUT_HELPFILES = Path(__file__).resolve().parent.parent / "helpfiles"
+_CHECKOUT_HELPFILES = Path(__file__).resolve().parents[2] / "helpfiles"
 
 
 @dataclass(slots=True)

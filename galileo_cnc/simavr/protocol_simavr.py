@@ -21,7 +21,7 @@ from serial.serialposix import Serial as PosixSerial
 from serial.serialutil import SerialException
 
 from galileo_cnc.simavr.board import (SimulatedBoard, SimulatedBoardError, firmware_missing_message,
-                                      firmware_path)
+                                      firmware_path, harness_available, harness_missing_message)
 
 _FORM = "simavr://[?elf=PATH&realtime=0|1]"
 
@@ -53,8 +53,9 @@ class Serial(PosixSerial):
     def open(self):
         url = self._port
         elf, realtime = parse_url(url)
-        if elf is None:
-            raise SerialException(f"simavr://: {firmware_missing_message()}")
+        if elf is None:        # say what else is missing too, so one look fixes both
+            harness = "" if harness_available() else f"; and {harness_missing_message()}"
+            raise SerialException(f"simavr://: {firmware_missing_message()}{harness}")
         if not elf.is_file():
             raise SerialException(f"simavr://: no firmware at {elf}: build it with "
                                   f"`make -C firmware` (in a checkout) or pass ?elf=PATH")
