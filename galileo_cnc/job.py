@@ -23,15 +23,17 @@ from galileo_cnc.errors import GalileoError
 class MachineError(GalileoError):
     """The machine refuses a command (soft limit, bad feed, homing failure, ...).
 
-    `axis` ("X", "Y", "Z" or "") and `limit` (the violated bound in steps, or None)
-    are kept for callers that want to highlight the offending part.
+    `axis` ("X", "Y", "Z" or ""), `limit` (the violated bound in machine steps, or
+    None) and `value` (where the move would have taken the axis) are kept for
+    callers that want to say it in the user's units.
     """
 
     def __init__(self, message: str, axis: str = "", limit: int | None = None,
-                 index: int | None = None):
+                 index: int | None = None, value: int | None = None):
         self.axis = axis
         self.limit = limit
         self.index = index
+        self.value = value
         super().__init__(message)
 
 

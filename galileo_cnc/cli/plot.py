@@ -95,22 +95,24 @@ def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.s
     try:
         found = " (no board found)" if profile.port is None and link.simulated else ""
         out.write(link.describe() + found + "\n")
-        start = 0
+        start, lead_in = 0, ()
         if planned is not None:
             job, program, offset = planned.job, planned.program, planned.offset_nm
         else:
             entry = journal.pending()
             if entry is None or Path(entry.source) != Path(options.file).resolve():
                 raise GalileoError(f"no interrupted job of {options.file} to resume")
-            job, program, start = plan_resume(link, entry)
+            point = plan_resume(link, entry)
+            job, program, start, lead_in = point.job, point.program, point.start, point.lead_in
             offset = job.offset_nm                  # the interrupted job's, not --offset
-            out.write(f"resuming after command {start} of {len(job)}\n")
+            out.write(f"resuming at command {start + 1} of {len(job)}\n")
         box = extents(program)
         if box is not None:
             out.write(f"{program.source}: minimum X {box[0] / NM_PER_MM:.3f} mm, "
                       f"Y {box[1] / NM_PER_MM:.3f} mm; offset {offset[0] / NM_PER_MM:.3f}, "
                       f"{offset[1] / NM_PER_MM:.3f} mm\n")
-        streamer = JobStreamer(link, job, program, journal=journal, start=start)
+        streamer = JobStreamer(link, job, program, journal=journal, start=start,
+                               lead_in=lead_in)
         out.write(f"{len(job) - start} commands, about "
                   f"{duration_text(streamer.timing.seconds_between(start, len(job)))} "
                   f"of machine time\n")

@@ -195,6 +195,13 @@ class MachineConfig:
         return (self.sim_x_endstop_steps, self.sim_y_endstop_steps, self.sim_z_endstop_steps)
 
     # ---- construction -----------------------------------------------------------
+    def travel_refusal(self, axis: str, value_steps: int, limit_steps: int) -> str:
+        """A soft-limit refusal in the user's units (machine coordinates), steps in brackets."""
+        side = "beyond the travel's end at" if value_steps > limit_steps else \
+            "below the travel's start at"
+        return (f"{axis} would reach {value_steps / self.steps_per_mm:.3f} mm, {side} "
+                f"{limit_steps / self.steps_per_mm:.3f} mm [{value_steps} steps]")
+
     def firmware_values(self) -> tuple[tuple[str, int, str], ...]:
         """What the firmware is built with from this profile: config.h's `CFG_` names,
         integer values and comments, in header order. The digest in the firmware's

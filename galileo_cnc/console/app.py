@@ -21,7 +21,7 @@ from prompt_toolkit.shortcuts import print_formatted_text, prompt
 from galileo_cnc import __version__
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.errors import GalileoError
-from galileo_cnc.transport.link import LinkError, MachineLink, PortGone
+from galileo_cnc.transport.link import LinkError, MachineAlarm, MachineLink, PortGone
 from galileo_cnc.job import SetFeed
 from galileo_cnc.protocol import Status
 from galileo_cnc.console.commands import build_registry
@@ -80,13 +80,23 @@ class Console:
 
     # ---- the machine ----------------------------------------------------------------
     def connect(self, port: str | None) -> bool:
-        self.disconnect()
+        """Open `port` (None: find a board, else sim://); a working connection is kept
+        when the new one cannot be made, and given up only to reopen the same port."""
+        old = self.link
+        if old is not None and (port is None or port == old.port_name):
+            self.disconnect()                   # a port opens once: close it first
+            old = None
         try:
             link = MachineLink.open(port, self.baud, self.config, self.config_path)
         except GalileoError as error:
             self.say(f"not connected: {error}")
-            self.say("type `connect PORT` to try again (`ports` lists them)")
+            if old is not None:
+                self.say(f"still connected to {old.port_name}")
+            else:
+                self.say("type `connect PORT` to try again (`ports` lists them)")
             return False
+        if old is not None:
+            old.close()
         link.on_message = self.say_from_thread
         self.link = link
         line = link.describe()
@@ -195,6 +205,8 @@ class Console:
             self.say(str(error))
             self.say("the port is gone: type connect to reconnect, then resume")
             self.disconnect()
+        except MachineAlarm:
+            pass                         # its alarm: line is on the screen already
         except GalileoError as error:
             self.say(str(error))
         except (KeyboardInterrupt, EOFError):

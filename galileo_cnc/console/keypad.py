@@ -13,9 +13,10 @@ from prompt_toolkit.key_binding import KeyBindings
 from prompt_toolkit.layout import Layout, Window
 from prompt_toolkit.layout.controls import FormattedTextControl
 
+from galileo_cnc.console.units import jog_units_to_steps, position_mm_text, refusal_text
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.job import Jog, SetOrigin
-from galileo_cnc.console.units import jog_units_to_steps, position_mm_text
+from galileo_cnc.transport.link import LinkError, PortGone
 
 #: key -> direction (x, y, z); each key has a NumLock-off twin.
 KEYPAD = {
@@ -28,7 +29,9 @@ KEYPAD = {
 }
 ORIGIN_KEYS = ("0", "o", "O", "insert")   # Insert is keypad 0 with NumLock off
 LEAVE_KEYS = ("q", "Q", "escape")
-HINT = "7/1 Z up/down  8/2 Y+/Y-  4/6 X-/X+  0 or o: origin here  q: back"
+#: how often the line is redrawn (and the position asked for while the head moves)
+REFRESH_S = 0.2
+HINT = "7/1 Z up/down  8/2 Y+/Y-  4/6 X-/X+  0 or o: origin here (X, Y and Z)  q: back"
 
 
 class KeypadJog:
@@ -41,6 +44,8 @@ class KeypadJog:
         self.status = self.link.status()
 
     def line(self) -> str:
+        if self.status.state != "idle" or self.status.queue_blocks:
+            self._refresh()                     # the head is moving: show where it is now
         where = position_mm_text(self.status, self.console.config)
         note = f"   {self.note}" if self.note else ""
         return (f"jog {self.units} units = {self.step} steps   {where}{note}\n{HINT}")
@@ -51,15 +56,23 @@ class KeypadJog:
 
     def set_origin(self) -> None:
         self.link.wait_idle()
-        self._do(SetOrigin(), "origin set here")
+        self._do(SetOrigin(), "origin set here: X, Y and Z are 0 now (Z 0 draws)")
 
     def _do(self, command, note: str) -> None:
         try:
             self.link.send(command)
             self.note = note
+        except PortGone:
+            raise
         except GalileoError as refused:          # e.g. the jog would leave the travel
-            self.note = str(refused)
-        self.status = self.link.status()
+            self.note = refusal_text(refused, self.console.config)
+        self._refresh()
+
+    def _refresh(self) -> None:
+        try:
+            self.status = self.link.status(timeout_s=1.0)
+        except LinkError:
+            pass                                 # the next redraw asks again
 
     def stop(self) -> None:
         self.link.abort()
@@ -79,9 +92,10 @@ class KeypadJog:
             self.stop()
             event.app.exit()
 
+        # redrawn while a jog runs, so the position follows the head (line() asks)
         app: Application = Application(
             layout=Layout(Window(FormattedTextControl(self.line), height=2)),
-            key_bindings=keys, full_screen=False)
+            key_bindings=keys, full_screen=False, refresh_interval=REFRESH_S)
         app.run()
 
 

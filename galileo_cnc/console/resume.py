@@ -1,12 +1,12 @@
-"""`resume`: continue the job the journal says was interrupted, after its last
-confirmed command (the streamer replans the file and checks the machine's position)."""
+"""`resume`: continue the job the journal says was interrupted (a lost port) or
+stopped (q, Ctrl-C) where the machine left it; the pen in force is asked for first."""
 
 from __future__ import annotations
 
-from galileo_cnc.stream.journal import Journal
-from galileo_cnc.stream.streamer import JobStreamer
-from galileo_cnc.stream.resume import plan_resume
 from galileo_cnc.console.job_screen import JobScreen, report
+from galileo_cnc.stream.journal import Journal
+from galileo_cnc.stream.resume import plan_resume
+from galileo_cnc.stream.streamer import JobStreamer
 
 
 def run(console, arguments: list[str]) -> None:
@@ -15,11 +15,12 @@ def run(console, arguments: list[str]) -> None:
     if entry is None:
         console.say("no interrupted job to resume")
         return
-    job, program, start = plan_resume(console.link, entry)   # ResumeError says why not
-    console.say(f"{entry.source}: {start} of {len(job)} commands were done"
+    point = plan_resume(console.link, entry)           # ResumeError says why not
+    console.say(f"{entry.source}: {point.start} of {len(point.job)} commands were done"
                 f"{' (' + entry.reason + ')' if entry.reason else ''}")
     if not console.confirm("continue the job?"):
         return
-    streamer = JobStreamer(console.link, job, program, journal=journal, start=start)
-    screen = JobScreen(console, program.source, len(job) - start)
+    streamer = JobStreamer(console.link, point.job, point.program, journal=journal,
+                           start=point.start, lead_in=point.lead_in)
+    screen = JobScreen(console, point.program.source, len(point.job) - point.start)
     report(console, screen.run(streamer.run, streamer.abort))

@@ -5,9 +5,11 @@ from __future__ import annotations
 import math
 
 from galileo_cnc.config.machine import MIN_FEED_STEPS_PER_S
-from galileo_cnc.job import SetFeed
 from galileo_cnc.console.keypad import jog_with_keypad
-from galileo_cnc.console.units import NM_PER_JOG_UNIT
+from galileo_cnc.console.units import NM_PER_JOG_UNIT, refusal_text
+from galileo_cnc.errors import GalileoError
+from galileo_cnc.job import SetFeed
+from galileo_cnc.transport.link import PortGone
 
 MENU = """setup
   1) jog the head with the numeric keypad (and set the origin)
@@ -26,7 +28,12 @@ def run(console, arguments: list[str]) -> None:
         if action is None:
             console.say("choose 1, 2 or q")
             continue
-        action(console)
+        try:
+            action(console)
+        except PortGone:
+            raise                               # the console says how to reconnect
+        except GalileoError as refused:         # the menu stays: try another value
+            console.say(refusal_text(refused, console.config))
 
 
 def jog(console) -> None:
@@ -38,18 +45,18 @@ def jog(console) -> None:
 def _ask_jog_units(console) -> int | None:
     while True:
         answer = console.ask(f"jog distance in units of {NM_PER_JOG_UNIT // 1000} um "
-                             f"(1000 = 1 cm) [{DEFAULT_JOG_UNITS}]: ")
+                             f"(1000 = 1 cm, 0 goes back) [{DEFAULT_JOG_UNITS}]: ")
         if not answer:
             return DEFAULT_JOG_UNITS
-        if answer.lower() == "q":
+        if answer.lower() == "q" or answer.strip() == "0":   # 0: the seed's way back
             return None
         try:
             units = int(answer)
         except ValueError:
             console.say("a whole number, please (100 = 1 mm)")
             continue
-        if units <= 0:
-            console.say("the distance must be more than 0")
+        if units < 0:
+            console.say("the distance must be more than 0 (0 goes back)")
             continue
         return units
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from galileo_cnc.config.machine import MachineConfig
+from galileo_cnc import protocol as P
 from galileo_cnc.protocol import Status
 
 #: The seed's jog distance unit: 1000 units = 1 cm, so one unit is 10 um.
@@ -15,6 +16,16 @@ def jog_units_to_steps(units: int, config: MachineConfig) -> int:
 
 def steps_to_mm(steps: int, config: MachineConfig) -> float:
     return steps / config.steps_per_mm
+
+
+def refusal_text(error: Exception, config: MachineConfig) -> str:
+    """What the machine refused, with a soft limit said in mm rather than steps."""
+    reply = getattr(error, "reply", None)
+    limit = P.parse_soft_limit(reply.text) if reply is not None and reply.code == \
+        P.ERROR_BY_NAME["SOFT_LIMIT"].code else None
+    if limit is None:
+        return str(error)
+    return f"refused: {config.travel_refusal(*limit)}"
 
 
 def position_mm_text(status: Status, config: MachineConfig) -> str:

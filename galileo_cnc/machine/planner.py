@@ -116,9 +116,10 @@ class ReferenceMachine:
         return origin
 
     # ---- helpers ----------------------------------------------------------------
-    def _fail(self, message: str, axis: str = "", limit: int | None = None) -> MachineError:
+    def _fail(self, message: str, axis: str = "", limit: int | None = None,
+              value: int | None = None) -> MachineError:
         return MachineError(f"command {self._index} ({self._command}): {message}",
-                            axis=axis, limit=limit, index=self._index)
+                            axis=axis, limit=limit, index=self._index, value=value)
 
     def _check_travel(self, lo: Sequence[int], hi: Sequence[int]) -> None:
         """Refuse a move whose visited box [lo, hi] (machine steps) leaves the travel."""
@@ -127,11 +128,11 @@ class ReferenceMachine:
             if lo[a] < tmin[a]:
                 raise self._fail(f"{AXIS_NAMES[a]} would reach {lo[a]} steps, below the "
                                  f"travel minimum {AXIS_NAMES[a]}={tmin[a]}",
-                                 AXIS_NAMES[a], tmin[a])
+                                 AXIS_NAMES[a], tmin[a], lo[a])
             if hi[a] > tmax[a]:
                 raise self._fail(f"{AXIS_NAMES[a]} would reach {hi[a]} steps, beyond the "
                                  f"travel maximum {AXIS_NAMES[a]}={tmax[a]}",
-                                 AXIS_NAMES[a], tmax[a])
+                                 AXIS_NAMES[a], tmax[a], hi[a])
 
     def _work_to_machine(self, x: int, y: int, z: int | None) -> list[int]:
         o = self.origin

@@ -160,5 +160,6 @@ def check_job(job: Job, program: Program, config: MachineConfig) -> None:
             what = OpKind(int(row[KIND])).name
         else:
             what = "end of job"
-        detail = str(problem).split(": ", 1)[-1]
+        detail = (config.travel_refusal(problem.axis, problem.value, problem.limit)
+                  if problem.value is not None else str(problem).split(": ", 1)[-1])
         raise PlanError(f"{what} (op {op}): {detail}", pos, problem.axis, op) from None

@@ -245,6 +245,20 @@ def check_banner(banner: Banner) -> Banner:
     return banner
 
 
+_SOFT_LIMIT_RE = re.compile(r"([XYZ]) would reach (-?\d+), (below|above) (-?\d+)")
+
+
+def soft_limit_detail(axis: str, value: int, limit: int) -> str:
+    """The firmware's detail after `error:5 soft limit: ` (machine steps)."""
+    return f"{axis} would reach {value}, {'above' if value > limit else 'below'} {limit}"
+
+
+def parse_soft_limit(text: str) -> tuple[str, int, int] | None:
+    """(axis, value, limit) from a soft-limit refusal's text, None if it is none."""
+    m = _SOFT_LIMIT_RE.search(text)
+    return None if m is None else (m.group(1), int(m.group(2)), int(m.group(4)))
+
+
 def format_error(code: int, seq: int | None = None, detail: str = "") -> str:
     """The firmware's error reply text for `code` (used by the simulated machine)."""
     spec = ERROR_BY_CODE[code]

@@ -21,7 +21,6 @@ docs/sim.md describes the design; the pyserial side is `galileo_cnc.protocol_sim
 
 from __future__ import annotations
 
-import re
 import threading
 from collections import deque
 from dataclasses import dataclass
@@ -36,7 +35,6 @@ from galileo_cnc.machine import ReferenceMachine, Trace
 from galileo_cnc.sim.timeline import SimClock, Timeline
 
 _ABORTED = P.ERROR_BY_NAME["ABORTED"].code
-_LIMIT_RE = re.compile(r"([XYZ]) would reach (-?\d+) steps, (below|beyond)")
 
 
 # ---- the machine behind the protocol ---------------------------------------------------
@@ -388,10 +386,8 @@ class SimulatedMachine:
             items = self.machine.plan([cmd])
         except MachineError as exc:
             text = str(exc)
-            m = _LIMIT_RE.search(text)
-            if m is not None:
-                side = "above" if m.group(3) == "beyond" else "below"
-                return 5, f"{m.group(1)} would reach {m.group(2)}, {side} {exc.limit}"
+            if exc.value is not None:
+                return 5, P.soft_limit_detail(exc.axis, exc.value, exc.limit)
             if "arc radius too large" in text:
                 return 7, ""
             if "feed" in text and "outside" in text:

@@ -208,6 +208,7 @@ class SimulatedBoard:
         self.elf = Path(elf)
         self.binary = Path(binary) if binary else harness_path()
         self.start_timeout = start_timeout
+        self.realtime = realtime                # paced to wall time, as a board runs
         self._want_trace = trace
         self._args = ["--freq", str(freq_hz)]
         if pins is not None:
@@ -257,8 +258,11 @@ class SimulatedBoard:
             args += ["--trace", str(self._dir / "trace.bin")]
         args += self._args + [str(self.elf)]
         with open(self._dir / "harness.log", "wb") as log:
+            # its own session: Ctrl-C at the console (SIGINT to the terminal's process
+            # group) must stop the job, not kill the simulated board
             self._process = subprocess.Popen(args, stdin=subprocess.DEVNULL,
-                                             stdout=subprocess.PIPE, stderr=log)
+                                             stdout=subprocess.PIPE, stderr=log,
+                                             start_new_session=True)
         self._reader = threading.Thread(target=self._read_stdout, daemon=True)
         self._reader.start()
         try:

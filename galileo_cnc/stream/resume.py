@@ -1,16 +1,33 @@
-"""Resuming an interrupted job after the last command the machine confirmed.
+"""Resuming an interrupted or stopped job where the machine left it.
 
 The journal names the file, its digest, the offset and the profile; the job is
-planned again and continued only where the machine stands where the job left it.
+planned again and continued only if the machine stands where the job could have
+left it:
+
+- after a lost port the machine ran what it had queued, so it stands at the end
+  of a command: the job continues with the next one;
+- after the user stopped it (q, Ctrl-C) the machine ramped down, usually inside a
+  command. The reference trace (the path is the same, only the timing differs)
+  finds that command; the job continues from its beginning, after a lead-in that
+  travels there pen up, restores the feed, and lowers the pen if it was down.
+  The part of the command drawn before the stop is drawn again, which a pen
+  does not mind.
+
+A changed file, another profile or a machine that was reset or moved (it stands
+nowhere on the job's path near where it stopped) is refused, saying why.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
+from galileo_cnc import protocol as P
 from galileo_cnc.config.machine import MachineConfig, tomllib
 from galileo_cnc.errors import GalileoError
-from galileo_cnc.job import Job
+from galileo_cnc.job import Command, Job, PenDown, Rapid, SetFeed
 from galileo_cnc.machine import ReferenceMachine
 from galileo_cnc.plan.pipeline import plan_file
 from galileo_cnc.program.ops import Program
@@ -18,8 +35,23 @@ from galileo_cnc.stream.journal import ABORTED, Journal, JournalEntry, file_dige
 from galileo_cnc.stream.streamer import JobStreamer, StreamResult
 from galileo_cnc.transport.link import MachineLink
 
+#: lines that can be accepted but not yet confirmed when a job stops (the receive
+#: buffer holds this many of the shortest command lines)
+_IN_FLIGHT_LINES = P.RX_BUFFER_BYTES // 8
+
+
 class ResumeError(GalileoError):
     """The interrupted job cannot continue exactly where it stopped."""
+
+
+@dataclass(frozen=True)
+class ResumePoint:
+    """Where a job continues: command `start`, after the `lead_in` commands."""
+
+    job: Job
+    program: Program
+    start: int
+    lead_in: tuple[Command, ...] = ()
 
 
 def position_after(job: Job, count: int, config: MachineConfig) -> tuple[int, int, int]:
@@ -29,12 +61,39 @@ def position_after(job: Job, count: int, config: MachineConfig) -> tuple[int, in
     return machine.work_position
 
 
-def plan_resume(link: MachineLink, entry: JournalEntry) -> tuple[Job, Program, int]:
+def stopped_inside(job: Job, config: MachineConfig, here: tuple[int, int, int],
+                   first: int, last: int) -> tuple[int, tuple[Command, ...]] | None:
+    """The earliest command among first..last whose path passes through `here` (work
+    steps, at the end of a step event), and the lead-in that restarts it; None if the
+    machine stands nowhere on that stretch of the job."""
+    machine = ReferenceMachine(config)
+    machine.plan(job.commands[:first])
+    for k in range(first, min(last, len(job) - 1) + 1):
+        begin = machine.work_position
+        feed = machine.feed_steps_per_s
+        trace = machine.run([job.commands[k]])
+        if here == begin or _passes_through(trace, begin, here):
+            lead_in: list[Command] = [Rapid(begin[0], begin[1]), SetFeed(feed)]
+            if begin[2] == config.pen_down_z_steps:
+                lead_in.append(PenDown())
+            return k, tuple(lead_in)
+    return None
+
+
+def _passes_through(trace, begin: tuple[int, int, int], here: tuple[int, int, int]) -> bool:
+    """Does the head stand at `here` after some step event of `trace`?"""
+    if not len(trace.tick):
+        return False
+    moves = np.zeros((len(trace.tick), 3), dtype=np.int64)
+    moves[np.arange(len(trace.tick)), trace.axis] = trace.dir
+    where = np.cumsum(moves, axis=0) + np.asarray(begin, dtype=np.int64)
+    event_ends = np.r_[trace.tick[1:] != trace.tick[:-1], True]   # a stop falls between events
+    return bool(np.all(where[event_ends] == np.asarray(here), axis=1).any())
+
+
+def plan_resume(link: MachineLink, entry: JournalEntry) -> ResumePoint:
     """Replan the journal's job and find where to continue; ResumeError if the file
-    changed, the machine was reset or moved, or the job is not resumable."""
-    if entry.state == ABORTED:
-        raise ResumeError(f"the last job was stopped by the user ({entry.reason}); "
-                          f"start it again with getg")
+    changed or the machine was reset or moved since."""
     if not Path(entry.source).exists():
         raise ResumeError(f"{entry.source}: the file of the interrupted job is gone")
     if file_digest(entry.source) != entry.digest:
@@ -53,19 +112,29 @@ def plan_resume(link: MachineLink, entry: JournalEntry) -> tuple[Job, Program, i
         candidates.insert(0, index)      # the machine accepted lines we never heard of
     for confirmed in candidates:
         if position_after(job, confirmed + 1, config) == here:
-            return job, program, confirmed + 1
+            return ResumePoint(job, program, confirmed + 1)
+    if entry.state == ABORTED:
+        first = max(entry.first_index, entry.confirmed - P.QUEUE_BLOCKS)
+        found = stopped_inside(job, config, here, first, entry.confirmed + _IN_FLIGHT_LINES)
+        if found is not None:
+            return ResumePoint(job, program, found[0], found[1])
     expected = position_after(job, entry.confirmed + 1, config)
     raise ResumeError(
-        f"the machine stands at X{here[0]} Y{here[1]} Z{here[2]} steps, but the job's last "
-        f"confirmed command ({entry.confirmed + 1} of {entry.total}) ends at X{expected[0]} "
-        f"Y{expected[1]} Z{expected[2]}: the board was reset or moved since; "
-        f"start the job again")
+        f"the machine stands at {_mm_text(here, config)}, but the job stopped at "
+        f"{_mm_text(expected, config)} (after command {entry.confirmed + 1} of "
+        f"{entry.total}): the board was reset or moved since; start the job again")
+
+
+def _mm_text(position: tuple[int, int, int], config: MachineConfig) -> str:
+    x, y, z = (v / config.steps_per_mm for v in position)
+    return f"X {x:.3f} Y {y:.3f} Z {z:.3f} mm"
 
 
 def resume_job(link: MachineLink, journal: Journal, **callbacks) -> StreamResult:
-    """Continue the journal's interrupted job after its last confirmed command."""
+    """Continue the journal's interrupted or stopped job where the machine left it."""
     entry = journal.pending()
     if entry is None:
         raise ResumeError("no interrupted job to resume")
-    job, program, start = plan_resume(link, entry)
-    return JobStreamer(link, job, program, journal=journal, start=start).run(**callbacks)
+    point = plan_resume(link, entry)
+    return JobStreamer(link, point.job, point.program, journal=journal, start=point.start,
+                       lead_in=point.lead_in).run(**callbacks)

@@ -27,7 +27,7 @@ import time
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Sequence
 
 from galileo_cnc import protocol as P
 from galileo_cnc.errors import GalileoError, SourcePos
@@ -35,7 +35,7 @@ from galileo_cnc.machine.timing import JobTiming, job_timing
 from galileo_cnc.stream.journal import (ABORTED, FAILED, FINISHED, INTERRUPTED, Journal,
                                         JournalEntry, file_digest)
 from galileo_cnc.transport.link import LinkError, MachineLink, PortGone
-from galileo_cnc.job import NO_OP, Job
+from galileo_cnc.job import NO_OP, Command, Job
 from galileo_cnc.program.ops import COL, LINE, Program
 
 #: No reply for this long while the machine stands idle with an empty queue: a stall.
@@ -73,9 +73,10 @@ class StreamResult:
 
 @dataclass
 class _Transmission:
-    index: int              # command index in the job
+    index: int              # command index in the job (start - 1 for a lead-in command)
     seq: int
     line: bytes
+    command: object         # what the line carries, for messages
 
 
 def describe_aperture(program: Program | None, aperture: int) -> str:
@@ -88,12 +89,15 @@ class JobStreamer:
 
     def __init__(self, link: MachineLink, job: Job, program: Program | None = None, *,
                  journal: Journal | None = None, start: int = 0,
-                 timing: JobTiming | None = None):
+                 timing: JobTiming | None = None, lead_in: Sequence[Command] = ()):
         self.link = link
         self.job = job
         self.program = program
         self.journal = journal
         self.start = start
+        #: sent before command `start`, after the pen in force is asked for: what brings
+        #: a machine stopped inside a command back to where that command begins
+        self.lead_in = tuple(lead_in)
         self.timing = timing or job_timing(job.commands, link.config)
         self._abort = threading.Event()
         self._rx_bytes = link.banner.rx_buffer_bytes if link.banner else P.RX_BUFFER_BYTES
@@ -115,6 +119,7 @@ class JobStreamer:
         self._resend: deque[_Transmission] = deque()
         self._resend_from: int | None = None            # `rs N<e>` being answered
         self._changes = self._pen_changes_from(self.start)
+        self._lead_in = deque(self.lead_in)
         self._asked: set[int] = set()
         self._on_progress = on_progress
         self._began = began
@@ -140,6 +145,9 @@ class JobStreamer:
                 self._fill()
                 self._take_reply(self._await_reply())
             self._wait_standing()
+            # the job's EndJob locks the planner until `U`: the next job, a jog or a
+            # home must find the machine ready, as the user does
+            self.link.send_protocol(P.Unlock())
         except (StreamAborted, KeyboardInterrupt) as stop:
             reason = str(stop) or "stopped by the user"
             self._stop_machine()
@@ -178,17 +186,22 @@ class JobStreamer:
             in_flight += len(sent.line)
         while (not self._resend and self._next < len(self.job)
                and not self._pen_change_due()):
+            leading = bool(self._lead_in)
+            command = self._lead_in[0] if leading else self.job.commands[self._next]
             seq = self.link.next_seq()
-            line = P.encode_command(self.job.commands[self._next], seq)
+            line = P.encode_command(command, seq)
             if in_flight + len(line) > self._rx_bytes:
                 break
             self.link.seq = seq
             self.link.write(line)
-            sent = _Transmission(self._next, seq, line)
+            sent = _Transmission(self.start - 1 if leading else self._next, seq, line, command)
             self._wire.append(sent)
             self._unconfirmed[seq] = sent
             in_flight += len(line)
-            self._next += 1
+            if leading:
+                self._lead_in.popleft()
+            else:
+                self._next += 1
 
     def _await_reply(self) -> P.Reply | None:
         """The next reply; on a stall, settle the wire by the machine's status."""
@@ -238,8 +251,9 @@ class JobStreamer:
             self._resend = deque(self._unconfirmed[s] for s in seqs[seqs.index(reply.seq):])
         else:
             sent = self._unconfirmed.get(reply.seq)
-            what = (f"{self._where(sent.index)}the machine refused "
-                    f"{P.command_text(self.job.commands[sent.index])!r}: " if sent else
+            where = self._where(sent.index) if sent and sent.index >= self.start else ""
+            what = (f"{where}the machine refused "
+                    f"{P.command_text(sent.command)!r}: " if sent else
                     "the machine refused a line: ")
             raise LinkError(f"{what}error:{reply.code} {reply.text}", reply)
 
@@ -265,9 +279,13 @@ class JobStreamer:
         ops = [op for op in self.job.op_index[max(self.confirmed - 2, 0):done] if op != NO_OP]
         line = int(self.program.table[ops[-1], LINE]) if self.program is not None and ops else 0
         left = self.timing.remaining_s(done)
-        eta = left / self.link.speed if self.link.speed > 0 else 0.0
-        return Progress(done - self.start, len(self.job) - self.start,
-                        time.monotonic() - self._began, eta, line)
+        elapsed = time.monotonic() - self._began
+        if self.link.speed is None:     # a machine of unknown pace: measure it so far
+            ran = self.timing.seconds_between(self.start, done)
+            eta = left * elapsed / ran if ran > 0 and elapsed > 0 else None
+        else:
+            eta = left / self.link.speed if self.link.speed > 0 else 0.0
+        return Progress(done - self.start, len(self.job) - self.start, elapsed, eta, line)
 
     def _wait_until_confirmed(self) -> None:
         while self._unconfirmed:
@@ -313,6 +331,8 @@ class JobStreamer:
         except OSError:
             digest = ""
         first_seq = self.link.next_seq()
+        for _ in self.lead_in:              # the lead-in's lines go out first
+            first_seq = P.next_seq(first_seq)
         self.journal.begin(JournalEntry(
             source, digest, self.job.offset_nm, self.link.config.to_toml(),
             self.job.grouped, len(self.job), self.start - 1, self.start, first_seq))

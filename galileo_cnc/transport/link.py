@@ -25,7 +25,8 @@ from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.job import Command
 from galileo_cnc.config.hardware import BANNER_WAIT_S, DEFAULT_BAUD
-from galileo_cnc.transport.port import SIMAVR_URL, is_simulated, open_port, with_sim_config
+from galileo_cnc.transport.port import (SIMAVR_URL, is_simulated, open_port, port_error_text,
+                                        with_sim_config)
 
 #: Ask for a status when no reply came for this long...
 POLL_S = 1.0
@@ -47,8 +48,25 @@ class PortGone(LinkError):
     """The port vanished or fell silent: the job can be resumed from its journal."""
 
 
+class MachineAlarm(LinkError):
+    """The machine stopped in alarm; its `alarm:` line went to `on_message` already."""
+
+
 class ConfigMismatch(LinkError):
     """The flashed firmware was built for another machine than the profile plans for."""
+
+
+def _machine_speed(port: serial.SerialBase) -> float | None:
+    """Machine seconds per wall second: a board runs in real time, sim://?speed=S S times
+    faster (0: instantly); None for simavr://?realtime=0, whose pace nobody knows
+    beforehand (the streamer measures it)."""
+    machine = getattr(port, "machine", None)
+    if machine is not None:
+        return float(machine.speed)
+    board = getattr(port, "board", None)
+    if board is not None and not getattr(board, "realtime", True):
+        return None
+    return 1.0
 
 
 class MachineLink:
@@ -63,8 +81,7 @@ class MachineLink:
         #: (name, firmware's value, profile's value) where the build and the profile differ
         self.config_differences: tuple[tuple[str, str, int], ...] = ()
         self.simulated = is_simulated(name)
-        # machine seconds per wall second: sim://?speed=S runs S times faster (0: instantly)
-        self.speed = float(getattr(getattr(port, "machine", None), "speed", 1.0))
+        self.speed = _machine_speed(port)
         self.banner: P.Banner | None = None
         self.initial_status: P.Status | None = None   # before our greeting reset the count
         self.on_message: Callable[[str], None] | None = None
@@ -78,6 +95,7 @@ class MachineLink:
         self._failure: Exception | None = None
         self._write_lock = threading.Lock()
         self._closed = False
+        self._aborting = False         # our own abort: its alarm:14 is no news to the user
         self._reader = threading.Thread(target=self._read_loop, name=f"link {name}",
                                         daemon=True)
 
@@ -93,7 +111,7 @@ class MachineLink:
         try:
             handle = open_port(name, baud, timeout=0.1)
         except (serial.SerialException, OSError, ValueError) as exc:
-            raise LinkError(f"cannot open {name}: {exc}") from None
+            raise LinkError(f"cannot open {name}: {port_error_text(exc)}") from None
         return cls.attach(handle, name, baud, config, config_path)
 
     @classmethod
@@ -201,7 +219,8 @@ class MachineLink:
                 data = self._port.readline()
             except (serial.SerialException, OSError, TypeError, AttributeError) as exc:
                 if not self._closed:
-                    self._fail(PortGone(f"{self.port_name}: the port went away ({exc})"))
+                    self._fail(PortGone(f"{self.port_name}: the port went away "
+                                        f"({port_error_text(exc)})"))
                 return
             if not data:
                 continue
@@ -237,6 +256,8 @@ class MachineLink:
         else:                                       # alarm:, msg:
             if reply.kind == "alarm":
                 self._alarm = reply
+                if self._aborting and reply.code == P.ERROR_BY_NAME["ABORTED"].code:
+                    return
             self._message(f"{reply.kind}:{reply.code} {reply.text}".rstrip())
 
     def _message(self, text: str) -> None:
@@ -251,7 +272,8 @@ class MachineLink:
             with self._write_lock:
                 self._port.write(data)
         except (serial.SerialException, OSError) as exc:
-            error = PortGone(f"{self.port_name}: cannot write, the port went away ({exc})")
+            error = PortGone(f"{self.port_name}: cannot write, the port went away "
+                             f"({port_error_text(exc)})")
             self._fail(error)
             raise error from None
 
@@ -344,8 +366,8 @@ class MachineLink:
         """Idle with an empty queue; LinkError if the machine is in alarm."""
         if status.state == "alarm":
             alarm = self.take_alarm()
-            raise LinkError(f"machine alarm: {alarm.code} {alarm.text}" if alarm
-                            else "machine in alarm state (send U)")
+            raise MachineAlarm(f"machine alarm: {alarm.code} {alarm.text}" if alarm
+                               else "machine in alarm state (send U)")
         return status.state == "idle" and status.queue_blocks == 0
 
     def hold(self) -> None:
@@ -356,18 +378,23 @@ class MachineLink:
 
     def abort(self, timeout_s: float = 30.0) -> P.Status:
         """Ramp down and drop the queue (`alarm:14`), then unlock; the position stays known."""
-        self.write(P.RT_ABORT)
-        deadline = time.monotonic() + timeout_s
-        while True:
-            status = self.status()
-            if status.state == "alarm" and status.queue_blocks == 0:
-                break
-            if time.monotonic() > deadline:
-                raise LinkError(f"machine did not stop within {timeout_s:g} s: {status.text()}")
-            time.sleep(0.02)
-        self.drain_replies()
-        self.send_protocol(P.Unlock())
-        self.take_alarm()
+        self._aborting = True
+        try:
+            self.write(P.RT_ABORT)
+            deadline = time.monotonic() + timeout_s
+            while True:
+                status = self.status()
+                if status.state == "alarm" and status.queue_blocks == 0:
+                    break
+                if time.monotonic() > deadline:
+                    raise LinkError(f"machine did not stop within {timeout_s:g} s: "
+                                    f"{status.text()}")
+                time.sleep(0.02)
+            self.drain_replies()
+            self.send_protocol(P.Unlock())
+            self.take_alarm()
+        finally:
+            self._aborting = False
         return self.status()
 
     def drain_replies(self, quiet_s: float = 0.1) -> list[P.Reply]:

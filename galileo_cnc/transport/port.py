@@ -8,6 +8,9 @@ simavr (galileo_cnc.simavr.protocol_simavr), which importing this module registe
 
 from __future__ import annotations
 
+import errno
+import re
+
 import serial
 
 from galileo_cnc.config.hardware import DEFAULT_BAUD
@@ -37,6 +40,25 @@ def with_sim_config(url_or_name: str, config_path) -> str:
     if config_path is None or not is_simulated(url_or_name) or "config=" in url_or_name:
         return url_or_name
     return url_or_name + ("&" if "?" in url_or_name else "?") + f"config={config_path}"
+
+
+def port_error_text(error: BaseException) -> str:
+    """What went wrong with a port, in the user's words rather than pyserial's
+    ('[Errno 2] could not open port /dev/x: [Errno 2] No such file or directory: ...')."""
+    errno_ = getattr(error, "errno", None)
+    text = str(error)
+    if errno_ == errno.ENOENT or "No such file" in text:
+        return "no such port (`galileo-cnc ports` lists the ports there are)"
+    if errno_ in (errno.EACCES, errno.EPERM) or "Permission denied" in text:
+        return ("permission denied: add yourself to the dialout group "
+                "(sudo usermod -aG dialout $USER, then log in again)")
+    if errno_ == errno.EBUSY or "busy" in text.lower():
+        return "the port is busy: another program has it open"
+    if errno_ == errno.EIO or "returned no data" in text or "Input/output error" in text:
+        return "the device stopped answering (unplugged or reset?)"
+    # pyserial wraps the OS's words: keep the innermost, without "[Errno N]"
+    inner = re.sub(r"\[Errno \d+\] ", "", text).split(": ")
+    return inner[-1] if len(inner) > 1 and not text.startswith(("sim", "simavr")) else text
 
 
 def open_port(url_or_name: str, baud: int = DEFAULT_BAUD, timeout: float | None = 1.0,

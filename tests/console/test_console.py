@@ -393,19 +393,33 @@ def test_a_job_stopped_while_moving_leaves_the_machine_standing(home, stop_key):
     assert (x, y, z) != end
 
 
-def test_q_at_a_pen_change_stops_the_job_and_resume_says_why_not(home):
+def test_q_at_a_pen_change_stops_the_job_and_resume_finishes_it(home):
+    program = read_file(BOARD)
+    config = MachineConfig()
+    job = plan_program(program, config, proposed_offset(program))
     with console_in_thread(home) as user:
         user.line(f"getg {BOARD}")
         user.expect(r"use these offsets\?")
         user.line("y")
         user.expect(r"insert pen for aperture")
         user.type("\r")
-        user.expect(r"insert pen for aperture")
+        second = user.expect(r"insert pen for aperture (D\d+) ")
         user.type("q")
-        user.expect(r"job stopped after \d+ of \d+ commands")
+        user.expect(r"job stopped after \d+ of \d+ commands.*type resume to continue it")
         assert user.status()[0] == "idle"
         user.line("resume")
-        user.expect(r"stopped by the user.*start it again with getg")
+        user.expect(r"continue the job\? \[Y/n\]")
+        user.line("")
+        # the pen the job stopped for is asked for first, then the rest of the job runs
+        user.expect(rf"insert pen for aperture {second.group(1)} ")
+        for _ in range(len(job.pen_changes) - 2):
+            user.type("\r")
+            user.expect(r"insert pen for aperture")
+        user.type("\r")
+        user.expect(r"process has finished")
+        assert user.status() == ("idle", *position_after(job, len(job), config))
+        user.line("resume")
+        user.expect(r"no interrupted job to resume")
 
 
 # ---- setup -----------------------------------------------------------------------------------
@@ -417,7 +431,7 @@ def test_setup_jogs_with_the_keypad_and_sets_the_origin(home):
         user.line("setup")
         user.expect(r"1\) jog")
         user.line("1")
-        user.expect(r"jog distance in units of 10 um \(1000 = 1 cm\)")
+        user.expect(r"jog distance in units of 10 um \(1000 = 1 cm, 0 goes back\)")
         user.line("250")
         user.expect(r"q: back")
         for key in "6686":                            # X+ X+ Y+ X+

@@ -161,12 +161,12 @@ def test_soft_limit_refuses_the_job_and_names_the_op():
     err = info.value
     assert (err.axis, err.op_index, err.pos.line) == ("Y", 2, 3)
     assert str(err).startswith("t.gbr:3:1: LINE")
-    assert "below the travel minimum" in str(err)
+    assert "Y would reach -1.000 mm, below the travel's start at 0.000 mm [-160 steps]" in str(err)
     with pytest.raises(PlanError) as info:
         plan((OpKind.MOVE, 100 * MM, 100 * MM),
              (OpKind.ARC_CW, 100 * MM, 100 * MM, 0, 60 * MM))   # circle reaches Y = 220 mm
     assert (info.value.axis, info.value.pos.line) == ("Y", 2)
-    assert "beyond the travel maximum" in str(info.value)
+    assert "Y would reach 220.000 mm, beyond the travel's end at 200.000 mm [35200 steps]" in str(info.value)
 
 
 def test_sample_board_with_the_proposed_offset_simulates_and_ends_pen_up():

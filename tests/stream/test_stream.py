@@ -14,7 +14,7 @@ import pytest
 
 from galileo_cnc import protocol as P
 from galileo_cnc.config.machine import MachineConfig
-from galileo_cnc.job import Jog, SetOrigin
+from galileo_cnc.job import Jog, Rapid, SetOrigin
 from galileo_cnc.plan.offsets import proposed_offset
 from galileo_cnc.stream.journal import ABORTED, FINISHED, INTERRUPTED, Journal
 from galileo_cnc.transport.link import ConfigMismatch, LinkError, MachineLink, PortGone
@@ -22,11 +22,12 @@ from galileo_cnc.machine import simulate
 from galileo_cnc.plan.planner import PlanError, plan_program
 from galileo_cnc.readers import read_file
 from galileo_cnc.stream.streamer import JobStreamer
-from galileo_cnc.stream.resume import ResumeError, resume_job
+from galileo_cnc.stream.resume import ResumeError, plan_resume, resume_job
 from galileo_cnc.transport.port import open_port
 
 from corpus import CORPUS, corpus_paths
 from faults import FaultyPort
+from inked import inked_points
 
 REPO = Path(__file__).resolve().parents[2]
 SAMPLE = REPO / "samples" / "led-blinker.gbr"
@@ -127,7 +128,7 @@ def test_a_refused_line_stops_the_job_naming_the_file_line(journal):
     assert journal.load().state == "failed"
 
 
-def test_abort_ramps_down_and_the_job_is_not_resumable(journal):
+def test_abort_ramps_down_and_a_reset_machine_cannot_resume(journal):
     program, job = sample_job()
     link = MachineLink.open("sim://?speed=20")
     streamer = JobStreamer(link, job, program, journal=journal)
@@ -147,8 +148,8 @@ def test_abort_ramps_down_and_the_job_is_not_resumable(journal):
     assert status.state == "idle" and status.queue_blocks == 0     # unlocked, standing
     link.close()
     assert journal.load().state == ABORTED
-    with pytest.raises(ResumeError, match="stopped by the user"):
-        resume_job(MachineLink.open(INSTANT), journal)
+    with pytest.raises(ResumeError, match="the board was reset or moved since"):
+        resume_job(MachineLink.open(INSTANT), journal)          # a fresh power-on
 
 
 def test_a_port_that_dies_resumes_to_the_same_total_trace(journal):
@@ -253,3 +254,32 @@ def test_a_profile_that_differs_from_the_machine_is_refused_naming_the_fields(jo
                                 config=MachineConfig.from_toml(config_file))
     assert agreeing.config_differences == ()
     agreeing.close()
+
+
+@pytest.mark.parametrize("fraction", [0.2, 0.5, 0.8])
+def test_a_job_stopped_mid_move_resumes_and_inks_what_the_whole_job_inks(journal, fraction):
+    """q in the middle of a move: the machine ramps down inside a command; resume
+    travels back to that command's start pen up and draws on; together the two
+    sessions ink exactly the points of an uninterrupted run and end where it ends."""
+    program, job = sample_job()
+    whole = simulate(job.commands)
+    link = MachineLink.open("sim://?speed=40")
+    streamer = JobStreamer(link, job, program, journal=journal)
+    stop_at = int(len(job) * fraction)
+
+    def stop_soon(progress):
+        if progress.confirmed >= stop_at:
+            streamer.abort()
+
+    assert not streamer.run(on_progress=stop_soon).completed
+    stopped = link.status()
+    point = plan_resume(link, journal.pending())
+    assert point.lead_in and isinstance(point.lead_in[0], Rapid)   # stopped inside a command
+    result = resume_job(link, journal)
+    trace = link._port.trace()
+    final = link.status()
+    link.close()
+    assert result.completed and journal.pending() is None
+    assert (final.x_steps, final.y_steps, final.z_steps) == whole.final_position
+    assert inked_points(trace) == inked_points(whole)
+    assert (stopped.x_steps, stopped.y_steps) != whole.final_position[:2]
