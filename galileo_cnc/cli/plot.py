@@ -95,7 +95,7 @@ def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.s
     try:
         found = " (no board found)" if profile.port is None and link.simulated else ""
         out.write(link.describe() + found + "\n")
-        start, lead_in = 0, ()
+        start, lead_in, job_start = 0, (), None
         if planned is not None:
             job, program, offset = planned.job, planned.program, planned.offset_nm
         else:
@@ -104,6 +104,7 @@ def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.s
                 raise GalileoError(f"no interrupted job of {options.file} to resume")
             point = plan_resume(link, entry)
             job, program, start, lead_in = point.job, point.program, point.start, point.lead_in
+            job_start = point.job_start
             offset = job.offset_nm                  # the interrupted job's, not --offset
             out.write(f"resuming at command {start + 1} of {len(job)}\n")
         box = extents(program)
@@ -112,7 +113,7 @@ def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.s
                       f"Y {box[1] / NM_PER_MM:.3f} mm; offset {offset[0] / NM_PER_MM:.3f}, "
                       f"{offset[1] / NM_PER_MM:.3f} mm\n")
         streamer = JobStreamer(link, job, program, journal=journal, start=start,
-                               lead_in=lead_in)
+                               lead_in=lead_in, job_start=job_start)
         out.write(f"{len(job) - start} commands, about "
                   f"{duration_text(streamer.timing.seconds_between(start, len(job)))} "
                   f"of machine time\n")

@@ -21,6 +21,7 @@ def run(console, arguments: list[str]) -> None:
     if not console.confirm("continue the job?"):
         return
     streamer = JobStreamer(console.link, point.job, point.program, journal=journal,
-                           start=point.start, lead_in=point.lead_in)
+                           start=point.start, lead_in=point.lead_in,
+                           job_start=point.job_start)
     screen = JobScreen(console, point.program.source, len(point.job) - point.start)
     report(console, screen.run(streamer.run, streamer.abort))

@@ -56,6 +56,8 @@ class JournalEntry:
     state: str = RUNNING
     reason: str = ""
     updated: float = 0.0
+    #: work position (steps) where the job began: its first move starts from there
+    start_position: tuple[int, int, int] = (0, 0, 0)
 
     def index_of_seq(self, seq: int) -> int | None:
         """The command a sequence number of this session would belong to (the
@@ -89,6 +91,7 @@ class Journal:
         try:
             data = json.loads(self.path.read_text())
             data["offset_nm"] = tuple(data["offset_nm"])
+            data["start_position"] = tuple(data.get("start_position", (0, 0, 0)))
             return JournalEntry(**data)
         except (OSError, ValueError, TypeError, KeyError):
             return None

@@ -52,21 +52,24 @@ class ResumePoint:
     program: Program
     start: int
     lead_in: tuple[Command, ...] = ()
+    job_start: tuple[int, int, int] = (0, 0, 0)    # where the job's first move began
 
 
-def position_after(job: Job, count: int, config: MachineConfig) -> tuple[int, int, int]:
-    """Work position once the first `count` commands have run (from the origin)."""
-    machine = ReferenceMachine(config)
+def position_after(job: Job, count: int, config: MachineConfig,
+                   job_start: tuple[int, int, int] = (0, 0, 0)) -> tuple[int, int, int]:
+    """Work position once the first `count` commands have run from `job_start`."""
+    machine = ReferenceMachine(config, job_start)
     machine.plan(job.commands[:count])
     return machine.work_position
 
 
 def stopped_inside(job: Job, config: MachineConfig, here: tuple[int, int, int],
-                   first: int, last: int) -> tuple[int, tuple[Command, ...]] | None:
+                   first: int, last: int, job_start: tuple[int, int, int] = (0, 0, 0)
+                   ) -> tuple[int, tuple[Command, ...]] | None:
     """The earliest command among first..last whose path passes through `here` (work
     steps, at the end of a step event), and the lead-in that restarts it; None if the
     machine stands nowhere on that stretch of the job."""
-    machine = ReferenceMachine(config)
+    machine = ReferenceMachine(config, job_start)
     machine.plan(job.commands[:first])
     for k in range(first, min(last, len(job) - 1) + 1):
         begin = machine.work_position
@@ -110,15 +113,17 @@ def plan_resume(link: MachineLink, entry: JournalEntry) -> ResumePoint:
     before = link.initial_status
     if before is not None and (index := entry.index_of_seq(before.last_seq)) is not None:
         candidates.insert(0, index)      # the machine accepted lines we never heard of
+    begun = entry.start_position
     for confirmed in candidates:
-        if position_after(job, confirmed + 1, config) == here:
-            return ResumePoint(job, program, confirmed + 1)
+        if position_after(job, confirmed + 1, config, begun) == here:
+            return ResumePoint(job, program, confirmed + 1, (), begun)
     if entry.state == ABORTED:
         first = max(entry.first_index, entry.confirmed - P.QUEUE_BLOCKS)
-        found = stopped_inside(job, config, here, first, entry.confirmed + _IN_FLIGHT_LINES)
+        found = stopped_inside(job, config, here, first, entry.confirmed + _IN_FLIGHT_LINES,
+                               begun)
         if found is not None:
-            return ResumePoint(job, program, found[0], found[1])
-    expected = position_after(job, entry.confirmed + 1, config)
+            return ResumePoint(job, program, found[0], found[1], begun)
+    expected = position_after(job, entry.confirmed + 1, config, begun)
     raise ResumeError(
         f"the machine stands at {_mm_text(here, config)}, but the job stopped at "
         f"{_mm_text(expected, config)} (after command {entry.confirmed + 1} of "
@@ -137,4 +142,4 @@ def resume_job(link: MachineLink, journal: Journal, **callbacks) -> StreamResult
         raise ResumeError("no interrupted job to resume")
     point = plan_resume(link, entry)
     return JobStreamer(link, point.job, point.program, journal=journal, start=point.start,
-                       lead_in=point.lead_in).run(**callbacks)
+                       lead_in=point.lead_in, job_start=point.job_start).run(**callbacks)

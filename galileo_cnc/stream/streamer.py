@@ -89,7 +89,8 @@ class JobStreamer:
 
     def __init__(self, link: MachineLink, job: Job, program: Program | None = None, *,
                  journal: Journal | None = None, start: int = 0,
-                 timing: JobTiming | None = None, lead_in: Sequence[Command] = ()):
+                 timing: JobTiming | None = None, lead_in: Sequence[Command] = (),
+                 job_start: tuple[int, int, int] | None = None):
         self.link = link
         self.job = job
         self.program = program
@@ -98,6 +99,8 @@ class JobStreamer:
         #: sent before command `start`, after the pen in force is asked for: what brings
         #: a machine stopped inside a command back to where that command begins
         self.lead_in = tuple(lead_in)
+        #: where the job's first command started (a resumed job's, from its journal)
+        self.job_start = job_start
         self.timing = timing or job_timing(job.commands, link.config)
         self._abort = threading.Event()
         self._rx_bytes = link.banner.rx_buffer_bytes if link.banner else P.RX_BUFFER_BYTES
@@ -330,12 +333,16 @@ class JobStreamer:
             digest = file_digest(source)
         except OSError:
             digest = ""
+        if self.job_start is None:          # a new job starts where the head stands now
+            here = self.link.status()
+            self.job_start = (here.x_steps, here.y_steps, here.z_steps)
         first_seq = self.link.next_seq()
         for _ in self.lead_in:              # the lead-in's lines go out first
             first_seq = P.next_seq(first_seq)
         self.journal.begin(JournalEntry(
             source, digest, self.job.offset_nm, self.link.config.to_toml(),
-            self.job.grouped, len(self.job), self.start - 1, self.start, first_seq))
+            self.job.grouped, len(self.job), self.start - 1, self.start, first_seq,
+            start_position=self.job_start))
 
     def _journal_end(self, state: str, reason: str = "") -> None:
         if self.journal is not None and self.journal.entry is not None:

@@ -37,9 +37,14 @@ from galileo_cnc.plan.planner import plan_program
 from galileo_cnc.readers import read_file
 from galileo_cnc.stream.journal import INTERRUPTED, Journal
 from galileo_cnc.transport.link import MachineLink, PortGone
-from galileo_cnc.sim.simulator import forget_named_machines
+from galileo_cnc.machine import Trace, simulate
+from galileo_cnc.sim.simulator import forget_named_machines, named_machine
+from galileo_cnc.simavr.board import SimulatedBoard, step_trace
 from galileo_cnc.stream.streamer import JobStreamer
 from galileo_cnc.stream.resume import position_after
+
+from firmware_support import ELF, build_firmware, build_harness
+from inked import inked_points
 
 ROOT = Path(__file__).resolve().parents[2]
 BOARD = ROOT / "samples" / "led-blinker.gbr"
@@ -160,7 +165,7 @@ def console_in_thread(home: Path, port: str = INSTANT_SIM):
             daemon=True)
         thread.start()
         user = ConsoleUser(screen, keys.send_text)
-        user.expect(r"connected to sim:")
+        user.expect(r"connected to ")
         user.expect(r">>")
         yield user
         user.line("exit")
@@ -540,3 +545,101 @@ def test_a_homing_alarm_locks_the_machine_until_unlock(home, tmp_path):
         user.line("unlock")
         user.expect(r"unlocked.*: state idle")
         assert user.status()[0] == "idle"
+
+
+# ---- a whole evening: jobs back to back, setup, a stop and a resume -------------------------
+SQUARE = ROOT / "samples" / "square-and-circle.nc"
+
+
+def an_evening(user: ConsoleUser, path: Path, pens: int) -> None:
+    """getg to "finished", getg again, setup (jog, feed), getg stopped with q,
+    resume to "finished": every command works after the one before it."""
+
+    def plot(stop: bool = False) -> None:
+        user.line(f"getg {path}")
+        user.expect(r"use these offsets\? \[Y/n\]")
+        user.line("")
+        for _ in range(pens):
+            user.expect(r"insert pen for aperture")
+            user.type("\r")
+        if stop:
+            user.expect(r"lines\s+\d")           # the bar is up and the head moves
+            user.type("q")
+            user.expect(r"job stopped after \d+ of \d+ commands: stopped by the user; "
+                        r"type resume to continue it")
+        else:
+            user.expect(r"process has finished in")
+            user.expect(r">>")
+
+    plot()
+    plot()                                      # the finished job left the machine ready
+    user.line("setup")
+    user.expect(r"choice:")
+    user.line("1")
+    user.expect(r"jog distance")
+    user.line("")                               # 1 mm
+    user.expect(r"q: back")
+    user.type("6")
+    user.type("8")
+    user.type("q")
+    user.expect(r"position X \S+  Y \S+  Z \S+ mm")
+    user.expect(r"choice:")
+    user.line("2")
+    user.expect(r"feed rate in mm/s")
+    user.line("6")
+    user.expect(r"feed rate 6 mm/s")
+    user.expect(r"choice:")
+    user.line("q")
+    user.expect(r">>")
+    plot(stop=True)
+    user.line("resume")
+    user.expect(r"commands were done \(stopped by the user\)")
+    user.expect(r"continue the job\? \[Y/n\]")
+    user.line("")
+    if pens:
+        user.expect(r"insert pen for aperture")    # the pen in force where it continues
+        user.type("\r")
+    while True:                                 # the pen changes still ahead, then the end
+        found = user.expect(r"insert pen for aperture|process has finished")
+        if found.group(0) == "process has finished":
+            break
+        user.type("\r")
+    assert "error" not in user.screen.text.lower(), user.screen.text[-3000:]
+    assert "alarm" not in user.screen.text.lower(), user.screen.text[-3000:]
+
+
+def _uninterrupted(path: Path):
+    program = read_file(path)
+    job = plan_program(program, MachineConfig(), proposed_offset(program))
+    return job, simulate(job.commands)
+
+
+def test_a_whole_evening_on_sim(home):
+    job, whole = _uninterrupted(BOARD)
+    port = "sim://evening?speed=20"
+    try:
+        with console_in_thread(home, port) as user:
+            an_evening(user, BOARD, pens=len(job.pen_changes))
+            state, *position = user.status()
+        trace = named_machine("evening").trace()
+    finally:
+        forget_named_machines()
+    assert state == "idle" and tuple(position) == whole.final_position
+    # three jobs of the same board (one stopped and resumed), jogs pen up: together
+    # they inked exactly what one uninterrupted run inks
+    assert inked_points(trace) == inked_points(whole)
+
+
+def test_a_whole_evening_on_the_firmware_in_simavr(home):
+    build_firmware()
+    build_harness()
+    job, whole = _uninterrupted(SQUARE)
+    with SimulatedBoard(ELF) as board:
+        with console_in_thread(home, board.port) as user:
+            an_evening(user, SQUARE, pens=0)
+            state, *position = user.status()
+        board.stop()
+        tick, axis, direction = step_trace(board.trace())
+    assert state == "idle" and tuple(position) == whole.final_position
+    trace = Trace(tick, axis, direction, whole.final_position, int(tick[-1]))
+    assert inked_points(trace) == inked_points(whole)
