@@ -21,27 +21,33 @@ help [COMMAND]
 [getg]
 getg [FILE]
     Plot a Gerber (RS-274X) or G-code file. Without FILE it asks for one
-    (Tab completes paths). It shows the smallest X and Y the artwork uses and
-    proposes offsets that move the artwork to the origin plus a 1 mm margin:
-    answer Enter or y to use them, n to type your own "X,Y" in mm (or nothing
-    to keep the file's coordinates). It then plans the job (a move outside the
-    travel is refused, naming the file line and the axis), shows the number of
-    machine commands and the estimated time, and streams it with a progress
-    bar. When the artwork switches aperture the bell rings and it asks for the
-    pen of that aperture: insert it and press Enter. q or Ctrl-C stops the job;
-    `resume` continues it later. At the end: "process has finished" and the
-    time taken.
+    (Tab completes paths, ~ included). A job larger than the machine's travel
+    is refused at once, with both sizes. It shows the smallest X and Y the
+    artwork uses and proposes offsets that move the whole job (travel moves
+    too) to the origin plus a 1 mm margin: answer Enter or y to use them, n to
+    type your own "X,Y" in mm (or nothing to keep the file's coordinates). It
+    then plans the job (a move outside the travel is refused, naming the file
+    line, the axis and the distance in mm), shows the number of machine
+    commands and the estimated time, and streams it with a progress bar. When
+    the artwork switches aperture the bell rings and it asks for the pen of
+    that aperture: insert it and press Enter. q or Ctrl-C stops the job (the
+    machine ramps down); `resume` continues it. At the end: "process has
+    finished" and the time taken; the machine is ready for the next command.
 
 [setup]
 setup
     1) Jog: asks for a distance in units of 10 um (1000 = 1 cm, as the
-       original Galileo console), then moves the head with the numeric keypad:
+       original Galileo console; 0 goes back to the menu), then moves the
+       head with the numeric keypad:
          7 / 1   Z up / down        8 / 2   Y + / -        4 / 6   X - / +
-       (with NumLock off, Home/End and the arrow keys do the same).
-       0 or o makes the current position the origin; q leaves.
+       (with NumLock off, Home/End and the arrow keys do the same). The
+       position shown follows the head. 0 or o makes the current position
+       the origin of all three axes (so Z 0, where the pen now is, becomes
+       the drawing height); q leaves. A jog past the travel is refused with
+       the distance in mm.
     2) Feed rate in mm/s. Above 6.25 mm/s (300 rpm) the motors may lose
        steps: you are warned and asked to confirm. Rates outside the
-       machine's limits are refused.
+       machine's limits are refused; the menu stays so you can try again.
 
 [status]
 status
@@ -56,7 +62,9 @@ ports
 connect [PORT]
     Reconnect, to PORT if given (COM3, /dev/ttyACM0, a pty path or a pyserial
     URL such as sim://), else to the first board found (or sim://, the
-    built-in simulated machine).
+    built-in simulated machine). If PORT cannot be opened, the working
+    connection is kept. A board whose firmware was built for another machine
+    profile is named on the connection line and gets no jobs until reflashed.
 
 [home]
 home
@@ -65,13 +73,19 @@ home
 [unlock]
 unlock
     Leave the alarm state. A homing error (switch already pressed, or not
-    found) or a stopped job locks the machine; it refuses motion until you
-    unlock it. Check the machine first: the position is kept.
+    found) locks the machine; it refuses motion until you unlock it. Check
+    the machine first: the position is kept. Finished and stopped jobs do not
+    need it: the console leaves the machine ready itself.
 
 [resume]
 resume
-    Continue a job that was stopped or lost its port, after the last command
-    the machine confirmed; nothing is drawn twice, nothing is skipped.
+    Continue the last job if it was stopped (q, Ctrl-C) or lost its port.
+    It first asks for the pen in force there. A job whose port died goes on
+    after the last command the machine ran; a stopped one goes back, pen up,
+    to the start of the command the machine ramped down in and draws on from
+    there (a few millimetres may be drawn twice, nothing is skipped). It is
+    refused, saying why, when the file changed or the machine was reset or
+    moved since (its position no longer lies on the job's path).
 
 [exit]
 exit

@@ -41,6 +41,7 @@ class Console:
         self.config_path = config_path
         self.baud = baud
         self.config = config                    # feed changes from `setup` land here
+        self.profile = config                   # as read: what the board must be built for
         self.link: MachineLink | None = None
         self.last_status: Status | None = None
         self.leaving = False
@@ -87,7 +88,8 @@ class Console:
             self.disconnect()                   # a port opens once: close it first
             old = None
         try:
-            link = MachineLink.open(port, self.baud, self.config, self.config_path)
+            link = MachineLink.open(port, self.baud, self.config, self.config_path,
+                                    profile=self.profile)
         except GalileoError as error:
             self.say(f"not connected: {error}")
             if old is not None:

@@ -73,11 +73,13 @@ class MachineLink:
     """An open, greeted port; thread-safe for real-time bytes and status."""
 
     def __init__(self, port: serial.SerialBase, name: str, baud: int,
-                 config: MachineConfig, config_path=None):
+                 config: MachineConfig, config_path=None, profile: MachineConfig | None = None):
         self.port_name = name
         self.baud = baud
-        self.config = config
+        self.config = config                # what jobs are planned with (the feed may change)
         self.config_path = config_path
+        #: the profile as read: what the firmware must have been built for
+        self.profile = profile or config
         #: (name, firmware's value, profile's value) where the build and the profile differ
         self.config_differences: tuple[tuple[str, str, int], ...] = ()
         self.simulated = is_simulated(name)
@@ -102,7 +104,8 @@ class MachineLink:
     # ---- opening ------------------------------------------------------------------
     @classmethod
     def open(cls, port: str | None = None, baud: int = DEFAULT_BAUD,
-             config: MachineConfig | None = None, config_path=None) -> "MachineLink":
+             config: MachineConfig | None = None, config_path=None,
+             profile: MachineConfig | None = None) -> "MachineLink":
         """Open `port` (None: find one, else `sim://`) and greet the firmware;
         `config_path` (the profile of `config`) is what `sim://` simulates."""
         from galileo_cnc.transport.discovery import find_port
@@ -112,13 +115,14 @@ class MachineLink:
             handle = open_port(name, baud, timeout=0.1)
         except (serial.SerialException, OSError, ValueError) as exc:
             raise LinkError(f"cannot open {name}: {port_error_text(exc)}") from None
-        return cls.attach(handle, name, baud, config, config_path)
+        return cls.attach(handle, name, baud, config, config_path, profile)
 
     @classmethod
     def attach(cls, handle: serial.SerialBase, name: str, baud: int = DEFAULT_BAUD,
-               config: MachineConfig | None = None, config_path=None) -> "MachineLink":
+               config: MachineConfig | None = None, config_path=None,
+               profile: MachineConfig | None = None) -> "MachineLink":
         """Greet the machine over an already open pyserial port."""
-        link = cls(handle, name, baud, config or MachineConfig(), config_path)
+        link = cls(handle, name, baud, config or MachineConfig(), config_path, profile)
         link._reader.start()
         try:
             link._greet()
@@ -165,14 +169,14 @@ class MachineLink:
     def _compare_config(self) -> None:
         """Note what differs between the build (its banner's digest, then its `C` list)
         and the profile the host plans with; `check_config` refuses jobs then."""
-        if self.banner.config_digest == self.config.firmware_digest():
+        if self.banner.config_digest == self.profile.firmware_digest():
             self.config_differences = ()
             return
         reply = self.send_protocol(P.QueryConfig())
         flashed = dict(pair.split("=", 1) for pair in reply.text.split()[1:] if "=" in pair)
         self.config_differences = tuple(
             (name, flashed.get(name, "missing"), value)
-            for name, value, _ in self.config.firmware_values()
+            for name, value, _ in self.profile.firmware_values()
             if flashed.get(name) != str(value))
 
     def check_config(self) -> None:

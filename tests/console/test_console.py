@@ -36,13 +36,16 @@ from galileo_cnc.plan.offsets import proposed_offset
 from galileo_cnc.plan.planner import plan_program
 from galileo_cnc.readers import read_file
 from galileo_cnc.stream.journal import INTERRUPTED, Journal
+from galileo_cnc.transport import link as link_module
 from galileo_cnc.transport.link import MachineLink, PortGone
+from galileo_cnc.transport.port import open_port
 from galileo_cnc.machine import Trace, simulate
 from galileo_cnc.sim.simulator import forget_named_machines, named_machine
 from galileo_cnc.simavr.board import SimulatedBoard, step_trace
 from galileo_cnc.stream.streamer import JobStreamer
 from galileo_cnc.stream.resume import position_after
 
+from faults import FaultyPort
 from firmware_support import ELF, build_firmware, build_harness
 from inked import inked_points
 
@@ -541,6 +544,7 @@ def test_a_homing_alarm_locks_the_machine_until_unlock(home, tmp_path):
         user.line("home")
         user.expect(r"alarm:11 end-stop not found")
         user.expect(r"the machine is locked \(alarm\): check it, then type unlock")
+        assert user.screen.text.count("end-stop not found") == 1      # said once
         assert user.status()[0] == "alarm"
         user.line("unlock")
         user.expect(r"unlocked.*: state idle")
@@ -551,9 +555,10 @@ def test_a_homing_alarm_locks_the_machine_until_unlock(home, tmp_path):
 SQUARE = ROOT / "samples" / "square-and-circle.nc"
 
 
-def an_evening(user: ConsoleUser, path: Path, pens: int) -> None:
-    """getg to "finished", getg again, setup (jog, feed), getg stopped with q,
-    resume to "finished": every command works after the one before it."""
+def an_evening(user: ConsoleUser, path: Path, pens: int, pull_the_cable=None) -> None:
+    """getg to "finished", getg again, setup (jog, feed), getg stopped with q (or, with
+    `pull_the_cable`, its port lost: connect again), resume to "finished": every
+    command works after the one before it."""
 
     def plot(stop: bool = False) -> None:
         user.line(f"getg {path}")
@@ -562,7 +567,13 @@ def an_evening(user: ConsoleUser, path: Path, pens: int) -> None:
         for _ in range(pens):
             user.expect(r"insert pen for aperture")
             user.type("\r")
-        if stop:
+        if stop and pull_the_cable is not None:
+            user.expect(r"lines\s+\d")
+            port = pull_the_cable()
+            user.expect(r"the port is gone: type connect to reconnect, then resume")
+            user.line(f"connect {port}")
+            user.expect(r"connected to ")
+        elif stop:
             user.expect(r"lines\s+\d")           # the bar is up and the head moves
             user.type("q")
             user.expect(r"job stopped after \d+ of \d+ commands: stopped by the user; "
@@ -593,7 +604,7 @@ def an_evening(user: ConsoleUser, path: Path, pens: int) -> None:
     user.expect(r">>")
     plot(stop=True)
     user.line("resume")
-    user.expect(r"commands were done \(stopped by the user\)")
+    user.expect(r"commands were done \((stopped by the user|.*the port went away.*)\)")
     user.expect(r"continue the job\? \[Y/n\]")
     user.line("")
     if pens:
@@ -606,6 +617,7 @@ def an_evening(user: ConsoleUser, path: Path, pens: int) -> None:
         user.type("\r")
     assert "error" not in user.screen.text.lower(), user.screen.text[-3000:]
     assert "alarm" not in user.screen.text.lower(), user.screen.text[-3000:]
+    assert "Traceback" not in user.screen.text
 
 
 def _uninterrupted(path: Path):
@@ -614,12 +626,25 @@ def _uninterrupted(path: Path):
     return job, simulate(job.commands)
 
 
-def test_a_whole_evening_on_sim(home):
+@pytest.mark.parametrize("stop", ["q", "cable"], ids=["q", "port-lost"])
+def test_a_whole_evening_on_sim(home, monkeypatch, stop):
     job, whole = _uninterrupted(BOARD)
-    port = "sim://evening?speed=20"
+    port = "sim://evening?speed=20"        # a board that keeps power when its port dies
+    opened = []
+
+    def open_faulty(*args, **kwargs):      # every port the console opens can be pulled
+        opened.append(FaultyPort(open_port(*args, **kwargs)))
+        return opened[-1]
+
+    def pull_the_cable() -> str:
+        opened[-1].dead = True
+        return port
+
+    monkeypatch.setattr(link_module, "open_port", open_faulty)
     try:
         with console_in_thread(home, port) as user:
-            an_evening(user, BOARD, pens=len(job.pen_changes))
+            an_evening(user, BOARD, pens=len(job.pen_changes),
+                       pull_the_cable=pull_the_cable if stop == "cable" else None)
             state, *position = user.status()
         trace = named_machine("evening").trace()
     finally:

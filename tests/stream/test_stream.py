@@ -118,8 +118,11 @@ def test_a_refused_line_stops_the_job_naming_the_file_line(journal):
     # the user set the origin near the end of X: the machine's soft limit refuses the line
     link.send(Jog(dx_steps=31_000))
     link.send(SetOrigin())
+    messages = []
+    link.on_message = messages.append
     with pytest.raises(LinkError) as refused:
         JobStreamer(link, job, program, journal=journal).run()
+    assert messages == []           # the stop that follows is ours: no "alarm:14 aborted"
     assert f"{SAMPLE}:" in str(refused.value) and "error:5" in str(refused.value)
     assert "X would reach" in str(refused.value)
     status = link.status()
