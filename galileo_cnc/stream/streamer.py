@@ -40,6 +40,9 @@ from galileo_cnc.program.ops import COL, LINE, Program
 
 #: No reply for this long while the machine stands idle with an empty queue: a stall.
 STALL_S = 2.0
+#: A machine of unknown pace (simavr://?realtime=0) is timed once this much machine
+#: time is confirmed; before, the few commands queued ahead would skew the rate.
+MEASURE_PACE_AFTER_S = 2.0
 
 
 class StreamAborted(GalileoError):
@@ -285,7 +288,7 @@ class JobStreamer:
         elapsed = time.monotonic() - self._began
         if self.link.speed is None:     # a machine of unknown pace: measure it so far
             ran = self.timing.seconds_between(self.start, done)
-            eta = left * elapsed / ran if ran > 0 and elapsed > 0 else None
+            eta = left * elapsed / ran if ran >= MEASURE_PACE_AFTER_S and elapsed > 0 else None
         else:
             eta = left / self.link.speed if self.link.speed > 0 else 0.0
         return Progress(done - self.start, len(self.job) - self.start, elapsed, eta, line)

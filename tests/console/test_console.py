@@ -354,6 +354,30 @@ def test_getg_asks_for_the_file_and_takes_typed_offsets(home, tmp_path):
         assert user.status()[1:] == position_after(job, len(job), config)
 
 
+def test_getg_takes_a_path_under_the_home_folder(home, tmp_path, monkeypatch):
+    # Tab completion offers ~/... paths: getg must open what it offered
+    user_home = tmp_path / "user"
+    (user_home / "boards").mkdir(parents=True)
+    (user_home / "boards" / "square.nc").write_text(SQUARE.read_text())
+    monkeypatch.setenv("HOME", str(user_home))
+    with console_in_thread(home) as user:
+        user.line("getg ~/boards/square.nc")
+        user.expect(r"use these offsets\? \[Y/n\]")
+        user.line("")
+        user.expect(r"process has finished")
+
+
+def test_getg_refuses_a_job_wider_than_the_travel_before_asking(home, tmp_path):
+    wide = tmp_path / "wide.nc"                 # 203.4 mm from the first X to the last
+    wide.write_text("G21 G90\nG0 X0 Y0\nM3\nG1 X203.4 Y10\nM5\n")
+    with console_in_thread(home) as user:
+        user.line(f"getg {wide}")
+        user.expect(r"the job is 203\.4 mm wide \(with its travel moves\); the machine's "
+                    r"travel is 200 mm")
+        user.expect(r">>")
+        assert "use these offsets" not in user.screen.text
+
+
 def test_getg_with_a_bad_file_prints_one_error_line(home, tmp_path):
     bad = tmp_path / "bad.gbr"
     bad.write_text("%FSLAX24Y24*%\n%MOMM*%\nX100Y100D02*\nG99*\nM02*\n")

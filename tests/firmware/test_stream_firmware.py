@@ -121,6 +121,14 @@ def test_a_pulled_cable_then_resume_gives_the_uninterrupted_trace(firmware, tmp_
     assert_same_trace_in_pieces(fw, simulate(job.commands), [steps_before(job, resumed_at)])
 
 
+def test_the_simulated_board_has_its_own_session(firmware):
+    # Ctrl-C at the console sends SIGINT to the terminal's process group: the board
+    # (a child process) must not be in it, or a stopped `home` kills it
+    with SimulatedBoard(firmware, trace=False) as board:
+        assert os.getsid(board._process.pid) != os.getsid(0)
+        assert os.getpgid(board._process.pid) != os.getpgid(0)
+
+
 def test_plot_on_the_simavr_port_runs_the_real_firmware(firmware, tmp_path):
     env = dict(os.environ, GALILEO_CNC_HOME=str(tmp_path), GALILEO_CNC_NO_PROBE="1")
     result = subprocess.run(

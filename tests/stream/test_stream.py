@@ -286,3 +286,18 @@ def test_a_job_stopped_mid_move_resumes_and_inks_what_the_whole_job_inks(journal
     assert (final.x_steps, final.y_steps, final.z_steps) == whole.final_position
     assert inked_points(trace) == inked_points(whole)
     assert (stopped.x_steps, stopped.y_steps) != whole.final_position[:2]
+
+
+def test_the_eta_of_a_machine_of_unknown_pace_is_measured(journal):
+    # simavr://?realtime=0 runs as fast as simavr can: no speed is known beforehand
+    program, job = sample_job()
+    link = MachineLink.open("sim://?speed=50")
+    link.speed = None
+    etas = []
+    result = JobStreamer(link, job, program).run(on_progress=lambda p: etas.append(p.eta_s))
+    link.close()
+    assert result.completed
+    measured = [eta for eta in etas if eta is not None]
+    assert etas[0] is None and measured        # nothing to measure before the first move
+    # 88 s of machine time at 50 x: the measured ETAs are a few seconds, not 88
+    assert max(measured[len(measured) // 2:]) < 10
