@@ -23,8 +23,8 @@ import numpy as np  # noqa: E402
 from galileo_cnc.config.machine import MachineConfig  # noqa: E402
 from galileo_cnc.job import ArcTo, Jog, LineTo, SetFeed, SetOrigin  # noqa: E402
 from galileo_cnc.machine import stepper as loop, vector  # noqa: E402
-from galileo_cnc.machine.planner import ReferenceMachine  # noqa: E402
 from galileo_cnc.machine.blocks import Pause  # noqa: E402
+from galileo_cnc.machine.planner import ReferenceMachine  # noqa: E402
 
 
 def long_job(moves: int, seed: int = 1):

@@ -25,14 +25,14 @@ import numpy as np  # noqa: E402
 
 from corpus import CORPUS  # noqa: E402
 from firmware_support import ELF  # noqa: E402
-from galileo_cnc.plan.offsets import proposed_offset  # noqa: E402
-from galileo_cnc.transport.link import MachineLink  # noqa: E402
 from galileo_cnc.job import ArcTo
 from galileo_cnc.machine import simulate  # noqa: E402
+from galileo_cnc.plan.offsets import proposed_offset  # noqa: E402
 from galileo_cnc.plan.planner import plan_program  # noqa: E402
 from galileo_cnc.readers import read_file  # noqa: E402
 from galileo_cnc.simavr.board import SimulatedBoard, step_trace  # noqa: E402
 from galileo_cnc.stream.streamer import JobStreamer  # noqa: E402
+from galileo_cnc.transport.link import MachineLink  # noqa: E402
 
 DEFAULT = "kicad/flashpads-nox2noap/Flashpads-F_Paste.gbr"
 LATENCY_JITTER_TICKS = 2

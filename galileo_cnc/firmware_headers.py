@@ -18,9 +18,9 @@ from pathlib import Path
 
 from galileo_cnc.config.hardware import DEFAULT_BAUD, F_CPU_HZ, TICKS_PER_S, TIMER1_PRESCALER
 from galileo_cnc.config.machine import MIN_FEED_STEPS_PER_S, MachineConfig, load_config
-from galileo_cnc.protocol import spec as P
 from galileo_cnc.machine.arcs import BAND_RHO_Q15, BAND_SIN_Q16, MAX_ARC_COORD
 from galileo_cnc.machine.ramps import FRAC_BITS, RHO_BITS
+from galileo_cnc.protocol import spec as P
 
 
 def _c_char(byte: bytes) -> str:

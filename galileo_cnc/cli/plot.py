@@ -15,18 +15,18 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
+from galileo_cnc.config.profile import Profile
 from galileo_cnc.errors import GalileoError
+from galileo_cnc.job import Job
 from galileo_cnc.machine.timing import duration_text
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
 from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, plan_file
 from galileo_cnc.program.extents import extents
-from galileo_cnc.stream.journal import Journal
-from galileo_cnc.transport.link import MachineLink, PortGone
-from galileo_cnc.job import Job
-from galileo_cnc.config.profile import Profile
 from galileo_cnc.program.ops import NM_PER_MM, Program
-from galileo_cnc.stream.streamer import JobStreamer, PenChange, Progress, StreamResult
+from galileo_cnc.stream.journal import Journal
 from galileo_cnc.stream.resume import plan_resume
+from galileo_cnc.stream.streamer import JobStreamer, PenChange, Progress, StreamResult
+from galileo_cnc.transport.link import MachineLink, PortGone
 
 EXIT_OK, EXIT_FAILED, EXIT_PORT_LOST, EXIT_INTERRUPTED = 0, 1, 3, 130
 

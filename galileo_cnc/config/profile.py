@@ -21,8 +21,8 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from galileo_cnc.config.machine import ConfigError, MachineConfig, read_toml
 from galileo_cnc.config.hardware import BAUD_RATES, DEFAULT_BAUD
+from galileo_cnc.config.machine import ConfigError, MachineConfig, read_toml
 from galileo_cnc.config.userdirs import config_dir
 
 PROFILE_NAME = "profile.toml"

@@ -8,8 +8,8 @@ from prompt_toolkit.application import create_app_session
 from prompt_toolkit.input import Input
 from prompt_toolkit.output import Output
 
-from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.config import userdirs
+from galileo_cnc.config.machine import MachineConfig
 
 
 def run_console(port: str | None, baud: int, config: MachineConfig, *,

@@ -20,12 +20,12 @@ from prompt_toolkit.shortcuts import print_formatted_text, prompt
 
 from galileo_cnc import __version__
 from galileo_cnc.config.machine import MachineConfig
-from galileo_cnc.errors import GalileoError
-from galileo_cnc.transport.link import LinkError, MachineAlarm, MachineLink, PortGone
-from galileo_cnc.job import SetFeed
-from galileo_cnc.protocol import Status
 from galileo_cnc.console.commands import build_registry
 from galileo_cnc.console.units import position_mm_text
+from galileo_cnc.errors import GalileoError
+from galileo_cnc.job import SetFeed
+from galileo_cnc.protocol import Status
+from galileo_cnc.transport.link import LinkError, MachineAlarm, MachineLink, PortGone
 
 PROMPT = ">> "
 #: While the prompt waits, the toolbar's state and position are refreshed this often.

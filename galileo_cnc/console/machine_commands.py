@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
+from galileo_cnc.console.units import position_mm_text
 from galileo_cnc.job import Home
 from galileo_cnc.protocol import Unlock
 from galileo_cnc.transport.discovery import list_ports
-from galileo_cnc.console.units import position_mm_text
 
 
 def status(console, arguments: list[str]) -> None:

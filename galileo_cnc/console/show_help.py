@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from galileo_cnc.console.helptext import load_help
 from galileo_cnc.config.userdirs import user_helpfile_path
+from galileo_cnc.console.helptext import load_help
 
 
 def run(console, arguments: list[str]) -> None:

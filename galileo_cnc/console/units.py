@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc import protocol as P
+from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.protocol import Status
 
 #: The seed's jog distance unit: 1000 units = 1 cm, so one unit is 10 um.

@@ -14,11 +14,11 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from galileo_cnc.config.machine import MIN_FEED_STEPS_PER_S, MachineConfig
-from galileo_cnc.machine import stepper as loop, vector
-from galileo_cnc.machine.arcs import MAX_ARC_COORD, arc_bbox, arc_geometry
 from galileo_cnc.job import (AXIS_NAMES, ArcTo, Command, Dwell, EndJob, Flash, Home, Jog,
                              LineTo, MachineError, Motors, PenDown, PenUp, Rapid, SetFeed,
                              SetOrigin)
+from galileo_cnc.machine import stepper as loop, vector
+from galileo_cnc.machine.arcs import MAX_ARC_COORD, arc_bbox, arc_geometry
 from galileo_cnc.machine.blocks import ArcMove, Hold, Item, LineMove, Pause, SeekMove
 from galileo_cnc.machine.ramps import (FRAC_BITS, TICKS_PER_MS, axial_interval_sub,
                                        line_rho_q15, ramp_events, ramp_step_sub,

@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.config.hardware import TICKS_PER_S
+from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.machine import ReferenceMachine
 from galileo_cnc.machine import vector
 from galileo_cnc.machine.blocks import Pause

@@ -12,8 +12,8 @@ from typing import Sequence
 import numpy as np
 
 from galileo_cnc.machine.arcs import arc_points
-from galileo_cnc.machine.lines import bresenham_points, fill_line_steps
 from galileo_cnc.machine.blocks import ArcMove, Hold, Item, LineMove, Pause, SeekMove
+from galileo_cnc.machine.lines import bresenham_points, fill_line_steps
 from galileo_cnc.machine.ramps import Run, run_ticks
 
 

@@ -30,8 +30,8 @@ from typing import Callable
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.errors import GalileoError, SourcePos
-from galileo_cnc.job import (NO_OP, ArcTo, Command, Dwell, EndJob, Flash, Job, LineTo, MachineError,
-                             PenDown, PenUp, Rapid, SetFeed)
+from galileo_cnc.job import (NO_OP, ArcTo, Command, Dwell, EndJob, Flash, Job, LineTo,
+                             MachineError, PenDown, PenUp, Rapid, SetFeed)
 from galileo_cnc.machine import ReferenceMachine
 from galileo_cnc.plan.order import DRAWING_KINDS, drawing_apertures, group_by_aperture
 from galileo_cnc.program.ops import (I, J, KIND, LINE, COL, NO_TOOL, TOOL, VALUE, X, Y,

@@ -5,8 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from galileo_cnc.program.geometry import arc_extremes
-from galileo_cnc.program.ops import (KIND, POSITIONED_KINDS, TOOL, X, Y, I, J,
-                                     OpKind, Program)
+from galileo_cnc.program.ops import KIND, POSITIONED_KINDS, TOOL, X, Y, I, J, OpKind, Program
 
 _DRAWN = (OpKind.LINE, OpKind.ARC_CW, OpKind.ARC_CCW)
 

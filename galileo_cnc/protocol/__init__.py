@@ -15,5 +15,5 @@ Firmware -> host, exactly one reply per line (`ok`, `error:`, `rs`), plus the
 unsolicited banner, `status:`, `alarm:` and `msg:` lines.
 """
 
-from galileo_cnc.protocol.spec import *  # noqa: F401,F403  the definitions
 from galileo_cnc.protocol.codec import *  # noqa: F401,F403  framing and replies
+from galileo_cnc.protocol.spec import *  # noqa: F401,F403  the definitions

@@ -5,9 +5,9 @@ from __future__ import annotations
 import os
 
 from galileo_cnc.errors import GalileoError, UnknownFormatError
+from galileo_cnc.program.ops import Program
 from galileo_cnc.readers.gcode import looks_like_gcode, read_gcode
 from galileo_cnc.readers.gerber import looks_like_gerber, read_gerber
-from galileo_cnc.program.ops import Program
 
 
 def detect_format(text: str) -> str | None:

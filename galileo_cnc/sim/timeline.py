@@ -17,8 +17,8 @@ from typing import Sequence
 
 import numpy as np
 
-from galileo_cnc.machine import Hold
 from galileo_cnc.config.hardware import TICKS_PER_S
+from galileo_cnc.machine import Hold
 from galileo_cnc.machine import vector
 from galileo_cnc.machine.ramps import Run, run_ticks
 

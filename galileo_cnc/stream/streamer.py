@@ -31,12 +31,12 @@ from typing import Callable, Sequence
 
 from galileo_cnc import protocol as P
 from galileo_cnc.errors import GalileoError, SourcePos
+from galileo_cnc.job import NO_OP, Command, Job
 from galileo_cnc.machine.timing import JobTiming, job_timing
+from galileo_cnc.program.ops import COL, LINE, Program
 from galileo_cnc.stream.journal import (ABORTED, FAILED, FINISHED, INTERRUPTED, Journal,
                                         JournalEntry, file_digest)
 from galileo_cnc.transport.link import LinkError, MachineLink, PortGone
-from galileo_cnc.job import NO_OP, Command, Job
-from galileo_cnc.program.ops import COL, LINE, Program
 
 #: No reply for this long while the machine stands idle with an empty queue: a stall.
 STALL_S = 2.0

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from galileo_cnc.plan.offsets import proposed_offset
 from galileo_cnc.machine import Trace, simulate
+from galileo_cnc.plan.offsets import proposed_offset
 from galileo_cnc.plan.planner import plan_program
 from galileo_cnc.readers import read_file
 

@@ -2,11 +2,11 @@
 
 import pytest
 
+from galileo_cnc.config.hardware import TICKS_PER_S
 from galileo_cnc.config.machine import ConfigError, MachineConfig, load_config
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.job import Flash, PenDown, PenUp
 from galileo_cnc.machine import simulate
-from galileo_cnc.config.hardware import TICKS_PER_S
 from galileo_cnc.machine.ramps import axial_interval_sub
 
 

@@ -30,20 +30,20 @@ from prompt_toolkit.output.vt100 import Vt100_Output
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.console import run_console
-from galileo_cnc.console.units import jog_units_to_steps
 from galileo_cnc.console.helptext import load_help
+from galileo_cnc.console.units import jog_units_to_steps
+from galileo_cnc.machine import Trace, simulate
 from galileo_cnc.plan.offsets import proposed_offset
 from galileo_cnc.plan.planner import plan_program
 from galileo_cnc.readers import read_file
+from galileo_cnc.sim.simulator import forget_named_machines, named_machine
+from galileo_cnc.simavr.board import SimulatedBoard, step_trace
 from galileo_cnc.stream.journal import INTERRUPTED, Journal
+from galileo_cnc.stream.resume import position_after
+from galileo_cnc.stream.streamer import JobStreamer
 from galileo_cnc.transport import link as link_module
 from galileo_cnc.transport.link import MachineLink, PortGone
 from galileo_cnc.transport.port import open_port
-from galileo_cnc.machine import Trace, simulate
-from galileo_cnc.sim.simulator import forget_named_machines, named_machine
-from galileo_cnc.simavr.board import SimulatedBoard, step_trace
-from galileo_cnc.stream.streamer import JobStreamer
-from galileo_cnc.stream.resume import position_after
 
 from faults import FaultyPort
 from firmware_support import ELF, build_firmware, build_harness

@@ -14,9 +14,9 @@ no longer holds the pattern and the lowest stack pointer it saw
 
 
 from galileo_cnc import protocol as P
-from galileo_cnc.simavr import board as simavr
 from galileo_cnc.job import (ArcTo, Dwell, Flash, Home, Jog, LineTo, PenDown, PenUp, Rapid,
                              SetFeed, SetOrigin)
+from galileo_cnc.simavr import board as simavr
 from galileo_cnc.simavr.board import SimulatedBoard
 
 from firmware_support import (ELF, STACK_MARGIN_BYTES, UNO_FLASH_BYTES, UNO_RAM_BYTES,

@@ -21,15 +21,15 @@ import pytest
 
 from galileo_cnc import protocol as P
 from galileo_cnc.config.machine import MachineConfig
-from galileo_cnc.plan.offsets import proposed_offset
-from galileo_cnc.stream.journal import INTERRUPTED, Journal
-from galileo_cnc.transport.link import MachineLink, PortGone
 from galileo_cnc.machine import simulate
+from galileo_cnc.plan.offsets import proposed_offset
 from galileo_cnc.plan.planner import plan_program
 from galileo_cnc.readers import read_file
 from galileo_cnc.simavr.board import SimulatedBoard, step_trace
-from galileo_cnc.stream.streamer import JobStreamer
+from galileo_cnc.stream.journal import INTERRUPTED, Journal
 from galileo_cnc.stream.resume import resume_job
+from galileo_cnc.stream.streamer import JobStreamer
+from galileo_cnc.transport.link import MachineLink, PortGone
 from galileo_cnc.transport.port import open_port
 
 from faults import FaultyPort

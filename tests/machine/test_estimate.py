@@ -6,11 +6,11 @@ from pathlib import Path
 
 import numpy as np
 
+from galileo_cnc.config.hardware import TICKS_PER_S
+from galileo_cnc.job import ArcTo, Dwell, LineTo, PenDown, PenUp, Rapid, SetFeed
+from galileo_cnc.machine import simulate
 from galileo_cnc.machine.timing import duration_text, job_timing
 from galileo_cnc.plan.offsets import proposed_offset
-from galileo_cnc.job import ArcTo, Dwell, LineTo, PenDown, PenUp, Rapid, SetFeed
-from galileo_cnc.config.hardware import TICKS_PER_S
-from galileo_cnc.machine import simulate
 from galileo_cnc.plan.planner import plan_program
 from galileo_cnc.readers import read_file
 

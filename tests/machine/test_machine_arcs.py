@@ -12,9 +12,9 @@ from galileo_cnc.machine import ReferenceMachine
 from galileo_cnc.machine.analysis import event_positions, segment_radial_deviation
 from galileo_cnc.machine.arcs import (BAND_RHO_Q15, BAND_SIN_Q16, N_BANDS, arc_geometry,
                                       arc_points, classify, round_sqrt)
+from galileo_cnc.machine.blocks import ArcMove
 from galileo_cnc.machine.lines import bresenham_points
 from galileo_cnc.machine.stepper import ArcStepper
-from galileo_cnc.machine.blocks import ArcMove
 
 BIG = MachineConfig(x_travel_mm=500, y_travel_mm=500)
 C = (40000, 40000)

@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 from hypothesis import assume, given, settings, strategies as st
 
+from galileo_cnc.config.hardware import TICKS_PER_S
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.job import ArcTo, Dwell, LineTo, Rapid, SetFeed
 from galileo_cnc.machine import ReferenceMachine, estimate_seconds, simulate
 from galileo_cnc.machine.analysis import (arc_speed_steps_per_s, event_positions,
                                           line_speed_steps_per_s, min_step_gap_ticks)
 from galileo_cnc.machine.arcs import MAX_ARC_COORD
-from galileo_cnc.config.hardware import TICKS_PER_S
 from galileo_cnc.machine.ramps import axial_interval_sub, ramp_events, ramp_step_sub
 
 BIG = MachineConfig(x_travel_mm=500, y_travel_mm=500, z_min_steps=-70000, z_max_steps=70000)

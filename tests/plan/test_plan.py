@@ -7,10 +7,10 @@ from pathlib import Path
 import pytest
 
 from galileo_cnc.config.machine import MachineConfig
-from galileo_cnc.plan.offsets import proposed_offset
 from galileo_cnc.job import ArcTo, Dwell, EndJob, Flash, LineTo, PenDown, PenUp, Rapid, SetFeed
-from galileo_cnc.machine import simulate
 from galileo_cnc.job import NO_OP
+from galileo_cnc.machine import simulate
+from galileo_cnc.plan.offsets import proposed_offset
 from galileo_cnc.plan.planner import PlanError, plan_program
 from galileo_cnc.program.ops import OpKind, ProgramBuilder
 from galileo_cnc.readers import read_file

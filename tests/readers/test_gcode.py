@@ -9,9 +9,9 @@ import pytest
 from corpus import CORPUS, corpus_paths
 
 from galileo_cnc.errors import GcodeError, GalileoError
+from galileo_cnc.program.ops import NO_TOOL, OpKind, ProgramBuilder
 from galileo_cnc.readers.gcode import (GcodeExportError, looks_like_gcode, read_gcode,
                                        write_gcode)
-from galileo_cnc.program.ops import NO_TOOL, OpKind, ProgramBuilder
 
 ROOT = Path(__file__).resolve().parents[2]
 SAMPLE = ROOT / "samples" / "square-and-circle.nc"

@@ -19,11 +19,11 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from galileo_cnc.errors import GcodeError
+from galileo_cnc.program.ops import NO_TOOL, OpKind, ProgramBuilder
 from galileo_cnc.readers.gcode import read_gcode, write_gcode
 from galileo_cnc.readers.gcode.arcs import r_form_centre_offset, round_half_away
 from galileo_cnc.readers.gcode.lexer import scaled
 from galileo_cnc.readers.gcode.reader import _FAST_LINE, _Reader
-from galileo_cnc.program.ops import NO_TOOL, OpKind, ProgramBuilder
 
 SAMPLE = Path(__file__).resolve().parents[2] / "samples" / "square-and-circle.nc"
 

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from galileo_cnc.errors import GerberError
+from galileo_cnc.program.ops import KIND, OpKind
 from galileo_cnc.readers.gerber import looks_like_gerber, read_gerber
 from galileo_cnc.readers.gerber.macros import MacroError, evaluate_expression
-from galileo_cnc.program.ops import KIND, OpKind
 
 HEADER_MM = "%FSLAX46Y46*%\n%MOMM*%\n%ADD10C,0.5*%\nD10*\n"
 

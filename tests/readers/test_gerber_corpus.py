@@ -9,10 +9,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from corpus import CORPUS, corpus_paths
-from galileo_cnc.errors import GerberError
-from galileo_cnc.readers.gerber import read_gerber
 from galileo_cnc.cli.info import summarize
+from galileo_cnc.errors import GerberError
 from galileo_cnc.plan.pipeline import load_artwork
+from galileo_cnc.readers.gerber import read_gerber
 
 READABLE = corpus_paths("real", "synthetic", "derived")
 INVALID = corpus_paths("invalid")

@@ -15,12 +15,12 @@ import pytest
 import serial
 
 from galileo_cnc import protocol as P
-from galileo_cnc.sim import simulator
-from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.config.hardware import TICKS_PER_S
+from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.job import (ArcTo, Dwell, EndJob, Flash, Home, Jog, LineTo, PenDown, PenUp,
                              Rapid, SetFeed, SetOrigin)
 from galileo_cnc.machine import Hold, simulate
+from galileo_cnc.sim import simulator
 from galileo_cnc.sim.simulator import forget_named_machines
 from galileo_cnc.transport.port import open_port
 

@@ -15,14 +15,14 @@ import pytest
 from galileo_cnc import protocol as P
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.job import Jog, Rapid, SetOrigin
-from galileo_cnc.plan.offsets import proposed_offset
-from galileo_cnc.stream.journal import ABORTED, FINISHED, INTERRUPTED, Journal
-from galileo_cnc.transport.link import ConfigMismatch, LinkError, MachineLink, PortGone
 from galileo_cnc.machine import simulate
+from galileo_cnc.plan.offsets import proposed_offset
 from galileo_cnc.plan.planner import PlanError, plan_program
 from galileo_cnc.readers import read_file
-from galileo_cnc.stream.streamer import JobStreamer
+from galileo_cnc.stream.journal import ABORTED, FINISHED, INTERRUPTED, Journal
 from galileo_cnc.stream.resume import ResumeError, plan_resume, resume_job
+from galileo_cnc.stream.streamer import JobStreamer
+from galileo_cnc.transport.link import ConfigMismatch, LinkError, MachineLink, PortGone
 from galileo_cnc.transport.port import open_port
 
 from corpus import CORPUS, corpus_paths

@@ -21,11 +21,11 @@ from collections import Counter
 import numpy as np
 
 from galileo_cnc.errors import GerberError, SourcePos
+from galileo_cnc.program.geometry import single_quadrant_centre
 from galileo_cnc.program.ops import COL as COL_COL
 from galileo_cnc.program.ops import LINE as LINE_COL
 from galileo_cnc.program.ops import (COLUMNS, KIND, NO_TOOL, POSITIONED_KINDS, X, Y, Aperture,
                                      OpKind, Program, ProgramBuilder)
-from galileo_cnc.program.geometry import single_quadrant_centre
 from galileo_cnc.readers.gerber import vectorised as batch_reader
 from galileo_cnc.readers.gerber.apertures import define_aperture, parse_parameters
 from galileo_cnc.readers.gerber.image import ImageTransform
