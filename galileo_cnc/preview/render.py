@@ -11,6 +11,10 @@
 
 Artwork coordinates are the file's (nm); subtracting `offset_nm` gives work
 coordinates, the frame the job and its trace use (docs/preview.md).
+
+Traces run to tens of millions of steps: they are read in chunks (_CHUNK_STEPS),
+never turned into whole-trace position or pixel arrays, so the memory a preview
+adds is the image and a few MB, whatever the trace's length.
 """
 
 from __future__ import annotations
@@ -34,10 +38,6 @@ TRAVEL = (190, 190, 190)        # light grey
 
 DEFAULT_PX_PER_MM = 20.0
 DEFAULT_MAX_PX = 4000
-# Trace events between the points used for the drawn length: long enough that
-# the one-step staircase of a slanted line adds < 0.5 %, short enough to follow
-# small arcs.
-_LENGTH_SAMPLE = 16
 
 
 @dataclass(frozen=True)
@@ -83,14 +83,19 @@ def render_preview(program: Program, trace: Trace, config: MachineConfig,
     `trace` must be the run of the job planned from `program` with `offset_nm`,
     starting from work position `start` (steps). `pygerber_limit` is the largest
     Gerber file (bytes) handed to pygerber; 0 never uses it.
+
+    The trace is read in chunks of _CHUNK_STEPS steps, twice: once for the view
+    and the pen-up/pen-down runs, once to draw (docs/preview.md, "Cost").
     """
     notes: list[str] = []
-    path = _head_path(trace, start, config)
+    runs = _scan_runs(trace, start, config)
     # The artwork's box and the head path decide the view and the scale.
     parsed, art_box = (artwork_box(program, offset_nm, pygerber_limit, notes)
                        if artwork else (None, None))
 
-    view, scale, size = _view(path.xy_mm, art_box, px_per_mm, max_px, margin_mm)
+    spm = config.steps_per_mm
+    view, scale, size = _view(runs.lo_steps / spm, runs.hi_steps / spm, art_box,
+                              px_per_mm, max_px, margin_mm)
     canvas = Image.new("RGB", size, BACKGROUND)
     to_px = PixelFrame(view, scale)
 
@@ -106,52 +111,130 @@ def render_preview(program: Program, trace: Trace, config: MachineConfig,
             draw_program(ImageDraw.Draw(canvas), program, to_px, offset_nm)
             renderer = "galileo"
 
-    draw = ImageDraw.Draw(canvas)
-    if travel:
-        _draw_runs(draw, to_px, path, path.travel_runs, TRAVEL, 1)
+    # Travel goes straight onto the canvas; strokes onto a mask painted over it at
+    # the end, so one pass draws both and the strokes still cover the travel.
+    stroke_mask = Image.new("L", size, 0)
     pen_px = max(1, round(pen_width_mm * scale))
-    _draw_runs(draw, to_px, path, path.stroke_runs, STROKE, pen_px)
+    strokes = _RunPainter(runs.strokes, ImageDraw.Draw(stroke_mask), 255, pen_px, box=True)
+    travels = _RunPainter(runs.travel, ImageDraw.Draw(canvas) if travel else None, TRAVEL, 1)
+    previous = None                         # pixel of the event before the chunk
+    for first, x, y in _events(trace, start, axes=2):
+        col, row = to_px.xy(x / spm, y / spm)
+        col, row = np.rint(col), np.rint(row)
+        change = np.empty(len(col), dtype=bool)   # the event is in another pixel
+        change[1:] = (col[1:] != col[:-1]) | (row[1:] != row[:-1])
+        change[0] = previous is None or (col[0], row[0]) != previous
+        previous = (col[-1], row[-1])
+        for painter in (strokes, travels):
+            painter.feed(first, x, y, col, row, change)
+    canvas.paste(STROKE, (0, 0) + size, stroke_mask)
     canvas.save(out_path)
 
     return PreviewInfo(str(out_path), size[0], size[1], scale, renderer,
-                       len(path.stroke_runs), path.length_mm(path.stroke_runs),
-                       path.length_mm(path.travel_runs), path.stroke_box(), view, notes)
+                       len(runs.strokes), strokes.length_steps / spm,
+                       travels.length_steps / spm, strokes.box_mm(spm), view, notes)
 
 
 # ---- the head path, from the trace -----------------------------------------------
+#
+# Events are the steps sharing a tick (a diagonal step goes straight, not round the
+# corner): event 0 is the start, event k the head position after the k-th tick.
+# Positions are integer steps; whole-trace arrays are never built: multi-million-
+# step jobs are read in chunks, and only the runs (a few per pen lift) are kept.
+
+# Trace steps per chunk: a few MB of temporaries (smaller chunks are no faster).
+_CHUNK_STEPS = 1 << 17
+# Trace events between the points used for the drawn length: long enough that
+# the one-step staircase of a slanted line adds < 0.5 %, short enough to follow
+# small arcs.
+_LENGTH_SAMPLE = 16
+
+
+def _events(trace: Trace, start: tuple[int, int, int], axes: int = 3):
+    """(index of the first event, x, y[, z]) per chunk of events, positions in
+    int32 steps; the first chunk is event 0 (the start) alone. `axes=2` leaves Z out."""
+    chunk = _CHUNK_STEPS
+    at = [int(v) for v in start[:axes]]
+    yield 0, *(np.array([v], dtype=np.int32) for v in at)
+    count, total = 1, len(trace)
+    for lo in range(0, total, chunk):
+        hi = min(lo + chunk, total)
+        # An event ends at the last step of its tick; one step of look-ahead says
+        # whether the chunk's last tick goes on into the next chunk.
+        tick = trace.tick[lo:hi + 1]
+        ends = np.ones(hi - lo, dtype=bool)
+        ends[:len(tick) - 1] = tick[1:] != tick[:-1]
+        axis, step = trace.axis[lo:hi], trace.dir[lo:hi]
+        position = []
+        for k in range(axes):
+            walked = np.cumsum(np.where(axis == k, step, np.int8(0)), dtype=np.int32)
+            here = walked[ends]
+            here += at[k]
+            at[k] += int(walked[-1])
+            position.append(here)
+        if len(position[0]):
+            yield count, *position
+            count += len(position[0])
+
 
 @dataclass
-class _HeadPath:
-    """Head positions at the end of every trace event (steps sharing a tick), with
-    index 0 the start; runs are (first, last) event indices, inclusive."""
+class _Runs:
+    """The head path's extent and its runs: (first, last) event indices, inclusive."""
 
-    xy_mm: np.ndarray         # (E, 2) float, work mm
-    stroke_runs: np.ndarray   # (S, 2) pen-down runs that draw (a line or a dot)
-    travel_runs: np.ndarray   # (T, 2) pen-up runs that move in XY
+    lo_steps: np.ndarray      # (2,) x, y minimum over all events
+    hi_steps: np.ndarray      # (2,) x, y maximum
+    strokes: np.ndarray       # (S, 2) pen-down runs that draw (a line or a dot)
+    travel: np.ndarray        # (T, 2) pen-up runs that move in XY, from the event before
 
-    def length_mm(self, runs: np.ndarray) -> float:
-        """Path length over `runs`, sampling every _LENGTH_SAMPLE-th event so that
-        step staircases do not count as extra length."""
-        if not len(runs):
-            return 0.0
-        index, run_id = _run_members(runs)
-        offset = index - runs[run_id, 0]
-        keep = (offset % _LENGTH_SAMPLE == 0) | (index == runs[run_id, 1])
-        points, ids = self.xy_mm[index[keep]], run_id[keep]
-        same = ids[1:] == ids[:-1]
-        return float(np.hypot(*(points[1:] - points[:-1])[same].T).sum())
 
-    def stroke_box(self) -> tuple[float, float, float, float] | None:
-        if not len(self.stroke_runs):
-            return None
-        index, _ = _run_members(self.stroke_runs)
-        pts = self.xy_mm[index]
-        lo, hi = pts.min(axis=0), pts.max(axis=0)
-        return (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+def _scan_runs(trace: Trace, start: tuple[int, int, int], config: MachineConfig) -> _Runs:
+    """First pass over the trace: extent, pen-down and pen-up runs.
+
+    The pen is down while Z is at or below config.pen_down_z_steps. A run "moves"
+    when X or Y changes at an event after its first.
+    """
+    lo = np.array(start[:2], dtype=np.int64)
+    hi = lo.copy()
+    firsts, downs, moved_at_first, moved_before_first = [], [], [], []
+    prev_xy, prev_down, moved_so_far = None, None, 0   # the event before the chunk
+    for first, x, y, z in _events(trace, start):
+        lo = np.minimum(lo, (x.min(), y.min()))
+        hi = np.maximum(hi, (x.max(), y.max()))
+        down = z <= config.pen_down_z_steps
+        moves = np.empty(len(x), dtype=bool)            # XY changed at the event
+        moves[1:] = (x[1:] != x[:-1]) | (y[1:] != y[:-1])
+        moves[0] = prev_xy is not None and (int(x[0]), int(y[0])) != prev_xy
+        moved = moved_so_far + np.cumsum(moves, dtype=np.int64)   # moves up to the event
+        new_run = np.empty(len(x), dtype=bool)
+        new_run[1:] = down[1:] != down[:-1]
+        new_run[0] = prev_down is None or bool(down[0]) != prev_down
+        at = np.flatnonzero(new_run)
+        firsts.append(at + first)
+        downs.append(down[at])
+        moved_at_first.append(moved[at])
+        before = np.concatenate(([moved_so_far], moved[:-1]))   # up to the event before
+        moved_before_first.append(before[at])
+        prev_xy, prev_down = (int(x[-1]), int(y[-1])), bool(down[-1])
+        moved_so_far = int(moved[-1])
+        last_event = first + len(x) - 1
+    first = np.concatenate(firsts)
+    down = np.concatenate(downs)
+    last = np.append(first[1:] - 1, last_event)
+    moved_at_last = np.append(np.concatenate(moved_before_first)[1:], moved_so_far)
+    moves = moved_at_last - np.concatenate(moved_at_first) > 0
+    runs = np.stack([first, last], axis=1)
+    # A pen-down run at the start that never moves is the pen resting where the
+    # machine began (it lifts before travelling), not a dot the job makes.
+    strokes = runs[down & (moves | (first > 0))]
+    # An up run's first event may be the lift; include the point before it so a
+    # travel line starts where the stroke ended.
+    travel = runs[~down & moves]
+    travel[:, 0] = np.maximum(travel[:, 0] - 1, 0)
+    return _Runs(lo, hi, strokes, travel)
 
 
 def _run_members(runs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """All event indices covered by `runs`, and the run each belongs to."""
+    """All indices covered by `runs` (inclusive ranges), and the run each belongs to."""
     lengths = runs[:, 1] - runs[:, 0] + 1
     run_id = np.repeat(np.arange(len(runs)), lengths)
     index = np.arange(lengths.sum()) - np.repeat(np.cumsum(lengths) - lengths, lengths) \
@@ -159,53 +242,110 @@ def _run_members(runs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return index, run_id
 
 
-def _runs(mask: np.ndarray) -> np.ndarray:
-    """(first, last) index of every run of True in `mask`."""
-    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
-    return np.stack([np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1], axis=1)
+class _RunPainter:
+    """One kind of run (disjoint, in order), fed the events chunk by chunk: draws
+    each run as one polyline thinned to the points that change pixel (a run that
+    stays in one pixel, e.g. a flash, as a dot), adds up its length and, with
+    `box`, the extent of its points.
 
+    A run crossing chunks is drawn in pieces; each piece starts with the last two
+    points of the one before, so every segment and every joint of the whole
+    polyline is drawn (Pillow draws no caps): the pixels are those of drawing it
+    in one go. Nothing of a run is drawn until one of its points leaves its first
+    pixel (a dot, until then).
+    """
 
-def _head_path(trace: Trace, start: tuple[int, int, int], config: MachineConfig) -> _HeadPath:
-    # One point per event: X and Y steps of a diagonal share a tick, and the
-    # intermediate corner between them is not a place the pen really goes.
-    last_of_tick = np.ones(len(trace), dtype=bool)
-    last_of_tick[:-1] = trace.tick[1:] != trace.tick[:-1]
-    # Cumulative sums per axis in int32 (positions are far inside its range):
-    # a third of the memory of Trace.positions for the multi-million-step jobs.
-    step = trace.dir.astype(np.int32)
-    points = np.empty((int(last_of_tick.sum()) + 1, 3), dtype=np.int64)
-    points[0] = start
-    for axis in range(3):
-        moved_axis = np.where(trace.axis == axis, step, np.int32(0))
-        points[1:, axis] = start[axis] + np.cumsum(moved_axis, dtype=np.int32)[last_of_tick]
-    down = points[:, 2] <= config.pen_down_z_steps
-    moves = np.zeros(len(points), dtype=bool)     # event k changed X or Y
-    moves[1:] = np.any(points[1:, :2] != points[:-1, :2], axis=1)
-    moved_before = np.cumsum(moves)
+    def __init__(self, runs: np.ndarray, draw: ImageDraw.ImageDraw | None, colour, width: int,
+                 box: bool = False):
+        self.first, self.last = runs[:, 0], runs[:, 1]
+        self.draw, self.colour, self.width = draw, colour, width
+        self.length_steps = 0.0
+        self.want_box, self.lo, self.hi = box, None, None   # extent (x, y steps)
+        self._sample = None    # (run, x, y): the last length sample so far
+        self._open = None      # (run, last two points, first point, left its pixel)
 
-    def moved(runs: np.ndarray) -> np.ndarray:   # XY moved within the run
-        return moved_before[runs[:, 1]] - moved_before[runs[:, 0]] > 0
+    def box_mm(self, steps_per_mm: float):
+        if self.lo is None:
+            return None
+        return (float(self.lo[0] / steps_per_mm), float(self.lo[1] / steps_per_mm),
+                float(self.hi[0] / steps_per_mm), float(self.hi[1] / steps_per_mm))
 
-    pen_down = _runs(down)
-    # A run at the start that never moves is the pen resting where the machine
-    # began (it lifts before travelling), not a dot the job makes.
-    keep = moved(pen_down) | (pen_down[:, 0] > 0)
-    pen_up = _runs(~down)
-    # An up run's first event may be the lift; include the point before it so a
-    # travel line starts where the stroke ended.
-    pen_up = pen_up[moved(pen_up)]
-    pen_up[:, 0] = np.maximum(pen_up[:, 0] - 1, 0)
-    xy_mm = points[:, :2] / config.steps_per_mm
-    return _HeadPath(xy_mm, pen_down[keep], pen_up)
+    def feed(self, first: int, x, y, col, row, change) -> None:
+        """Events first .. first + len(x) - 1: positions (steps), pixels, and
+        whether each is in another pixel than the event before."""
+        end = first + len(x)
+        a = int(np.searchsorted(self.last, first))           # runs overlapping the chunk
+        b = int(np.searchsorted(self.first, end))
+        if a >= b:
+            return
+        local = np.stack([np.maximum(self.first[a:b], first),
+                          np.minimum(self.last[a:b], end - 1)], axis=1) - first
+        index, run = _run_members(local)
+        run += a
+        event = index + first
+        starts, stops = event == self.first[run], event == self.last[run]
+        self._length(x, y, index, run, event, stops)
+        if self.want_box:
+            xs, ys = x[index], y[index]
+            lo, hi = (xs.min(), ys.min()), (xs.max(), ys.max())
+            self.lo = lo if self.lo is None else np.minimum(self.lo, lo)
+            self.hi = hi if self.hi is None else np.maximum(self.hi, hi)
+        if self.draw is not None:
+            keep = change[index] | starts | stops
+            kept = index[keep]
+            self._paint(np.stack([col[kept], row[kept]], axis=1).astype(np.float32),
+                        run[keep], end)
+
+    def _length(self, x, y, index, run, event, stops) -> None:
+        """Length over samples every _LENGTH_SAMPLE events from each run's first,
+        and its last, so step staircases do not count as extra length."""
+        take = ((event - self.first[run]) % _LENGTH_SAMPLE == 0) | stops
+        pick = index[take]
+        xs, ys, ids = x[pick].astype(np.int64), y[pick].astype(np.int64), run[take]
+        if self._sample is not None:
+            r, sx, sy = self._sample
+            xs, ys, ids = np.append(sx, xs), np.append(sy, ys), np.append(r, ids)
+        if len(ids):
+            same = ids[1:] == ids[:-1]
+            self.length_steps += float(np.hypot(np.diff(xs)[same], np.diff(ys)[same]).sum())
+            self._sample = (ids[-1], xs[-1], ys[-1])
+
+    def _paint(self, points: np.ndarray, run: np.ndarray, end: int) -> None:
+        if not len(run):      # a run going on through the chunk within one pixel
+            return
+        cuts = np.flatnonzero(run[1:] != run[:-1]) + 1
+        for lo, hi in zip([0, *cuts.tolist()], [*cuts.tolist(), len(run)]):
+            r = int(run[lo])
+            piece = points[lo:hi]
+            if self._open is not None and self._open[0] == r:
+                _, tail, origin, left = self._open
+                piece = np.concatenate([tail, piece])
+            else:
+                origin, left = piece[0].copy(), False
+            left = left or bool(np.any(piece != origin))
+            if left and len(piece) > 1:
+                flat = piece.ravel()
+                # Pillow reads a float32 buffer directly; its curve joints (wide
+                # pens only) need Python numbers.
+                self.draw.line(flat.tolist() if self.width > 4 else flat, fill=self.colour,
+                               width=self.width, joint="curve")
+            if self.last[r] < end:                    # the run ends in this chunk
+                self._open = None
+                if not left:                          # a flash: bigger than the pen
+                    dot = max(2.0, self.width)
+                    x0, y0 = float(origin[0]), float(origin[1])
+                    self.draw.ellipse((x0 - dot, y0 - dot, x0 + dot, y0 + dot), fill=self.colour)
+            else:
+                self._open = (r, piece[-2:].copy(), origin, left)
 
 
 # ---- view and pixels ---------------------------------------------------------------
 
-def _view(xy_mm: np.ndarray, art_box, px_per_mm: float, max_px: int, margin_mm: float):
-    """View box (work mm), scale (px/mm) and image size: everything plus a margin,
-    at `px_per_mm` unless that would exceed `max_px` on a side."""
-    lo, hi = xy_mm.min(axis=0), xy_mm.max(axis=0)
-    xmin, ymin, xmax, ymax = float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
+def _view(lo_mm, hi_mm, art_box, px_per_mm: float, max_px: int, margin_mm: float):
+    """View box (work mm), scale (px/mm) and image size: the head path (lo_mm ..
+    hi_mm) and the artwork plus a margin, at `px_per_mm` unless that would exceed
+    `max_px` on a side."""
+    xmin, ymin, xmax, ymax = float(lo_mm[0]), float(lo_mm[1]), float(hi_mm[0]), float(hi_mm[1])
     if art_box is not None:
         xmin, ymin = min(xmin, art_box[0]), min(ymin, art_box[1])
         xmax, ymax = max(xmax, art_box[2]), max(ymax, art_box[3])
@@ -220,27 +360,3 @@ def _view(xy_mm: np.ndarray, art_box, px_per_mm: float, max_px: int, margin_mm: 
     # Grow the box to the whole pixels so pixel() and the image agree.
     view = (xmin, ymax - size[1] / scale, xmin + size[0] / scale, ymax)
     return view, scale, size
-
-
-def _draw_runs(draw: ImageDraw.ImageDraw, to_px: PixelFrame, path: _HeadPath, runs: np.ndarray,
-               colour, width: int) -> None:
-    """Each run as one polyline, thinned to the points that change pixel; a run
-    without XY movement (a flash) as a dot."""
-    if not len(runs):
-        return
-    col, row = to_px.xy(path.xy_mm[:, 0], path.xy_mm[:, 1])
-    pix = np.stack([np.rint(col), np.rint(row)], axis=1)
-    change = np.ones(len(pix), dtype=bool)
-    change[1:] = np.any(pix[1:] != pix[:-1], axis=1)
-    change[runs[:, 0]] = change[runs[:, 1]] = True
-    kept = np.flatnonzero(change)
-    lo = np.searchsorted(kept, runs[:, 0])
-    hi = np.searchsorted(kept, runs[:, 1], side="right")
-    dot = max(2.0, width)  # a flash: bigger than the pen so it shows
-    for a, b in zip(lo.tolist(), hi.tolist()):
-        pts = pix[kept[a:b]]
-        if len(pts) > 1 and np.any(pts != pts[0]):
-            draw.line(pts.ravel().tolist(), fill=colour, width=width, joint="curve")
-        else:
-            x, y = pts[0].tolist()
-            draw.ellipse((x - dot, y - dot, x + dot, y + dot), fill=colour)

@@ -1,13 +1,14 @@
-"""Preview images (galileo_cnc/render.py): strokes from the trace over the artwork."""
+"""Preview images (galileo_cnc/preview/render.py): strokes from the trace over the artwork."""
 
 from __future__ import annotations
 
 import math
+import tracemalloc
 from pathlib import Path
 
 import numpy as np
 import pytest
-from PIL import Image
+from PIL import Image, ImageDraw
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.plan.offsets import proposed_offset
@@ -17,8 +18,9 @@ from galileo_cnc.machine.trace import Trace
 from galileo_cnc.plan.planner import plan_program
 from galileo_cnc.program.ops import I, J, KIND, X, Y, OpKind
 from galileo_cnc.readers import read_file
-from galileo_cnc.preview.artwork import ART
-from galileo_cnc.preview.render import STROKE, render_preview
+from galileo_cnc.preview import render
+from galileo_cnc.preview.artwork import ART, PixelFrame
+from galileo_cnc.preview.render import STROKE, TRAVEL, render_preview
 
 from corpus import CORPUS
 
@@ -206,3 +208,151 @@ def test_corpus_files(tmp_path, path, renderer):
     assert info.renderer == renderer
     assert info.strokes == expected_strokes(job) > 0
     check_strokes(info, image, trace)
+
+
+# ---- the trace is read in chunks: same picture and numbers as reading it whole ----
+
+def whole_trace_reference(trace: Trace, config, info, start=(0, 0, 0), pen_px: int = 3,
+                          travel: bool = True):
+    """Strokes and travel drawn from the whole trace at once, as render.py drew them
+    before it read the trace in chunks, on a blank canvas of `info`'s view: the
+    image, and (strokes, drawn mm, travel mm, stroke box)."""
+    pos = trace.positions(start)
+    last_of_tick = np.ones(len(trace), dtype=bool)
+    last_of_tick[:-1] = trace.tick[1:] != trace.tick[:-1]
+    points = np.vstack([np.asarray(start, dtype=np.int64), pos[last_of_tick]])
+    down = points[:, 2] <= config.pen_down_z_steps
+    moves = np.zeros(len(points), dtype=bool)
+    moves[1:] = np.any(points[1:, :2] != points[:-1, :2], axis=1)
+    moved_before = np.cumsum(moves)
+
+    def runs(mask):
+        edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+        return np.stack([np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1], axis=1)
+
+    def moved(r):
+        return moved_before[r[:, 1]] - moved_before[r[:, 0]] > 0
+
+    pen_down = runs(down)
+    strokes = pen_down[moved(pen_down) | (pen_down[:, 0] > 0)]
+    pen_up = runs(~down)
+    travels = pen_up[moved(pen_up)]
+    travels[:, 0] = np.maximum(travels[:, 0] - 1, 0)
+    xy = points[:, :2] / config.steps_per_mm
+
+    def length(rs):
+        total = 0.0
+        for a, b in rs.tolist():
+            index = np.arange(a, b + 1)
+            pts = xy[index[((index - a) % 16 == 0) | (index == b)]]
+            total += float(np.hypot(*np.diff(pts, axis=0).T).sum())
+        return total
+
+    box = None
+    if len(strokes):
+        pts = np.concatenate([xy[a:b + 1] for a, b in strokes.tolist()])
+        box = (*pts.min(axis=0).tolist(), *pts.max(axis=0).tolist())
+
+    image = Image.new("RGB", (info.width_px, info.height_px), (255, 255, 255))
+    draw = ImageDraw.Draw(image)
+    col, row = PixelFrame(info.view_mm, info.px_per_mm).xy(xy[:, 0], xy[:, 1])
+    pix = np.stack([np.rint(col), np.rint(row)], axis=1)
+
+    def draw_runs(rs, colour, width):
+        for a, b in rs.tolist():
+            pts = pix[a:b + 1]
+            keep = np.ones(len(pts), dtype=bool)     # the points that change pixel
+            keep[1:-1] = np.any(pts[1:-1] != pts[:-2], axis=1)
+            pts = pts[keep]
+            if np.any(pts != pts[0]):
+                draw.line(pts.ravel().tolist(), fill=colour, width=width, joint="curve")
+            else:
+                x, y = pts[0].tolist()
+                dot = max(2.0, width)
+                draw.ellipse((x - dot, y - dot, x + dot, y + dot), fill=colour)
+
+    if travel:
+        draw_runs(travels, TRAVEL, 1)
+    draw_runs(strokes, STROKE, pen_px)
+    return np.asarray(image), (len(strokes), length(strokes), length(travels), box)
+
+
+def random_trace(seed: int, events: int) -> Trace:
+    """Steps in straight runs with turns, X and Y steps often sharing a tick, and Z
+    wandering round the pen-down height (lifts and lowerings mid-move too)."""
+    rng = np.random.default_rng(seed)
+    ticks, axes, dirs = [], [], []
+    tick, heading = 0, rng.integers(-1, 2, size=2)
+    for _ in range(events):
+        tick += int(rng.integers(1, 5))
+        if rng.random() < 0.05:
+            heading = rng.integers(-1, 2, size=2)
+        for axis in (0, 1):
+            if heading[axis] and rng.random() < 0.8:
+                ticks.append(tick), axes.append(axis), dirs.append(int(heading[axis]))
+        if rng.random() < 0.08:
+            ticks.append(tick), axes.append(2), dirs.append(int(rng.choice([-1, 1])))
+    return Trace(np.array(ticks, np.int64), np.array(axes, np.int8), np.array(dirs, np.int8),
+                 (0, 0, 0), tick)
+
+
+def assert_same_as_whole_trace(info, image, trace, start=(0, 0, 0), pen_px=3, travel=True):
+    reference, (strokes, drawn, travel_mm, box) = whole_trace_reference(
+        trace, CONFIG, info, start, pen_px, travel)
+    assert info.strokes == strokes
+    assert info.drawn_mm == pytest.approx(drawn, rel=1e-12, abs=1e-9)
+    assert info.travel_mm == pytest.approx(travel_mm, rel=1e-12, abs=1e-9)
+    assert info.stroke_box_mm == (None if box is None else pytest.approx(box, abs=1e-12))
+    different = np.any(image != reference, axis=-1)
+    assert not different.any(), \
+        f"{different.sum()} pixels differ, the first at (row, col) {np.argwhere(different)[0]}"
+
+
+@pytest.mark.parametrize("chunk", [101, 4096])
+def test_chunked_board_draws_the_whole_trace_picture(tmp_path, monkeypatch, chunk):
+    # Chunks far shorter than the strokes: every stroke and travel line crosses
+    # several chunk boundaries, yet each pixel is the one the whole trace gives.
+    monkeypatch.setattr(render, "_CHUNK_STEPS", chunk)
+    info, image, job, trace = preview(BOARD, tmp_path / "board.png", artwork=False)
+    assert_same_as_whole_trace(info, image, trace)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_chunked_random_traces_draw_the_whole_trace_picture(tmp_path, monkeypatch, seed):
+    rng = np.random.default_rng(1000 + seed)
+    trace = random_trace(seed, int(rng.integers(0, 2500)))
+    start = (int(rng.integers(-50, 50)), int(rng.integers(-50, 50)), int(rng.integers(-2, 3)))
+    # Wide pens (over 4 px) have curved joints, which pieces of a run must keep.
+    px_per_mm, pen_mm = [(3, 0.15), (20, 0.15), (45, 0.3)][seed % 3]
+    pen_px = max(1, round(pen_mm * px_per_mm))
+    program = read_file(DRAWING)
+    for chunk in (1, 3, 64, 1 << 17):
+        monkeypatch.setattr(render, "_CHUNK_STEPS", chunk)
+        out = tmp_path / f"random-{chunk}.png"
+        info = render_preview(program, trace, CONFIG, (0, 0), out, start=start, artwork=False,
+                              px_per_mm=px_per_mm, pen_width_mm=pen_mm, travel=seed % 4 != 0)
+        image = np.asarray(Image.open(out).convert("RGB"))
+        assert_same_as_whole_trace(info, image, trace, start, pen_px, travel=seed % 4 != 0)
+
+
+def test_working_memory_does_not_grow_with_the_trace(tmp_path):
+    # 4 M steps of pen-down zigzag (a 40 MB trace). Reading the whole trace at once
+    # took ~50 bytes per step (200 MB here); in chunks, numpy's working memory is
+    # a few MB whatever the trace's length.
+    n = 4_000_000
+    k = np.arange(n)
+    axis = np.where(k % 4040 < 4000, 0, 1).astype(np.int8)
+    step = np.where((axis == 0) & (k // 4040 % 2 == 1), -1, 1).astype(np.int8)
+    trace = Trace(k * 3, axis, step, (0, 0, 0), 3 * n)
+    program = read_file(DRAWING)
+    tracemalloc.start()
+    try:
+        info = render_preview(program, trace, CONFIG, (0, 0), tmp_path / "long.png",
+                              artwork=False)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 24 * 2 ** 20, peak
+    assert info.strokes == 1
+    assert info.stroke_box_mm == pytest.approx((0.0, 0.0, 25.0, 990 * 40 / 160), abs=1e-9)
+    assert info.drawn_mm == pytest.approx(n / 160, rel=0.01)
