@@ -41,15 +41,16 @@ def _run_plot(args: argparse.Namespace) -> int:
 
 
 def _run_preview(args: argparse.Namespace) -> int:
-    from galileo_cnc.machine import simulate
+    from galileo_cnc.machine.planner import JobSteps
     from galileo_cnc.plan.pipeline import plan_file
     from galileo_cnc.preview.render import render_preview
 
     config = _profile(args).config
     planned = plan_file(args.file, config, args.offset, margin_nm=round(args.margin * NM_PER_MM),
                         group=not args.file_order)
-    trace = simulate(planned.job.commands, config)
-    info = render_preview(planned.program, trace, config, planned.offset_nm, args.output)
+    # stepped piece by piece as the preview reads it: no whole trace in memory
+    steps = JobSteps(planned.job.commands, config)
+    info = render_preview(planned.program, steps, config, planned.offset_nm, args.output)
     print(f"{args.output}: {info.summary()}")
     return 0
 

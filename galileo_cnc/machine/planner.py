@@ -294,6 +294,23 @@ def simulate(commands: Iterable[Command], config: MachineConfig | None = None,
     return ReferenceMachine(config, position).run(commands, holds, abort_at_tick, backend)
 
 
+class JobSteps:
+    """A job's step trace produced piece by piece as it is read, for readers that
+    walk it in order (previews): memory stays one piece's, however long the job.
+    Each reading steps the job again on a fresh reference machine."""
+
+    def __init__(self, commands: Iterable[Command], config: MachineConfig | None = None,
+                 position: tuple[int, int, int] = (0, 0, 0)):
+        self.config = config or MachineConfig()
+        self.position = position
+        self.items = ReferenceMachine(self.config, position).plan(list(commands))
+
+    def pieces(self, size: int = 0):
+        """(tick, axis, dir) of whole items in time order (`size` is the Trace's hint;
+        pieces here follow the vectorised reference's own chunks)."""
+        yield from vector.execute_in_pieces(self.items, [0])
+
+
 def estimate_seconds(commands: Iterable[Command], config: MachineConfig | None = None) -> float:
     """Job duration from the same computation that makes the trace."""
     return simulate(commands, config).seconds

@@ -46,6 +46,17 @@ class Trace:
         delta[np.arange(len(self.tick)), self.axis] = self.dir
         return np.asarray(start, dtype=np.int64) + np.cumsum(delta, axis=0)
 
+    def pieces(self, size: int):
+        """(tick, axis, dir) views of about `size` steps, each ending at the end of an
+        event (the steps of one tick stay together)."""
+        lo, total = 0, len(self.tick)
+        while lo < total:
+            hi = min(lo + size, total)
+            while hi < total and self.tick[hi] == self.tick[hi - 1]:
+                hi += 1
+            yield self.tick[lo:hi], self.axis[lo:hi], self.dir[lo:hi]
+            lo = hi
+
     def same_steps(self, other: "Trace") -> bool:
         return (np.array_equal(self.tick, other.tick) and np.array_equal(self.axis, other.axis)
                 and np.array_equal(self.dir, other.dir))

@@ -148,12 +148,9 @@ def execute(items: Sequence[Item], t0: int = 0, holds: Sequence[Hold] = (),
         ticks, runs, end, n_done = apply_holds(base, runs, tail, t0, holds, abort_at_tick)
         tick, axis, direction = step_rows(table[:n_done], ticks[:n_done])
         return tick, axis, direction, end, n_done < len(base)
-    parts = []
-    end = t0
-    for chunk in _chunks(items):
-        table, base, runs, tail = build_events(chunk)
-        ticks, _starts, end = run_ticks(base, runs, end, tail, inplace=True)
-        parts.append(step_rows(table, ticks))
+    clock = [t0]
+    parts = list(execute_in_pieces(items, clock))
+    end = clock[0]
     if not parts:
         empty = np.zeros(0, dtype=np.int8)
         return np.zeros(0, dtype=np.int64), empty, empty, end, False
@@ -161,6 +158,16 @@ def execute(items: Sequence[Item], t0: int = 0, holds: Sequence[Hold] = (),
         return (*parts[0], end, False)
     return (np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]),
             np.concatenate([p[2] for p in parts]), end, False)
+
+
+def execute_in_pieces(items: Sequence[Item], clock: list[int]):
+    """(tick, axis, dir) of runs of whole items (about CHUNK_EVENTS events each), in
+    order; `clock[0]` is the start tick and, once the pieces are consumed, the end.
+    Memory stays that of one piece, however long the job."""
+    for chunk in _chunks(items):
+        table, base, runs, tail = build_events(chunk)
+        ticks, _starts, clock[0] = run_ticks(base, runs, clock[0], tail, inplace=True)
+        yield step_rows(table, ticks)
 
 
 def _chunks(items: Sequence[Item]):

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 import os
+from typing import Union
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -29,7 +30,11 @@ from PIL import Image, ImageDraw
 from galileo_cnc.preview.artwork import (BACKGROUND, DEFAULT_PYGERBER_LIMIT, PixelFrame,
                                          artwork_box, draw_program, paste_pygerber)
 from galileo_cnc.config.machine import MachineConfig
+from galileo_cnc.machine.planner import JobSteps
 from galileo_cnc.machine.trace import Trace
+
+#: a step trace in memory, or one stepped piece by piece as it is read
+Steps = Union[Trace, JobSteps]
 from galileo_cnc.program.ops import Program
 
 # Colours (RGB): strong strokes over the light artwork (artwork.ART), so both stay readable.
@@ -71,7 +76,7 @@ class PreviewInfo:
         return int(math.floor(col)), int(math.floor(row))
 
 
-def render_preview(program: Program, trace: Trace, config: MachineConfig,
+def render_preview(program: Program, trace: Steps, config: MachineConfig,
                    offset_nm: tuple[int, int], out_path: str | os.PathLike, *,
                    start: tuple[int, int, int] = (0, 0, 0),
                    px_per_mm: float = DEFAULT_PX_PER_MM, max_px: int = DEFAULT_MAX_PX,
@@ -150,21 +155,16 @@ _CHUNK_STEPS = 1 << 17
 _LENGTH_SAMPLE = 16
 
 
-def _events(trace: Trace, start: tuple[int, int, int], axes: int = 3):
+def _events(trace: Steps, start: tuple[int, int, int], axes: int = 3):
     """(index of the first event, x, y[, z]) per chunk of events, positions in
     int32 steps; the first chunk is event 0 (the start) alone. `axes=2` leaves Z out."""
-    chunk = _CHUNK_STEPS
     at = [int(v) for v in start[:axes]]
     yield 0, *(np.array([v], dtype=np.int32) for v in at)
-    count, total = 1, len(trace)
-    for lo in range(0, total, chunk):
-        hi = min(lo + chunk, total)
-        # An event ends at the last step of its tick; one step of look-ahead says
-        # whether the chunk's last tick goes on into the next chunk.
-        tick = trace.tick[lo:hi + 1]
-        ends = np.ones(hi - lo, dtype=bool)
-        ends[:len(tick) - 1] = tick[1:] != tick[:-1]
-        axis, step = trace.axis[lo:hi], trace.dir[lo:hi]
+    count = 1
+    for tick, axis, step in _pieces(trace):
+        # an event ends at the last step of its tick; a piece ends with an event
+        ends = np.ones(len(tick), dtype=bool)
+        ends[:-1] = tick[1:] != tick[:-1]
         position = []
         for k in range(axes):
             walked = np.cumsum(np.where(axis == k, step, np.int8(0)), dtype=np.int32)
@@ -177,6 +177,15 @@ def _events(trace: Trace, start: tuple[int, int, int], axes: int = 3):
             count += len(position[0])
 
 
+def _pieces(trace: Steps):
+    """Pieces of at most about _CHUNK_STEPS steps, each ending with an event."""
+    for tick, axis, step in trace.pieces(_CHUNK_STEPS):
+        if len(tick) <= 2 * _CHUNK_STEPS:
+            yield tick, axis, step
+        else:                                   # a large piece of a JobSteps: cut it
+            yield from Trace(tick, axis, step, (0, 0, 0), 0).pieces(_CHUNK_STEPS)
+
+
 @dataclass
 class _Runs:
     """The head path's extent and its runs: (first, last) event indices, inclusive."""
@@ -187,7 +196,7 @@ class _Runs:
     travel: np.ndarray        # (T, 2) pen-up runs that move in XY, from the event before
 
 
-def _scan_runs(trace: Trace, start: tuple[int, int, int], config: MachineConfig) -> _Runs:
+def _scan_runs(trace: Steps, start: tuple[int, int, int], config: MachineConfig) -> _Runs:
     """First pass over the trace: extent, pen-down and pen-up runs.
 
     The pen is down while Z is at or below config.pen_down_z_steps. A run "moves"

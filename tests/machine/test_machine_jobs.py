@@ -185,3 +185,19 @@ def test_machine_keeps_state_and_clock_between_runs():
     whole = simulate([LineTo(100, 0), LineTo(100, 100)])
     assert np.array_equal(np.concatenate([first.tick, second.tick]), whole.tick)
     assert m.work_position == (100, 100, 0)
+
+
+def test_a_job_stepped_in_pieces_is_the_job_stepped_whole(monkeypatch):
+    from galileo_cnc.machine import vector
+    from galileo_cnc.machine.planner import JobSteps
+
+    monkeypatch.setattr(vector, "CHUNK_EVENTS", 50)          # many pieces
+    commands = [Rapid(300, 200), PenDown(), LineTo(900, 650), ArcTo(900, 650, 120, 0, True),
+                Dwell(5), Flash(), Rapid(0, 0), PenUp(), EndJob()]
+    whole = simulate(commands)
+    pieces = list(JobSteps(commands).pieces())
+    assert len(pieces) > 3
+    for k, column in enumerate((whole.tick, whole.axis, whole.dir)):
+        assert np.array_equal(np.concatenate([p[k] for p in pieces]), column)
+    for before, after in zip(pieces, pieces[1:]):             # no event is cut in two
+        assert before[0][-1] != after[0][0]

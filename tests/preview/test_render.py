@@ -14,6 +14,7 @@ from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.plan.offsets import proposed_offset
 from galileo_cnc.job import Flash, PenDown, PenUp, Rapid
 from galileo_cnc.machine import simulate
+from galileo_cnc.machine.planner import JobSteps
 from galileo_cnc.machine.trace import Trace
 from galileo_cnc.plan.planner import plan_program
 from galileo_cnc.program.ops import I, J, KIND, X, Y, OpKind
@@ -356,3 +357,21 @@ def test_working_memory_does_not_grow_with_the_trace(tmp_path):
     assert info.strokes == 1
     assert info.stroke_box_mm == pytest.approx((0.0, 0.0, 25.0, 990 * 40 / 160), abs=1e-9)
     assert info.drawn_mm == pytest.approx(n / 160, rel=0.01)
+
+
+@pytest.mark.parametrize("chunk", [97, 1 << 17])
+def test_a_job_stepped_as_it_is_read_draws_the_trace_picture(tmp_path, monkeypatch, chunk):
+    # `galileo-cnc preview` never holds the whole trace: JobSteps steps the job piece
+    # by piece while the preview reads it (twice); the picture is the same
+    monkeypatch.setattr(render, "_CHUNK_STEPS", chunk)
+    program = read_file(BOARD)
+    offset = proposed_offset(program)
+    job = plan_program(program, CONFIG, offset)
+    whole = render_preview(program, simulate(job.commands, CONFIG), CONFIG, offset,
+                           tmp_path / "whole.png", artwork=False)
+    stepped = render_preview(program, JobSteps(job.commands, CONFIG), CONFIG, offset,
+                             tmp_path / "stepped.png", artwork=False)
+    assert (whole.strokes, whole.drawn_mm, whole.travel_mm, whole.stroke_box_mm) == \
+        (stepped.strokes, stepped.drawn_mm, stepped.travel_mm, stepped.stroke_box_mm)
+    assert np.array_equal(np.asarray(Image.open(tmp_path / "whole.png")),
+                          np.asarray(Image.open(tmp_path / "stepped.png")))
