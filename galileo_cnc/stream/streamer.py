@@ -16,8 +16,11 @@
   waits until the machine stands still (pen up), then asks (`on_pen_change`).
 - Abort (`abort()`, `q` in the console, Ctrl-C): the machine ramps down and
   drops its queue; nothing more is sent.
-- The journal records every confirmation, so a job whose port died resumes
-  after its last confirmed command (`resume_job`).
+- The journal records every confirmation and where the job began, so a job whose
+  port died or that was stopped resumes where the machine left it (stream/resume.py
+  finds the command and the lead-in that goes back to it).
+- At the end the machine stands still and gets `U`, so the job's EndJob leaves it
+  ready for the next job, a jog or a home.
 """
 
 from __future__ import annotations
