@@ -22,6 +22,7 @@ import time
 import traceback
 from contextlib import contextmanager
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 from prompt_toolkit.data_structures import Size
@@ -31,6 +32,7 @@ from prompt_toolkit.output.vt100 import Vt100_Output
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.console import run_console
 from galileo_cnc.console.helptext import load_help
+from galileo_cnc.console.keypad import REFRESH_S, KeypadJog
 from galileo_cnc.console.units import jog_units_to_steps
 from galileo_cnc.machine import Trace, simulate
 from galileo_cnc.plan.offsets import proposed_offset
@@ -482,11 +484,47 @@ def test_setup_jogs_with_the_keypad_and_sets_the_origin(home):
         user.expect(r"q: back")
         user.type("1")                                # Z down 160 steps
         user.type("o")                                # origin here
+        user.expect(r"origin set here: X, Y and Z are 0 now")
         user.type("\x1b[B")                           # keypad 2 with NumLock off: Y-
         user.type("q")
         user.expect(r"position X 0\.000  Y -1\.000  Z 0\.000 mm")
+        user.line("1")
+        user.expect(r"jog distance")
+        user.line("0")                                # the seed's way back to the menu
+        user.expect(r"choice:")
         user.line("q")
         assert user.status() == ("idle", 0, -160, 0)
+
+
+def test_the_jog_line_follows_the_head_and_refusals_are_in_mm():
+    # The keypad screen redraws its line every REFRESH_S (prompt_toolkit sends only
+    # the changed characters, so this checks the line itself): after a key it must
+    # come to show where the jog ended without another key, and a refusal in mm.
+    link = MachineLink.open(REAL_TIME_SIM)
+    try:
+        keypad = KeypadJog(SimpleNamespace(link=link, config=MachineConfig()), 500)  # 5 mm
+        keypad.jog((1, 0, 0))                       # about 1 s at 5 mm/s
+        deadline = time.monotonic() + 10
+        while "X 5.000  Y 0.000" not in keypad.line() and time.monotonic() < deadline:
+            time.sleep(REFRESH_S)
+        assert "X 5.000  Y 0.000" in keypad.line()
+        link.wait_idle()
+        keypad.jog((-1, 0, 0))
+        keypad.jog((-1, 0, 0))                      # past the travel's start at X 0
+        assert ("refused: X would reach -5.000 mm, below the travel's start at 0.000 mm "
+                "[-800 steps]") in keypad.line()
+    finally:
+        link.close()
+
+
+def test_connect_to_a_mistyped_port_keeps_the_working_one(home):
+    with console_in_thread(home) as user:
+        user.line("connect /dev/ttyNOPE")
+        user.expect(r"not connected: cannot open /dev/ttyNOPE: no such port "
+                    r"\(`galileo-cnc ports` lists the ports there are\)")
+        user.expect(r"still connected to sim://\?speed=0")
+        assert "Errno" not in user.screen.text
+        assert user.status()[0] == "idle"
 
 
 def test_setup_feed_rate_warns_above_6_25_and_refuses_outside_the_limits(home):
