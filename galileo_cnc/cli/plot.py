@@ -95,6 +95,7 @@ def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.s
     try:
         found = " (no board found)" if profile.port is None and link.simulated else ""
         out.write(link.describe() + found + "\n")
+        link.check_config()                 # before any plan is shown: no job for it
         start, lead_in, job_start = 0, (), None
         if planned is not None:
             job, program, offset = planned.job, planned.program, planned.offset_nm

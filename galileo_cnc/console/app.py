@@ -91,10 +91,10 @@ class Console:
             link = MachineLink.open(port, self.baud, self.config, self.config_path,
                                     profile=self.profile)
         except GalileoError as error:
-            self.say(f"not connected: {error}")
             if old is not None:
-                self.say(f"still connected to {old.port_name}")
+                self.say(f"{error}; still connected to {old.port_name}")
             else:
+                self.say(f"not connected: {error}")
                 self.say("type `connect PORT` to try again (`ports` lists them)")
             return False
         if old is not None:

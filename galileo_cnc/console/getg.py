@@ -25,6 +25,7 @@ def run(console, arguments: list[str]) -> None:
         "file to plot: ", completer=PathCompleter(expanduser=True))
     if not path:
         return
+    console.link.check_config()             # a board built for another machine: say so first
     artwork = load_artwork(os.path.expanduser(path))   # GalileoError: one message, no traceback
     if (problem := artwork.misfit(console.config)) is not None:
         console.say(problem)                          # before any question or planning

@@ -190,7 +190,8 @@ class MachineLink:
             f"the firmware on {self.port_name} was built for another machine than "
             f"{profile} ({fields}). Regenerate its config with `python -m "
             f"galileo_cnc.firmware_headers --config {self.config_path or 'PROFILE.toml'}` "
-            f"and reflash (make -C firmware upload), or plan with the profile it was built for")
+            f"and reflash (`make -C firmware upload` in a galileo-cnc checkout), or plan with "
+            f"the profile it was built for.")
 
     def describe(self) -> str:
         """The console's connection line."""
@@ -204,7 +205,8 @@ class MachineLink:
         line = f"connected to {what}, {fw}, protocol {P.PROTOCOL_VERSION}, {self.baud} baud"
         if self.config_differences:
             names = ", ".join(name for name, _, _ in self.config_differences)
-            line += (f"\nwarning: the firmware was built for another machine ({names} differ "
+            verb = "differs" if len(self.config_differences) == 1 else "differ"
+            line += (f"\nwarning: the firmware was built for another machine ({names} {verb} "
                      f"from the profile); jobs are refused until it is reflashed")
         return line
 

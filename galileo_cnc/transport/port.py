@@ -48,7 +48,7 @@ def port_error_text(error: BaseException) -> str:
     errno_ = getattr(error, "errno", None)
     text = str(error)
     if errno_ == errno.ENOENT or "No such file" in text:
-        return "no such port (`galileo-cnc ports` lists the ports there are)"
+        return "no such port (the ports command lists the ports there are)"
     if errno_ in (errno.EACCES, errno.EPERM) or "Permission denied" in text:
         return ("permission denied: add yourself to the dialout group "
                 "(sudo usermod -aG dialout $USER, then log in again)")

@@ -166,6 +166,7 @@ def test_a_profile_other_than_the_flashed_one_is_refused_by_plot(firmware, tmp_p
             in result.stderr), result.stderr
     assert f"python -m galileo_cnc.firmware_headers --config {profile}" in result.stderr
     assert "process has finished" not in result.stdout
+    assert "commands, about" not in result.stdout       # refused before the plan is shown
 
 
 def test_the_firmware_reports_the_config_it_was_built_with(firmware):
