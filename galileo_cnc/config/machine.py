@@ -127,6 +127,11 @@ class MachineConfig:
     def pitch_nm(self) -> int:
         return round(self.pitch_mm * 1_000_000)
 
+    @property
+    def nm_per_step(self) -> int:
+        """One step's length in nm, rounded down (6250 on the seed's machine)."""
+        return self.pitch_nm // self.steps_per_rev
+
     def nm_to_steps(self, nm: int) -> int:
         """Nearest step (halves away from zero), in exact integer arithmetic."""
         num = abs(nm) * self.steps_per_rev

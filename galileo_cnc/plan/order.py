@@ -16,6 +16,9 @@ markers) are dropped: they would only add travel.
 
 from __future__ import annotations
 
+import numpy as np
+
+from galileo_cnc.plan.paths import optimise
 from galileo_cnc.program.ops import KIND, NO_TOOL, TOOL, X, Y, OpKind, Program
 
 DRAWING_KINDS = (int(OpKind.LINE), int(OpKind.ARC_CW), int(OpKind.ARC_CCW), int(OpKind.FLASH))
@@ -86,4 +89,39 @@ def group_by_aperture(program: Program) -> list[tuple[int, list[int]]]:
         select[KIND], select[TOOL] = int(OpKind.SELECT), aperture
         ordered.append((rows[0][0], select))
         ordered.extend(rows)
+    return ordered
+
+
+def pure_geometry(program: Program) -> bool:
+    """Nothing but moves, draws, flashes, selects and markers (and PEN_DOWN, which in
+    Gerber only repeats that a draw draws): rows whose order a reorder cannot break.
+    Feeds, dwells and pen lifts could be broken."""
+    stateful = [int(k) for k in (OpKind.FEED, OpKind.DWELL, OpKind.PEN_UP)]
+    return not np.isin(program.table[:, KIND], stateful).any()
+
+
+def optimised_order(program: Program, start: tuple[int, int], join_nm: int,
+                    by_aperture: bool) -> list[tuple[int, list[int]]]:
+    """(op index, row) pairs: the pieces of each pen chained and ordered to cut pen-up
+    travel (plan/paths.py), from `start` (program coordinates); with `by_aperture`
+    one pen per aperture in first-use order, else everything as one pen."""
+    rows = group_by_aperture(program) if by_aperture else list(enumerate(program.table.tolist()))
+    groups: list[tuple[list[int] | None, list[tuple[int, list[int]]]]] = []
+    for index, row in rows:
+        if row[KIND] == OpKind.SELECT and by_aperture:
+            if not groups or groups[-1][0][TOOL] != row[TOOL]:
+                groups.append((row, []))
+            continue
+        if not groups:
+            groups.append((None, []))
+        groups[-1][1].append((index, row))
+    ordered, here = [], start
+    if not by_aperture:                     # one pen: keep the aperture it is selected as
+        selects = [(i, r) for i, r in rows if r[KIND] == OpKind.SELECT]
+        ordered.extend(selects[:1])
+    for select, group_rows in groups:
+        if select is not None:
+            ordered.append((group_rows[0][0] if group_rows else 0, select))
+        drawn, here = optimise(group_rows, here, join_nm)
+        ordered.extend(drawn)
     return ordered

@@ -33,7 +33,8 @@ from galileo_cnc.errors import GalileoError, SourcePos
 from galileo_cnc.job import (NO_OP, ArcTo, Command, Dwell, EndJob, Flash, Job, LineTo,
                              MachineError, PenDown, PenUp, Rapid, SetFeed)
 from galileo_cnc.machine import ReferenceMachine
-from galileo_cnc.plan.order import DRAWING_KINDS, drawing_apertures, group_by_aperture
+from galileo_cnc.plan.order import (DRAWING_KINDS, drawing_apertures, group_by_aperture,
+                                   optimised_order, pure_geometry)
 from galileo_cnc.program.ops import (I, J, KIND, LINE, COL, NO_TOOL, TOOL, VALUE, X, Y,
                                      OpKind, Program)
 
@@ -56,16 +57,24 @@ class PlanError(GalileoError):
 
 def plan_program(program: Program, config: MachineConfig | None = None,
                  offset_nm: tuple[int, int] = (0, 0), group: bool = True,
-                 on_progress: Callable[[int, int], None] | None = None) -> Job:
+                 on_progress: Callable[[int, int], None] | None = None,
+                 optimize: bool = False) -> Job:
     """Plan `program` for the machine `config` with `offset_nm` subtracted (see module
     doc); `group=False` keeps a Gerber file's own order. `on_progress(done, total)`
-    hears about every PROGRESS_OPS ops, so a front end can show a long plan moving."""
+    hears about every PROGRESS_OPS ops, so a front end can show a long plan moving.
+    `optimize` chains and orders each pen's paths (plan/paths.py; Gerber only so far,
+    and only geometry: not yet the default, see docs/plan.md)."""
     config = config or MachineConfig()
     steps = config.nm_to_steps
     ox, oy = offset_nm
     job = Job(program.source, (int(ox), int(oy)))
     several_pens = len(drawing_apertures(program)) > 1
-    if group and several_pens and program.format == "gerber":
+    if optimize and group and program.format == "gerber" and pure_geometry(program):
+        # one pen per aperture, each pen's paths chained and ordered (plan/paths.py);
+        # the program point at the work origin is where the head starts
+        ordered = optimised_order(program, (ox, oy), config.nm_per_step, several_pens)
+        job.grouped = True
+    elif group and several_pens and program.format == "gerber":
         ordered = group_by_aperture(program)
         job.grouped = True
     else:
