@@ -58,7 +58,8 @@ def test_bad_files_give_one_line_with_the_position_and_exit_1(tmp_path):
     notes = tmp_path / "notes.txt"
     notes.write_text("shopping list: pens, paper\n")
     result = galileo("info", str(notes))
-    assert result.returncode == 1 and "neither a Gerber RS-274X nor a G-code file" in result.stderr
+    assert result.returncode == 1 and "neither a Gerber RS-274X, a G-code nor a DXF file" \
+        in result.stderr
 
 
 def test_plot_the_sample_board_on_sim_with_trace_and_preview(tmp_path):
