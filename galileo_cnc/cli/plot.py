@@ -21,7 +21,6 @@ from galileo_cnc.job import Job
 from galileo_cnc.machine.timing import duration_text
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
 from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, plan_file
-from galileo_cnc.program.extents import extents
 from galileo_cnc.program.ops import NM_PER_MM, Program
 from galileo_cnc.stream.journal import Journal
 from galileo_cnc.stream.resume import plan_resume
@@ -98,17 +97,17 @@ def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.s
         link.check_config()                 # before any plan is shown: no job for it
         start, lead_in, job_start = 0, (), None
         if planned is not None:
-            job, program, offset = planned.job, planned.program, planned.offset_nm
+            job, artwork, offset = planned.job, planned.artwork, planned.offset_nm
         else:
             entry = journal.pending()
             if entry is None or Path(entry.source) != Path(options.file).resolve():
                 raise GalileoError(f"no interrupted job of {options.file} to resume")
             point = plan_resume(link, entry)
-            job, program, start, lead_in = point.job, point.program, point.start, point.lead_in
+            job, artwork, start, lead_in = point.job, point.artwork, point.start, point.lead_in
             job_start = point.job_start
             offset = job.offset_nm                  # the interrupted job's, not --offset
             out.write(f"resuming at command {start + 1} of {len(job)}\n")
-        box = extents(program)
+        program, box = artwork.program, artwork.drawn_box_nm     # found while reading
         if box is not None:
             out.write(f"{program.source}: minimum X {box[0] / NM_PER_MM:.3f} mm, "
                       f"Y {box[1] / NM_PER_MM:.3f} mm; offset {offset[0] / NM_PER_MM:.3f}, "

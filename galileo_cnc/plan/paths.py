@@ -207,7 +207,8 @@ def _nearest_neighbour(chains: list[Piece], start: Point) -> list[Piece]:
 
 def _closest(grid, chains, here: Point, cell: int) -> tuple[int, bool]:
     """Nearest free chain end to `here`: search rings of cells until the best found
-    is closer than any unsearched ring can be."""
+    is closer than any unsearched ring can be (the caller has chains left, so the
+    rings reach one)."""
     hx, hy = here[0] // cell, here[1] // cell
     best: tuple[float, int, bool] | None = None
     ring = 0
@@ -226,8 +227,6 @@ def _closest(grid, chains, here: Point, cell: int) -> tuple[int, bool]:
         if best is not None and best[0] <= ring * cell:
             return best[1], best[2]
         ring += 1
-        if ring > 2 and not any(grid.values()):
-            raise ValueError("no chain left")          # cannot happen: left is not empty
 
 
 def _two_opt(tour: list[Piece], start: Point, moves: int) -> list[Piece]:

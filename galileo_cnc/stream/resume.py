@@ -29,7 +29,7 @@ from galileo_cnc.config.machine import MachineConfig, tomllib
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.job import Command, Job, PenDown, Rapid, SetFeed
 from galileo_cnc.machine import ReferenceMachine
-from galileo_cnc.plan.pipeline import plan_file
+from galileo_cnc.plan.pipeline import Artwork, plan_file
 from galileo_cnc.program.ops import Program
 from galileo_cnc.stream.journal import ABORTED, Journal, JournalEntry, file_digest
 from galileo_cnc.stream.streamer import JobStreamer, StreamResult
@@ -49,10 +49,14 @@ class ResumePoint:
     """Where a job continues: command `start`, after the `lead_in` commands."""
 
     job: Job
-    program: Program
+    artwork: Artwork             # the file as read, with where it sits
     start: int
     lead_in: tuple[Command, ...] = ()
     job_start: tuple[int, int, int] = (0, 0, 0)    # where the job's first move began
+
+    @property
+    def program(self) -> Program:
+        return self.artwork.program
 
 
 def position_after(job: Job, count: int, config: MachineConfig,
@@ -87,9 +91,7 @@ def _passes_through(trace, begin: tuple[int, int, int], here: tuple[int, int, in
     """Does the head stand at `here` after some step event of `trace`?"""
     if not len(trace.tick):
         return False
-    moves = np.zeros((len(trace.tick), 3), dtype=np.int64)
-    moves[np.arange(len(trace.tick)), trace.axis] = trace.dir
-    where = np.cumsum(moves, axis=0) + np.asarray(begin, dtype=np.int64)
+    where = trace.positions(begin)
     event_ends = np.r_[trace.tick[1:] != trace.tick[:-1], True]   # a stop falls between events
     return bool(np.all(where[event_ends] == np.asarray(here), axis=1).any())
 
@@ -104,7 +106,7 @@ def plan_resume(link: MachineLink, entry: JournalEntry) -> ResumePoint:
                           f"start it again with getg")
     config = MachineConfig.from_mapping(tomllib.loads(entry.profile), "journal")
     planned = plan_file(entry.source, config, entry.offset_nm, group=entry.group)
-    job, program = planned.job, planned.program
+    job, artwork = planned.job, planned.artwork
     if len(job) != entry.total:
         raise ResumeError("the replanned job differs from the interrupted one")
     status = link.wait_idle()
@@ -116,13 +118,13 @@ def plan_resume(link: MachineLink, entry: JournalEntry) -> ResumePoint:
     begun = entry.start_position
     for confirmed in candidates:
         if position_after(job, confirmed + 1, config, begun) == here:
-            return ResumePoint(job, program, confirmed + 1, (), begun)
+            return ResumePoint(job, artwork, confirmed + 1, (), begun)
     if entry.state == ABORTED:
         first = max(entry.first_index, entry.confirmed - P.QUEUE_BLOCKS)
         found = stopped_inside(job, config, here, first, entry.confirmed + _IN_FLIGHT_LINES,
                                begun)
         if found is not None:
-            return ResumePoint(job, program, found[0], found[1], begun)
+            return ResumePoint(job, artwork, found[0], found[1], begun)
     expected = position_after(job, entry.confirmed + 1, config, begun)
     raise ResumeError(
         f"the machine stands at {_mm_text(here, config)}, but the job stopped at "
