@@ -159,8 +159,15 @@ class Job:
     op_index: list[int] = field(default_factory=list)
     aperture: list[int] = field(default_factory=list)
     grouped: bool = False                   # work grouped by aperture (order.py)
+    mode: str = "centre"                    # "ink" or "centre" (plan/pipeline.py)
+    ordered: bool = False                   # paths chained and ordered (plan/paths.py)
+    pens_nm: tuple = ()                     # ink mode: the pen set it was inked for
     #: command index -> aperture: stop before that command for a pen change.
     pen_changes: dict[int, int] = field(default_factory=dict)
+    #: aperture (pen key) -> what to ask for: "the 0.3 mm pen", "pen for aperture D11 (...)"
+    pen_labels: dict[int, str] = field(default_factory=dict)
+    #: aperture (pen key) -> the width its pen draws (nm; 0 when the aperture has none)
+    pen_widths_nm: dict[int, int] = field(default_factory=dict)
 
     def __len__(self) -> int:
         return len(self.commands)

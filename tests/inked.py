@@ -14,3 +14,27 @@ def inked_points(trace, config: MachineConfig | None = None,
     where = trace.positions(start)
     down = where[:, 2] == config.pen_down_z_steps
     return set(map(tuple, where[down, :2].tolist()))
+
+
+def ink_of_trace(trace, config: MachineConfig, offset_nm: tuple[int, int],
+                 widths_nm: list[int], start: tuple[int, int, int] = (0, 0, 0)) -> list:
+    """The area the pens inked, from the steps: each pen-down run of the trace as a
+    polyline in program nm, swept by the pen's disc (pyclipper polygon set). With
+    several widths the narrowest is used for every run (a lower bound of the ink)."""
+    from galileo_cnc.plan.ink import clip
+
+    where = trace.positions(start)
+    down = where[:, 2] == config.pen_down_z_steps
+    runs, current = [], []
+    for point, is_down in zip(where[:, :2].tolist(), down.tolist()):
+        if is_down:
+            current.append(point)
+        elif current:
+            runs.append(current)
+            current = []
+    if current:
+        runs.append(current)
+    step = config.nm_per_step
+    paths = [[[x * step + offset_nm[0], y * step + offset_nm[1]] for x, y in run]
+             for run in runs]
+    return clip.stroke(paths, min(widths_nm) // 2, 1000)

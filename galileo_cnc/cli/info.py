@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from galileo_cnc.plan.pipeline import Artwork
+from galileo_cnc.config.machine import MachineConfig
+from galileo_cnc.plan.measure import job_lengths
+from galileo_cnc.plan.pipeline import Artwork, PlanOptions, plan_file
 from galileo_cnc.program.extents import extents, region_mask
 from galileo_cnc.program.ops import KIND, NM_PER_MM, TOOL, OpKind, Program
 
@@ -73,6 +75,28 @@ def summarize(artwork: Artwork) -> dict:
     }
 
 
+def ink_summary(artwork: Artwork, config: MachineConfig, options: PlanOptions) -> dict:
+    """What the pens make of the copper: areas, pen-down length, lifts, narrow features."""
+    planned = plan_file(artwork, config, "auto", options=options)
+    ink = planned.ink
+    lengths = job_lengths(planned.job)
+    mm_per_step = config.nm_per_step / NM_PER_MM
+    return {
+        "pens_mm": [_mm(w) for w in ink.pens_nm],
+        "copper_mm2": round(ink.copper_nm2 / NM_PER_MM ** 2, 3),
+        "filled_mm2": round(ink.filled_nm2 / NM_PER_MM ** 2, 3),
+        "inked_mm2": round(ink.inked_nm2 / NM_PER_MM ** 2, 3),
+        "pen_down_mm": round(lengths.drawn_steps * mm_per_step, 1),
+        "pen_up_mm": round(lengths.travel_steps * mm_per_step, 1),
+        "pen_lifts": lengths.lifts,
+        "pen_changes": len(planned.job.pen_changes),
+        "narrow_features": len(ink.narrow),
+        "bridges_avoided": len(ink.bridges),
+        "planning_s": round(ink.seconds, 2),
+        "warnings": [str(w) for w in ink.warnings],
+    }
+
+
 def format_summary(summary: dict) -> str:
     """The human-readable `info` report."""
     lines = [
@@ -101,6 +125,20 @@ def format_summary(summary: dict) -> str:
                      f"(minimum minus a {summary['margin_mm']} mm margin)")
     else:
         lines.append("extent      nothing is drawn")
+    ink = summary.get("ink")
+    if ink:
+        copper = ink["copper_mm2"] or 1.0
+        pens = ", ".join(f"{w:g}" for w in ink["pens_mm"])
+        lines.append(f"ink         pens {pens} mm: copper {ink['copper_mm2']:.2f} mm2, "
+                     f"filled {100 * ink['filled_mm2'] / copper:.1f} %, inked with centre "
+                     f"lines {100 * ink['inked_mm2'] / copper:.1f} %")
+        lines.append(f"            pen down {ink['pen_down_mm'] / 1000:.2f} m, pen up "
+                     f"{ink['pen_up_mm'] / 1000:.2f} m, {ink['pen_lifts']} pen lifts, "
+                     f"{ink['narrow_features']} narrow features drawn as centre lines"
+                     + (f", {ink['bridges_avoided']} bridges avoided" if ink["bridges_avoided"]
+                        else ""))
+        for warning in ink["warnings"]:
+            lines.append(f"  {warning}")
     if summary["warnings"]:
         total = sum(summary["warning_counts"].values()) or len(summary["warnings"])
         lines.append(f"warnings    {total}")

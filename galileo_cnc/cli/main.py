@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import sys
@@ -17,7 +18,12 @@ def _run_info(args: argparse.Namespace) -> int:
     from galileo_cnc.cli.info import format_summary, summarize
     from galileo_cnc.plan.pipeline import load_artwork
 
-    summary = summarize(load_artwork(args.file, margin_nm=round(args.margin * NM_PER_MM)))
+    artwork = load_artwork(args.file, margin_nm=round(args.margin * NM_PER_MM))
+    summary = summarize(artwork)
+    options = _plan_options(args)
+    if options.mode_for(artwork.program) == "ink":
+        from galileo_cnc.cli.info import ink_summary
+        summary["ink"] = ink_summary(artwork, _profile(args).config, options)
     if args.json:
         print(json.dumps(summary, indent=2))
     else:
@@ -27,7 +33,25 @@ def _run_info(args: argparse.Namespace) -> int:
 
 def _profile(args: argparse.Namespace):
     from galileo_cnc.config.profile import load_profile
-    return load_profile(args.profile, port=args.port, baud=args.baud)
+    profile = load_profile(args.profile, port=args.port, baud=args.baud)
+    if getattr(args, "pens", None):
+        # in the config, so the journal keeps them and a resumed job inks the same
+        profile = dataclasses.replace(profile, config=profile.config.replace(
+            pen_widths_mm=_pen_widths(args.pens)))
+    return profile
+
+
+def _pen_widths(text: str) -> tuple[float, ...]:
+    try:
+        return tuple(float(part) for part in text.split(",") if part.strip())
+    except ValueError:
+        raise GalileoError(f"--pens: expected widths in mm like 0.3 or 0.3,0.8, got {text!r}") \
+            from None
+
+
+def _plan_options(args: argparse.Namespace):
+    from galileo_cnc.plan.pipeline import PlanOptions
+    return PlanOptions(mode=args.mode, file_order=getattr(args, "file_order", False))
 
 
 def _run_plot(args: argparse.Namespace) -> int:
@@ -36,7 +60,7 @@ def _run_plot(args: argparse.Namespace) -> int:
     options = PlotOptions(args.file, _profile(args), offset=args.offset,
                           margin_nm=round(args.margin * NM_PER_MM), yes=args.yes,
                           preview=args.preview, trace=args.trace, resume=args.resume,
-                          group=not args.file_order)
+                          group=not args.file_order, mode=args.mode)
     return run_plot(options)
 
 
@@ -47,7 +71,7 @@ def _run_preview(args: argparse.Namespace) -> int:
 
     config = _profile(args).config
     planned = plan_file(args.file, config, args.offset, margin_nm=round(args.margin * NM_PER_MM),
-                        group=not args.file_order)
+                        options=_plan_options(args))
     # stepped piece by piece as the preview reads it: no whole trace in memory
     steps = JobSteps(planned.job.commands, config)
     info = render_preview(planned.program, steps, config, planned.offset_nm, args.output)
@@ -98,7 +122,18 @@ def _add_job_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--margin", type=float, default=1.0, metavar="MM",
                         help="margin kept from the origin by --offset auto (default 1 mm)")
     parser.add_argument("--file-order", action="store_true",
-                        help="keep the file's order (default: group Gerber work by aperture)")
+                        help="keep the file's order (default: Gerber and DXF paths chained "
+                        "and ordered per pen to cut pen-up travel)")
+    _add_ink_options(parser)
+
+
+def _add_ink_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--mode", choices=("ink", "centre"), default="auto",
+                        help="ink: fill Gerber copper with your pens (the default for Gerber); "
+                        "centre: each object's centre line, one pen per aperture")
+    parser.add_argument("--pens", metavar="MM[,MM]",
+                        help="the pens you own, e.g. 0.3,0.8 (default: the profile's "
+                        "[pens] widths_mm, else one 0.4 mm pen)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -113,7 +148,9 @@ def build_parser() -> argparse.ArgumentParser:
     info.add_argument("--json", action="store_true", help="print machine-readable JSON")
     info.add_argument("--margin", type=float, default=1.0, metavar="MM",
                       help="margin kept from the origin by the proposed offset (default 1 mm)")
-    info.set_defaults(run=_run_info)
+    info.add_argument("--profile", metavar="TOML", help="machine profile (its pens)")
+    _add_ink_options(info)
+    info.set_defaults(run=_run_info, port=None, baud=None)
 
     plot = commands.add_parser("plot", help="plot a file without questions (batch getg)")
     _add_job_options(plot)

@@ -20,7 +20,8 @@ from galileo_cnc.errors import GalileoError
 from galileo_cnc.job import Job
 from galileo_cnc.machine.timing import duration_text
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
-from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, plan_file
+from galileo_cnc.plan.ink.inking import mm_text
+from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, PlanOptions, plan_file
 from galileo_cnc.program.ops import NM_PER_MM, Program
 from galileo_cnc.stream.journal import Journal
 from galileo_cnc.stream.resume import plan_resume
@@ -41,8 +42,9 @@ class TextProgress:
     def __call__(self, p: Progress) -> None:
         percent = 100 * p.confirmed // max(p.total, 1)
         eta = duration_text(p.eta_s) if p.eta_s is not None else "?"
-        text = (f"{percent:3d}% {p.confirmed}/{p.total} lines  line {p.source_line} of the file"
-                f"  ETA {eta}")
+        # ink fill has no line of its own (it comes from the union of many objects)
+        where = f"line {p.source_line} of the file" if p.source_line else "filling copper"
+        text = f"{percent:3d}% {p.confirmed}/{p.total} lines  {where}  ETA {eta}"
         if self.tty:
             bar = "#" * (percent // 4)
             self.out.write(f"\r[{bar:<25}] {text}\x1b[K")
@@ -77,6 +79,7 @@ class PlotOptions:
     trace: str | None = None
     resume: bool = False
     group: bool = True
+    mode: str = "auto"
 
 
 def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.stderr) -> int:
@@ -86,8 +89,8 @@ def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.s
     planned = None
     if not options.resume:              # a resumed job is planned from its journal
         planned = plan_file(options.file, profile.config, options.offset,
-                            margin_nm=options.margin_nm, group=options.group,
-                            on_progress=progress.planning)
+                            margin_nm=options.margin_nm, on_progress=progress.planning,
+                            options=PlanOptions(mode=options.mode, file_order=not options.group))
 
     link = MachineLink.open(profile.port, profile.baud, profile.config, profile.path)
     link.on_message = progress.message
@@ -98,13 +101,16 @@ def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.s
         start, lead_in, job_start = 0, (), None
         if planned is not None:
             job, artwork, offset = planned.job, planned.artwork, planned.offset_nm
+            plotted = planned.plotted
+            if planned.ink is not None:
+                _say_ink(planned.ink, out)
         else:
             entry = journal.pending()
             if entry is None or Path(entry.source) != Path(options.file).resolve():
                 raise GalileoError(f"no interrupted job of {options.file} to resume")
             point = plan_resume(link, entry)
             job, artwork, start, lead_in = point.job, point.artwork, point.start, point.lead_in
-            job_start = point.job_start
+            job_start, plotted = point.job_start, point.program
             offset = job.offset_nm                  # the interrupted job's, not --offset
             out.write(f"resuming at command {start + 1} of {len(job)}\n")
         program, box = artwork.program, artwork.drawn_box_nm     # found while reading
@@ -112,14 +118,14 @@ def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.s
             out.write(f"{program.source}: minimum X {box[0] / NM_PER_MM:.3f} mm, "
                       f"Y {box[1] / NM_PER_MM:.3f} mm; offset {offset[0] / NM_PER_MM:.3f}, "
                       f"{offset[1] / NM_PER_MM:.3f} mm\n")
-        streamer = JobStreamer(link, job, program, journal=journal, start=start,
+        streamer = JobStreamer(link, job, plotted, journal=journal, start=start,
                                lead_in=lead_in, job_start=job_start)
         out.write(f"{len(job) - start} commands, about "
                   f"{duration_text(streamer.timing.seconds_between(start, len(job)))} "
                   f"of machine time\n")
 
         def pen_change(change: PenChange) -> None:
-            progress.message(f"\ainsert pen for aperture {change.description}"
+            progress.message(f"\a{change.prompt}"
                              + ("" if options.yes else ", then press Enter"))
             if not options.yes:
                 sys.stdin.readline()
@@ -140,6 +146,16 @@ def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.s
     finally:
         link.close()
     return EXIT_OK
+
+
+def _say_ink(ink, out: TextIO) -> None:
+    """The ink in one line, then what the user should know (narrow features, bridges)."""
+    pens = ", ".join(mm_text(w) for w in ink.pens_nm)
+    share = 100 * ink.inked_nm2 / ink.copper_nm2 if ink.copper_nm2 else 100.0
+    out.write(f"ink: pens {pens} mm, {share:.1f} % of the copper inked, "
+              f"{len(ink.narrow)} narrow features as centre lines\n")
+    for warning in ink.warnings:
+        out.write(f"{warning}\n")
 
 
 def _write_outputs(options: PlotOptions, link: MachineLink, job: Job, program: Program,

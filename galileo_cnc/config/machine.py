@@ -85,6 +85,9 @@ class MachineConfig:
     sim_x_endstop_steps: int = -400
     sim_y_endstop_steps: int = -400
     sim_z_endstop_steps: int = 700
+    # The pens the user owns, widths in mm (TOML: a [pens] table, widths_mm = [0.3, 0.8]).
+    # Ink mode fills copper with them, widest first (docs/ink.md); not in config.h.
+    pen_widths_mm: tuple = (0.4,)
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -108,6 +111,7 @@ class MachineConfig:
         for name in ("x_home_dir", "y_home_dir", "z_home_dir"):
             if getattr(self, name) not in (-1, 1):
                 raise ConfigError(f"config: {name} must be -1 or 1, got {getattr(self, name)!r}")
+        self._check_pens()
         if self.z_min_steps > self.z_max_steps:
             raise ConfigError("config: z_min_steps must not exceed z_max_steps")
         for name in ("feed_mm_s", "rapid_feed_mm_s", "z_feed_mm_s", "home_feed_mm_s"):
@@ -116,6 +120,23 @@ class MachineConfig:
                 raise ConfigError(
                     f"config: {name} = {getattr(self, name)} mm/s is {sps} steps/s, outside "
                     f"{MIN_FEED_STEPS_PER_S}..{self.max_feed_steps_per_s} steps/s")
+
+    def _check_pens(self) -> None:
+        widths = self.pen_widths_mm
+        if isinstance(widths, (int, float)) and not isinstance(widths, bool):
+            widths = (widths,)
+        if (not isinstance(widths, (list, tuple)) or not 1 <= len(widths) <= MAX_PENS
+                or any(isinstance(w, bool) or not isinstance(w, (int, float))
+                       or not 0 < w <= MAX_PEN_MM for w in widths)):
+            raise ConfigError(f"config: pens widths_mm must be 1 to {MAX_PENS} widths above 0 "
+                              f"and at most {MAX_PEN_MM:g} mm, got {self.pen_widths_mm!r}")
+        object.__setattr__(self, "pen_widths_mm",
+                           tuple(sorted({float(w) for w in widths}, reverse=True)))
+
+    @property
+    def pen_widths_nm(self) -> tuple[int, ...]:
+        """The pens, widest first, in nm."""
+        return tuple(round(w * 1_000_000) for w in self.pen_widths_mm)
 
     # ---- derived integer values -------------------------------------------------
     @property
@@ -263,14 +284,23 @@ class MachineConfig:
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], source: str = "config") -> "MachineConfig":
-        """Build from a TOML-like mapping: top-level keys or a `[machine]` table."""
+        """Build from a TOML-like mapping: top-level keys or a `[machine]` table, and
+        the pens from a `[pens]` table (widths_mm)."""
+        pens = {}
+        if isinstance(data.get("pens"), Mapping):
+            unknown = sorted(set(data["pens"]) - {"widths_mm"})
+            if unknown:
+                raise ConfigError(f"{source}: unknown pens setting(s): {', '.join(unknown)} "
+                                  "(expected widths_mm = [0.3, 0.8])")
+            if "widths_mm" in data["pens"]:
+                pens["pen_widths_mm"] = data["pens"]["widths_mm"]
         if "machine" in data and isinstance(data["machine"], Mapping):
             extra = [k for k in data if k != "machine" and not isinstance(data[k], Mapping)]
             data = {**{k: data[k] for k in extra}, **data["machine"]}
         else:  # other tables (serial port, console) belong to other parts of the program
             data = {k: v for k, v in data.items() if not isinstance(v, Mapping)}
         _check_keys(data, source)
-        return cls(**data)
+        return cls(**data, **pens)
 
     @classmethod
     def from_toml(cls, path: str | Path, **overrides: Any) -> "MachineConfig":
@@ -281,12 +311,15 @@ class MachineConfig:
         """The config as a `[machine]` TOML table (for writing a starter file)."""
         lines = ["[machine]"]
         for f in fields(self):
-            value = getattr(self, f.name)
-            lines.append(f"{f.name} = {value!r}")
+            if f.name != "pen_widths_mm":
+                lines.append(f"{f.name} = {getattr(self, f.name)!r}")
+        lines += ["", "[pens]", f"widths_mm = {list(self.pen_widths_mm)!r}"]
         return "\n".join(lines) + "\n"
 
 
 MIN_FEED_STEPS_PER_S = 10
+#: Pens in a set, and the widest pen, that the ink mode takes.
+MAX_PENS, MAX_PEN_MM = 8, 5.0
 _FIELD_NAMES = frozenset(f.name for f in fields(MachineConfig))
 
 

@@ -14,13 +14,16 @@ from prompt_toolkit.completion import PathCompleter
 from galileo_cnc.console.job_screen import JobScreen, report
 from galileo_cnc.machine.timing import duration_text, job_timing
 from galileo_cnc.plan.offsets import offset_from_text
-from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, Artwork, load_artwork, plan_file
+from galileo_cnc.errors import GalileoError
+from galileo_cnc.plan.pipeline import (PLANNING_NOTICE_OPS, Artwork, PlanOptions, load_artwork,
+                                       plan_file)
 from galileo_cnc.program.ops import NM_PER_MM
 from galileo_cnc.stream.journal import Journal
 from galileo_cnc.stream.streamer import JobStreamer
 
 
 def run(console, arguments: list[str]) -> None:
+    options, config, arguments = _options(console, arguments)
     path = " ".join(arguments) if arguments else console.ask(
         "file to plot: ", completer=PathCompleter(expanduser=True))
     if not path:
@@ -35,8 +38,11 @@ def run(console, arguments: list[str]) -> None:
         return
     if len(artwork.program) >= PLANNING_NOTICE_OPS:
         console.say(f"planning {len(artwork.program)} operations ...")
-    planned = plan_file(artwork, console.config, offset_nm)   # PlanError names file:line, axis
-    job, program = planned.job, planned.program
+    planned = plan_file(artwork, config, offset_nm, options=options)  # PlanError: file:line
+    job, program = planned.job, planned.plotted
+    if planned.ink is not None:
+        for warning in planned.ink.warnings:
+            console.say(str(warning))
     timing = job_timing(job.commands, console.config)
     pens = len(job.pen_changes)
     console.say(f"{len(job)} machine commands, {pens} pen change{'s' * (pens != 1)}, "
@@ -44,6 +50,27 @@ def run(console, arguments: list[str]) -> None:
     streamer = JobStreamer(console.link, job, program, journal=Journal.default(), timing=timing)
     result = JobScreen(console, program.source, len(job)).run(streamer.run, streamer.abort)
     report(console, result)
+
+
+def _options(console, arguments: list[str]) -> tuple[PlanOptions, object, list[str]]:
+    """`--mode ink|centre` and `--pens 0.3,0.8` before the file name (the profile's pens
+    otherwise); GalileoError for anything else that starts with --."""
+    mode, config, rest = "auto", console.config, list(arguments)
+    while rest and rest[0].startswith("--"):
+        flag = rest.pop(0)
+        value = rest.pop(0) if rest else ""
+        if flag == "--mode" and value in ("ink", "centre"):
+            mode = value
+        elif flag == "--pens":
+            try:
+                config = config.replace(pen_widths_mm=tuple(float(w) for w in value.split(",")))
+            except ValueError:
+                raise GalileoError(f"--pens: expected widths in mm like 0.3,0.8, got {value!r}") \
+                    from None
+        else:
+            raise GalileoError(f"getg: unknown option {flag} {value}".rstrip()
+                               + " (getg [--mode ink|centre] [--pens MM,MM] [FILE])")
+    return PlanOptions(mode=mode), config, rest
 
 
 def choose_offset(console, artwork: Artwork) -> tuple[int, int] | None:

@@ -88,8 +88,7 @@ class JobScreen:
         """With the machine idle and the pen up: ask for the pen, wait for Enter."""
         self._continue.clear()
         if not self.stop_requested.is_set():   # q may have come while the machine stopped
-            self.console.say(f"{BELL}insert pen for aperture {change.description}, "
-                             "then press Enter (q stops)")
+            self.console.say(f"{BELL}{change.prompt}, then press Enter (q stops)")
         while not (self.stop_requested.is_set() or self._continue.wait(_WAIT_POLL_S)):
             pass
         if self.stop_requested.is_set():

@@ -15,6 +15,7 @@ from typing import Callable, Union
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.job import Job
+from galileo_cnc.plan.ink.inking import InkPlan, ink_program
 from galileo_cnc.plan.offsets import (DEFAULT_MARGIN_NM, OffsetError, offset_for_box,
                                       offset_from_text)
 from galileo_cnc.plan.planner import PlanError, plan_program
@@ -23,6 +24,9 @@ from galileo_cnc.program.ops import NM_PER_MM, Program
 from galileo_cnc.readers import read_file
 
 Box = tuple[int, int, int, int]
+#: formats whose paths are chained and ordered unless the user asks for file order
+#: (G-code from elsewhere keeps its order: milling files carry state a reorder breaks)
+ORDERED_FORMATS = ("gerber", "dxf")
 #: files with fewer ops plan in well under a second: front ends show no progress for them
 PLANNING_NOTICE_OPS = 5000
 #: "auto" (the proposal), "none" (the file's own coordinates), "X,Y" in mm, or (x, y) nm.
@@ -57,13 +61,47 @@ class Artwork:
         return None
 
 
+MODES = ("auto", "ink", "centre")
+
+
+@dataclass(frozen=True)
+class PlanOptions:
+    """How artwork becomes pen paths.
+
+    `mode`: "ink" fills Gerber copper with the pens (docs/ink.md), "centre" draws
+    each object's centre line with one pen per aperture (the seed's way), "auto" is
+    ink for Gerber and centre for everything else. `pens_nm` overrides the
+    profile's pens. `file_order` keeps the file's order: no grouping by pen, no
+    path order."""
+
+    mode: str = "auto"
+    pens_nm: tuple[int, ...] = ()
+    file_order: bool = False
+
+    def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            raise PlanError(f"--mode: expected ink or centre, got {self.mode!r}")
+
+    def mode_for(self, program: Program) -> str:
+        if self.mode == "auto":
+            return "ink" if program.format == "gerber" else "centre"
+        if self.mode == "ink" and program.format != "gerber":
+            raise PlanError(f"{program.source}: ink mode fills Gerber copper; this is "
+                            f"{program.format} (use --mode centre)")
+        return self.mode
+
+
 @dataclass(frozen=True)
 class PlannedFile:
-    """A file planned for one machine: the artwork, the offset used, the Job."""
+    """A file planned for one machine: the artwork, the offset used, the Job, and the
+    Program the job was planned from (`plotted`: the ink in ink mode, else the file's)."""
 
     artwork: Artwork
     offset_nm: tuple[int, int]
     job: Job
+    plotted: Program
+    mode: str = "centre"
+    ink: InkPlan | None = None
 
     @property
     def program(self) -> Program:
@@ -92,15 +130,30 @@ def resolve_offset(artwork: Artwork, choice: OffsetChoice) -> tuple[int, int]:
 
 
 def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | None = None,
-              offset: OffsetChoice = "auto", *, margin_nm: int = DEFAULT_MARGIN_NM,
-              group: bool = True,
+              offset: OffsetChoice = "auto", *, options: PlanOptions = PlanOptions(),
+              margin_nm: int = DEFAULT_MARGIN_NM, group: bool = True,
+              optimize: bool | None = None,
               on_progress: Callable[[int, int], None] | None = None) -> PlannedFile:
-    """Read (unless given an Artwork), offset and plan; PlanError says why a job cannot
-    run: too big for the travel (before any planning), or the op that leaves it."""
+    """Read (unless given an Artwork), offset, ink (in ink mode) and plan; PlanError says
+    why a job cannot run: too big for the travel (before any planning), or the op that
+    leaves it. `group=False` is the older spelling of options.file_order; `optimize`
+    (None: unless file order) is for replanning a journaled job exactly as it was."""
     config = config or MachineConfig()
     artwork = source if isinstance(source, Artwork) else load_artwork(source, margin_nm)
     if (problem := artwork.misfit(config)) is not None:
         raise PlanError(problem)
     offset_nm = resolve_offset(artwork, offset)
-    job = plan_program(artwork.program, config, offset_nm, group=group, on_progress=on_progress)
-    return PlannedFile(artwork, offset_nm, job)
+    mode = options.mode_for(artwork.program)
+    ink = None
+    plotted = artwork.program
+    if mode == "ink":
+        ink = ink_program(artwork.program, options.pens_nm or config.pen_widths_nm)
+        plotted = ink.program
+    file_order = options.file_order or not group
+    if optimize is None:
+        optimize = not file_order and plotted.format in ORDERED_FORMATS
+    job = plan_program(plotted, config, offset_nm, group=not file_order,
+                       on_progress=on_progress, optimize=optimize)
+    job.mode = mode
+    job.pens_nm = ink.pens_nm if ink is not None else ()
+    return PlannedFile(artwork, offset_nm, job, plotted, mode, ink)

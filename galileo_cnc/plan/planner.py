@@ -33,6 +33,8 @@ from galileo_cnc.errors import GalileoError, SourcePos
 from galileo_cnc.job import (NO_OP, ArcTo, Command, Dwell, EndJob, Flash, Job, LineTo,
                              MachineError, PenDown, PenUp, Rapid, SetFeed)
 from galileo_cnc.machine import ReferenceMachine
+from galileo_cnc.plan.ink.inking import mm_text
+from galileo_cnc.plan.ink.narrow import aperture_width
 from galileo_cnc.plan.order import (DRAWING_KINDS, drawing_apertures, group_by_aperture,
                                    optimised_order, pure_geometry)
 from galileo_cnc.program.ops import (I, J, KIND, LINE, COL, NO_TOOL, TOOL, VALUE, X, Y,
@@ -62,18 +64,18 @@ def plan_program(program: Program, config: MachineConfig | None = None,
     """Plan `program` for the machine `config` with `offset_nm` subtracted (see module
     doc); `group=False` keeps a Gerber file's own order. `on_progress(done, total)`
     hears about every PROGRESS_OPS ops, so a front end can show a long plan moving.
-    `optimize` chains and orders each pen's paths (plan/paths.py; Gerber only so far,
-    and only geometry: not yet the default, see docs/plan.md)."""
+    `optimize` chains and orders each pen's paths (plan/paths.py; Gerber and DXF, pure
+    geometry only; plan_file asks for it unless the user wants file order)."""
     config = config or MachineConfig()
     steps = config.nm_to_steps
     ox, oy = offset_nm
     job = Job(program.source, (int(ox), int(oy)))
     several_pens = len(drawing_apertures(program)) > 1
-    if optimize and group and program.format == "gerber" and pure_geometry(program):
+    if optimize and group and program.format in ("gerber", "dxf") and pure_geometry(program):
         # one pen per aperture, each pen's paths chained and ordered (plan/paths.py);
         # the program point at the work origin is where the head starts
         ordered = optimised_order(program, (ox, oy), config.nm_per_step, several_pens)
-        job.grouped = True
+        job.grouped = job.ordered = True
     elif group and several_pens and program.format == "gerber":
         ordered = group_by_aperture(program)
         job.grouped = True
@@ -148,10 +150,27 @@ def plan_program(program: Program, config: MachineConfig | None = None,
 
     job.add(PenUp(), NO_OP, aperture)
     job.add(EndJob(), NO_OP, aperture)
+    _label_pens(job, program)
     check_job(job, program, config)
     if on_progress is not None:
         on_progress(total, total)
     return job
+
+
+def _label_pens(job: Job, program: Program) -> None:
+    """What each pen change asks for, and each pen's width (for previews and benches):
+    ink pens by their width, Gerber apertures by their D code and shape."""
+    ink = program.metadata.get("ink", False)
+    for key in set(job.pen_changes.values()) | set(job.aperture) - {NO_TOOL}:
+        aperture = program.apertures.get(key)
+        if aperture is None:
+            job.pen_labels[key] = f"D{key}"
+            job.pen_widths_nm[key] = 0
+            continue
+        width = aperture_width(aperture) if aperture.shape != "block" else 0
+        job.pen_widths_nm[key] = width
+        job.pen_labels[key] = (f"the {mm_text(width)} mm pen" if ink
+                               else f"pen for aperture D{key} ({aperture.describe()})")
 
 
 def check_job(job: Job, program: Program, config: MachineConfig) -> None:
@@ -165,7 +184,8 @@ def check_job(job: Job, program: Program, config: MachineConfig) -> None:
         pos = None
         if op != NO_OP:
             row = program.table[op]
-            pos = SourcePos(program.source, int(row[LINE]), int(row[COL]))
+            # ink rings come from many objects: they have no line of their own
+            pos = SourcePos(program.source, int(row[LINE]), int(row[COL])) if row[LINE] else None
             what = OpKind(int(row[KIND])).name
         else:
             what = "end of job"

@@ -58,6 +58,12 @@ class JournalEntry:
     updated: float = 0.0
     #: work position (steps) where the job began: its first move starts from there
     start_position: tuple[int, int, int] = (0, 0, 0)
+    #: "ink" or "centre": how the artwork became pen paths (older journals: centre)
+    mode: str = "centre"
+    #: paths chained and ordered by the planner (older journals: not)
+    ordered: bool = False
+    #: ink mode: the pens (nm) the job was inked for
+    pens_nm: tuple = ()
 
     def index_of_seq(self, seq: int) -> int | None:
         """The command a sequence number of this session would belong to (the

@@ -29,7 +29,7 @@ from galileo_cnc.config.machine import MachineConfig, tomllib
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.job import Command, Job, PenDown, Rapid, SetFeed
 from galileo_cnc.machine import ReferenceMachine
-from galileo_cnc.plan.pipeline import Artwork, plan_file
+from galileo_cnc.plan.pipeline import Artwork, PlanOptions, plan_file
 from galileo_cnc.program.ops import Program
 from galileo_cnc.stream.journal import ABORTED, Journal, JournalEntry, file_digest
 from galileo_cnc.stream.streamer import JobStreamer, StreamResult
@@ -53,10 +53,11 @@ class ResumePoint:
     start: int
     lead_in: tuple[Command, ...] = ()
     job_start: tuple[int, int, int] = (0, 0, 0)    # where the job's first move began
+    plotted: Program | None = None     # what the job was planned from (the ink, in ink mode)
 
     @property
     def program(self) -> Program:
-        return self.artwork.program
+        return self.plotted if self.plotted is not None else self.artwork.program
 
 
 def position_after(job: Job, count: int, config: MachineConfig,
@@ -105,7 +106,10 @@ def plan_resume(link: MachineLink, entry: JournalEntry) -> ResumePoint:
         raise ResumeError(f"{entry.source} changed since the job was planned; "
                           f"start it again with getg")
     config = MachineConfig.from_mapping(tomllib.loads(entry.profile), "journal")
-    planned = plan_file(entry.source, config, entry.offset_nm, group=entry.group)
+    planned = plan_file(entry.source, config, entry.offset_nm,
+                        options=PlanOptions(mode=entry.mode, file_order=not entry.group,
+                                            pens_nm=tuple(entry.pens_nm)),
+                        optimize=entry.ordered)
     job, artwork = planned.job, planned.artwork
     if len(job) != entry.total:
         raise ResumeError("the replanned job differs from the interrupted one")
@@ -118,13 +122,13 @@ def plan_resume(link: MachineLink, entry: JournalEntry) -> ResumePoint:
     begun = entry.start_position
     for confirmed in candidates:
         if position_after(job, confirmed + 1, config, begun) == here:
-            return ResumePoint(job, artwork, confirmed + 1, (), begun)
+            return ResumePoint(job, artwork, confirmed + 1, (), begun, planned.plotted)
     if entry.state == ABORTED:
         first = max(entry.first_index, entry.confirmed - P.QUEUE_BLOCKS)
         found = stopped_inside(job, config, here, first, entry.confirmed + _IN_FLIGHT_LINES,
                                begun)
         if found is not None:
-            return ResumePoint(job, artwork, found[0], found[1], begun)
+            return ResumePoint(job, artwork, found[0], found[1], begun, planned.plotted)
     expected = position_after(job, entry.confirmed + 1, config, begun)
     raise ResumeError(
         f"the machine stands at {_mm_text(here, config)}, but the job stopped at "

@@ -63,9 +63,13 @@ class Progress:
 
 @dataclass
 class PenChange:
-    aperture: int
-    description: str        # "D11 (0.254 mm round)"
+    aperture: int           # the pen key (a Gerber aperture, or an ink pen)
+    description: str        # "the 0.3 mm pen", "pen for aperture D11 (0.254 mm round)"
     command_index: int
+
+    @property
+    def prompt(self) -> str:
+        return f"insert {self.description}"
 
 
 @dataclass
@@ -148,8 +152,9 @@ class JobStreamer:
                     self._asked.add(self._next)
                     if on_pen_change is not None:
                         aperture = self._changes[self._next]
-                        on_pen_change(PenChange(aperture, describe_aperture(self.program, aperture),
-                                                self._next))
+                        label = self.job.pen_labels.get(aperture) or \
+                            f"pen for aperture {describe_aperture(self.program, aperture)}"
+                        on_pen_change(PenChange(aperture, label, self._next))
                     continue
                 self._fill()
                 self._take_reply(self._await_reply())
@@ -348,7 +353,8 @@ class JobStreamer:
         self.journal.begin(JournalEntry(
             source, digest, self.job.offset_nm, self.link.config.to_toml(),
             self.job.grouped, len(self.job), self.start - 1, self.start, first_seq,
-            start_position=self.job_start))
+            start_position=self.job_start, mode=self.job.mode, ordered=self.job.ordered,
+            pens_nm=tuple(self.job.pens_nm)))
 
     def _journal_end(self, state: str, reason: str = "") -> None:
         if self.journal is not None and self.journal.entry is not None:

@@ -9,8 +9,11 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.machine import Trace, simulate
+from galileo_cnc.machine.timing import duration_text, job_timing
 from galileo_cnc.plan.offsets import proposed_offset
+from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 from galileo_cnc.plan.planner import plan_program
 from galileo_cnc.readers import read_file
 
@@ -65,26 +68,44 @@ def test_bad_files_give_one_line_with_the_position_and_exit_1(tmp_path):
 def test_plot_the_sample_board_on_sim_with_trace_and_preview(tmp_path):
     trace_file, png = tmp_path / "board.npz", tmp_path / "board.png"
     result = galileo("plot", "samples/led-blinker.gbr", "--port", "sim://?speed=0", "--yes",
-                     "--trace", str(trace_file), "--preview", str(png), home=tmp_path)
+                     "--mode", "centre", "--trace", str(trace_file), "--preview", str(png),
+                     home=tmp_path)
     assert result.returncode == 0, result.stderr
     out = result.stdout
+    planned = plan_file(ROOT / "samples" / "led-blinker.gbr", options=PlanOptions(mode="centre"))
+    seconds = job_timing(planned.job.commands).total_s
     assert "connected to sim://?speed=0 (built-in simulated machine)" in out
     assert "minimum X 6.000 mm, Y 5.000 mm; offset 5.000, 4.000 mm" in out
-    assert "58 commands, about 1:28 of machine time" in out
+    assert f"{len(planned.job)} commands, about {duration_text(seconds)} of machine time" in out
     assert out.count("insert pen for aperture") == 6
     assert "insert pen for aperture D13 (0.4 mm round)" in out
     assert "process has finished" in out and "\a" in out
-    program = read_file(ROOT / "samples" / "led-blinker.gbr")
-    expected = simulate(plan_program(program, None, proposed_offset(program)).commands)
-    assert Trace.load(trace_file).same_steps(expected)
+    assert Trace.load(trace_file).same_steps(simulate(planned.job.commands))
     with Image.open(png) as image:
         assert image.size == (908, 724)
     assert json.loads((tmp_path / "journal.json").read_text())["state"] == "finished"
 
 
+def test_plot_inks_the_sample_board_with_two_pens(tmp_path):
+    trace_file = tmp_path / "board.npz"
+    result = galileo("plot", "samples/led-blinker.gbr", "--port", "sim://?speed=0", "--yes",
+                     "--pens", "0.3,0.8", "--trace", str(trace_file), home=tmp_path)
+    assert result.returncode == 0, result.stderr
+    out = result.stdout
+    assert "ink: pens 0.8, 0.3 mm, " in out and "% of the copper inked" in out
+    assert out.count("insert the ") == 2
+    assert out.index("insert the 0.8 mm pen") < out.index("insert the 0.3 mm pen")
+    config = MachineConfig().replace(pen_widths_mm=(0.3, 0.8))
+    planned = plan_file(ROOT / "samples" / "led-blinker.gbr", config)
+    assert planned.mode == "ink"
+    assert Trace.load(trace_file).same_steps(simulate(planned.job.commands))
+    journal = json.loads((tmp_path / "journal.json").read_text())
+    assert journal["mode"] == "ink" and "widths_mm = [0.8, 0.3]" in journal["profile"]
+
+
 def test_plot_waits_for_enter_at_pen_changes_without_yes(tmp_path):
     result = galileo("plot", "samples/led-blinker.gbr", "--port", "sim://?speed=0",
-                     "--offset", "4,3", home=tmp_path, stdin="\n" * 6)
+                     "--mode", "centre", "--offset", "4,3", home=tmp_path, stdin="\n" * 6)
     assert result.returncode == 0, result.stderr
     assert result.stdout.count("then press Enter") == 6
     assert "offset 4.000, 3.000 mm" in result.stdout
@@ -95,9 +116,9 @@ def test_plot_refuses_bad_offsets_and_jobs_past_the_travel(tmp_path):
     assert result.returncode == 1
     assert "--offset: expected auto, none or X,Y in mm" in result.stderr
     result = galileo("plot", "samples/led-blinker.gbr", "--offset", "10,0", "--yes",
-                     "--port", "sim://?speed=0", home=tmp_path)
+                     "--mode", "centre", "--port", "sim://?speed=0", home=tmp_path)
     assert result.returncode == 1
-    assert result.stderr.startswith("galileo-cnc: ") and ":70:" in result.stderr
+    assert result.stderr.startswith("galileo-cnc: ") and ":75:1: LINE" in result.stderr
     assert "X would reach" in result.stderr and "Traceback" not in result.stderr
 
 

@@ -36,6 +36,7 @@ from galileo_cnc.console.keypad import REFRESH_S, KeypadJog
 from galileo_cnc.console.units import jog_units_to_steps
 from galileo_cnc.machine import Trace, simulate
 from galileo_cnc.plan.offsets import proposed_offset
+from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 from galileo_cnc.plan.planner import plan_program
 from galileo_cnc.readers import read_file
 from galileo_cnc.sim.simulator import forget_named_machines, named_machine
@@ -56,6 +57,10 @@ BOARD = ROOT / "samples" / "led-blinker.gbr"
 WAIT_S = 20.0
 #: The simulated machine with instant motion; REAL_TIME_SIM moves at the machine's speed.
 INSTANT_SIM = "sim://?speed=0"
+CENTRE = PlanOptions(mode="centre")
+#: what a pen change says: an aperture's pen (centre mode) or a pen of the set (ink)
+PEN_PROMPT = r"insert (?:pen for aperture|the \d[\d.]* mm pen)"
+TWO_PENS = MachineConfig().replace(pen_widths_mm=(0.3, 0.8))
 REAL_TIME_SIM = "sim://"
 _ESCAPES = re.compile(r"\x1b\[[0-9;?<=>]*[ -/]*[@-~]"           # CSI: cursor, colour, modes
                       r"|\x1b\][^\x07\x1b]*(?:\x07|\x1b\\)"     # OSC: window title
@@ -156,7 +161,7 @@ def home(tmp_path, monkeypatch) -> Path:
 
 
 @contextmanager
-def console_in_thread(home: Path, port: str = INSTANT_SIM):
+def console_in_thread(home: Path, port: str = INSTANT_SIM, config: MachineConfig | None = None):
     """The console on `port`, in a thread of this process, typed into through a pipe."""
     screen = Screen()
     output = Vt100_Output(screen, lambda: Size(rows=30, columns=120), term="xterm",
@@ -165,7 +170,7 @@ def console_in_thread(home: Path, port: str = INSTANT_SIM):
         exit_code = []
         thread = threading.Thread(
             target=lambda: exit_code.append(run_console(
-                port, 115200, MachineConfig(), history_path=home / "history",
+                port, 115200, config or MachineConfig(), history_path=home / "history",
                 input=keys, output=output)),
             daemon=True)
         thread.start()
@@ -252,8 +257,7 @@ def test_every_command_has_a_section_in_the_shipped_help_file():
 
 
 def test_the_console_on_a_terminal_plots_and_keeps_its_history(home):
-    program = read_file(BOARD)
-    job = plan_program(program, MachineConfig(), proposed_offset(program))
+    job = plan_file(BOARD, MachineConfig(), options=CENTRE).job
     with console_on_a_pty(home) as (user, process):
         user.expect(r"galileo-cnc \d+\.\d+\.\d+")
         user.expect(r"type help")
@@ -263,7 +267,7 @@ def test_the_console_on_a_terminal_plots_and_keeps_its_history(home):
         user.expect(r"Plot a Gerber")
         user.line("ports")
         user.expect(r"\* sim://\?speed=0")
-        user.line(f"getg {BOARD}")
+        user.line(f"getg --mode centre {BOARD}")
         user.expect(r"use these offsets\? \[Y/n\]")
         user.line("y")
         for _ in job.pen_changes:
@@ -274,7 +278,7 @@ def test_the_console_on_a_terminal_plots_and_keeps_its_history(home):
         user.type("\x04")                          # Ctrl-D leaves
         assert process.wait(WAIT_S) == 0
     history = (home / "history").read_text()
-    assert "help getg" in history and f"getg {BOARD}" in history
+    assert "help getg" in history and f"getg --mode centre {BOARD}" in history
     assert "Traceback" not in user.screen.text
 
 
@@ -317,12 +321,12 @@ def test_an_unknown_command_says_so_and_hints(home):
 def test_getg_plots_the_sample_board_with_pen_changes(home):
     program = read_file(BOARD)
     config = MachineConfig()
-    job = plan_program(program, config, proposed_offset(program))
+    job = plan_file(BOARD, config, options=CENTRE).job
     assert job.pen_changes, "the sample board must switch pens for this test to mean much"
     end = position_after(job, len(job), config)
 
     with console_in_thread(home) as user:
-        user.line(f"getg {BOARD}")
+        user.line(f"getg --mode centre {BOARD}")
         user.expect(r"minimum\s+X 6\.0000 mm, Y 5\.0000 mm")
         user.expect(r"offsets\s+X 5\.0000 mm, Y 4\.0000 mm")
         user.expect(r"use these offsets\? \[Y/n\]")
@@ -395,7 +399,7 @@ def test_getg_with_a_bad_file_prints_one_error_line(home, tmp_path):
 
 def test_getg_refuses_a_job_that_leaves_the_travel(home):
     with console_in_thread(home) as user:
-        user.line(f"getg {BOARD}")
+        user.line(f"getg --mode centre {BOARD}")
         user.expect(r"use these offsets\?")
         user.line("n")
         user.expect(r"offsets X,Y in mm")
@@ -407,14 +411,13 @@ def test_getg_refuses_a_job_that_leaves_the_travel(home):
 
 @pytest.mark.parametrize("stop_key", ["q", "\x03"], ids=["q", "ctrl-c"])
 def test_a_job_stopped_while_moving_leaves_the_machine_standing(home, stop_key):
-    program = read_file(BOARD)
     config = MachineConfig()
-    job = plan_program(program, config, proposed_offset(program))
+    job = plan_file(BOARD, config, options=CENTRE).job
     end = position_after(job, len(job), config)
     with console_in_thread(home, REAL_TIME_SIM) as user:
         user.type("\x03")                        # Ctrl-C at the prompt: a new prompt
         user.expect(r">>")
-        user.line(f"getg {BOARD}")
+        user.line(f"getg --mode centre {BOARD}")
         user.expect(r"use these offsets\?")
         user.line("y")
         user.expect(r"insert pen for aperture")
@@ -428,11 +431,10 @@ def test_a_job_stopped_while_moving_leaves_the_machine_standing(home, stop_key):
 
 
 def test_q_at_a_pen_change_stops_the_job_and_resume_finishes_it(home):
-    program = read_file(BOARD)
     config = MachineConfig()
-    job = plan_program(program, config, proposed_offset(program))
+    job = plan_file(BOARD, config, options=CENTRE).job
     with console_in_thread(home) as user:
-        user.line(f"getg {BOARD}")
+        user.line(f"getg --mode centre {BOARD}")
         user.expect(r"use these offsets\?")
         user.line("y")
         user.expect(r"insert pen for aperture")
@@ -627,7 +629,7 @@ def an_evening(user: ConsoleUser, path: Path, pens: int, pull_the_cable=None) ->
         user.expect(r"use these offsets\? \[Y/n\]")
         user.line("")
         for _ in range(pens):
-            user.expect(r"insert pen for aperture")
+            user.expect(PEN_PROMPT)
             user.type("\r")
         if stop and pull_the_cable is not None:
             user.expect(r"lines\s+\d")
@@ -670,10 +672,10 @@ def an_evening(user: ConsoleUser, path: Path, pens: int, pull_the_cable=None) ->
     user.expect(r"continue the job\? \[Y/n\]")
     user.line("")
     if pens:
-        user.expect(r"insert pen for aperture")    # the pen in force where it continues
+        user.expect(PEN_PROMPT)    # the pen in force where it continues
         user.type("\r")
     while True:                                 # the pen changes still ahead, then the end
-        found = user.expect(r"insert pen for aperture|process has finished")
+        found = user.expect(PEN_PROMPT + "|process has finished")
         if found.group(0) == "process has finished":
             break
         user.type("\r")
@@ -682,15 +684,17 @@ def an_evening(user: ConsoleUser, path: Path, pens: int, pull_the_cable=None) ->
     assert "Traceback" not in user.screen.text
 
 
-def _uninterrupted(path: Path):
-    program = read_file(path)
-    job = plan_program(program, MachineConfig(), proposed_offset(program))
+def _uninterrupted(path: Path, config: MachineConfig | None = None):
+    job = plan_file(path, config or MachineConfig()).job
     return job, simulate(job.commands)
 
 
 @pytest.mark.parametrize("stop", ["q", "cable"], ids=["q", "port-lost"])
 def test_a_whole_evening_on_sim(home, monkeypatch, stop):
-    job, whole = _uninterrupted(BOARD)
+    # ink mode with two pens: getg asks for exactly two, widest first
+    job, whole = _uninterrupted(BOARD, TWO_PENS)
+    assert list(job.pen_labels[k] for k in job.pen_changes.values()) == \
+        ["the 0.8 mm pen", "the 0.3 mm pen"]
     port = "sim://evening?speed=20"        # a board that keeps power when its port dies
     opened = []
 
@@ -704,8 +708,8 @@ def test_a_whole_evening_on_sim(home, monkeypatch, stop):
 
     monkeypatch.setattr(link_module, "open_port", open_faulty)
     try:
-        with console_in_thread(home, port) as user:
-            an_evening(user, BOARD, pens=len(job.pen_changes),
+        with console_in_thread(home, port, TWO_PENS) as user:
+            an_evening(user, BOARD, pens=2,
                        pull_the_cable=pull_the_cable if stop == "cable" else None)
             state, *position = user.status()
         trace = named_machine("evening").trace()

@@ -177,3 +177,28 @@ def test_the_firmware_reports_the_config_it_was_built_with(firmware):
         reply = link.send_protocol(P.QueryConfig())
         link.close()
     assert reply.text == "config " + MachineConfig().firmware_text()
+
+
+def test_a_real_copper_layer_inked_with_two_pens_steps_as_the_reference(firmware):
+    # a real Altium copper layer: pads and pours filled with the 0.8 mm pen, what it
+    # cannot reach with the 0.3 mm pen, traces too narrow for either as centre lines
+    from galileo_cnc.plan.pipeline import PlanOptions, plan_file
+    from corpus import CORPUS
+
+    layer = plan_file(CORPUS / "altium" / "pcb1-x2" / "PCB1_Copper_Signal_Top.gbr",
+                      options=PlanOptions(mode="ink", pens_nm=(800_000, 300_000)))
+    job, program = layer.job, layer.plotted
+    assert [job.pen_labels[k] for k in job.pen_changes.values()] == \
+        ["the 0.8 mm pen", "the 0.3 mm pen"]
+    sim_trace = stream_to_sim(job, program)
+    assert sim_trace.same_steps(simulate(job.commands))
+    changes = []
+    with SimulatedBoard(firmware) as board:
+        link = MachineLink.open(board.port)
+        result = JobStreamer(link, job, program).run(on_pen_change=changes.append)
+        link.close()
+        board.stop()
+        fw = step_trace(board.trace())
+    assert result.completed
+    assert [c.prompt for c in changes] == ["insert the 0.8 mm pen", "insert the 0.3 mm pen"]
+    assert_same_trace_in_pieces(fw, sim_trace, [steps_before(job, k) for k in job.pen_changes])

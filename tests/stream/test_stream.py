@@ -64,8 +64,8 @@ def test_the_sample_board_streams_with_pen_changes_and_steps_as_the_reference(jo
     assert machine_trace(port).same_steps(simulate(job.commands))
     # grouped by aperture: one change per aperture, each described for the user
     assert [c.aperture for c in changes] == [11, 10, 12, 15, 13, 14]
-    assert changes[0].description == "D11 (1.7 x 1.7 mm rectangle)"
-    assert changes[1].description == "D10 (1.6 mm round)"
+    assert changes[0].description == "pen for aperture D11 (1.7 x 1.7 mm rectangle)"
+    assert changes[1].description == "pen for aperture D10 (1.6 mm round)"
     assert [c.command_index for c in changes] == sorted(job.pen_changes)
     assert progress[-1].confirmed == len(job)
     assert {p.eta_s for p in progress} == {0.0}      # an instant machine

@@ -1,0 +1,111 @@
+"""The polygon operations the fill needs, on pyclipper, in integer nm.
+
+A polygon set is what pyclipper returns: a list of rings (lists of [x, y] or int64
+arrays), outers counter-clockwise and holes clockwise, filled by the positive
+winding rule (the form `DarkImage.native` has with the clipper backend). Offsets
+round every curve they make within `tolerance_nm` (Clipper's ArcTolerance), so
+nothing here ever leaves the integer grid.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pyclipper as pc
+
+PolygonSet = list
+
+
+def offset(polygons: PolygonSet, delta_nm: int, tolerance_nm: int) -> PolygonSet:
+    """Grow (delta > 0) or shrink (delta < 0) the set by |delta| with round corners."""
+    if not polygons:
+        return []
+    if delta_nm == 0:
+        return list(polygons)
+    engine = pc.PyclipperOffset(2.0, float(tolerance_nm))
+    engine.AddPaths(polygons, pc.JT_ROUND, pc.ET_CLOSEDPOLYGON)
+    return engine.Execute(float(delta_nm))
+
+
+def stroke(paths: list, radius_nm: int, tolerance_nm: int) -> PolygonSet:
+    """The area a round pen of `radius_nm` covers along open polylines (a path of one
+    point is a dot)."""
+    lines = [p for p in paths if len(p) >= 2]
+    dots = [p for p in paths if len(p) == 1]
+    engine = pc.PyclipperOffset(2.0, float(tolerance_nm))
+    if lines:
+        engine.AddPaths(lines, pc.JT_ROUND, pc.ET_OPENROUND)
+    for dot in dots:
+        x, y = (int(v) for v in dot[0])
+        engine.AddPath([[x, y], [x + 1, y]], pc.JT_ROUND, pc.ET_OPENROUND)
+    if not lines and not dots:
+        return []
+    return engine.Execute(float(radius_nm))
+
+
+def _boolean(operation, subject: PolygonSet, clip: PolygonSet) -> PolygonSet:
+    clipper = pc.Pyclipper()
+    added = False
+    for paths, role in ((subject, pc.PT_SUBJECT), (clip, pc.PT_CLIP)):
+        if paths:
+            try:
+                clipper.AddPaths(paths, role, True)
+                added = True
+            except pc.ClipperException:  # only degenerate rings (no area)
+                pass
+    if not added:
+        return []
+    return clipper.Execute(operation, pc.PFT_POSITIVE, pc.PFT_POSITIVE)
+
+
+def union(*sets: PolygonSet) -> PolygonSet:
+    return _boolean(pc.CT_UNION, [ring for s in sets for ring in s], [])
+
+
+def difference(subject: PolygonSet, clip: PolygonSet) -> PolygonSet:
+    if not subject or not clip:
+        return list(subject)
+    return _boolean(pc.CT_DIFFERENCE, subject, clip)
+
+
+def intersection(subject: PolygonSet, clip: PolygonSet) -> PolygonSet:
+    if not subject or not clip:
+        return []
+    return _boolean(pc.CT_INTERSECTION, subject, clip)
+
+
+def opening(polygons: PolygonSet, radius_nm: int, tolerance_nm: int) -> PolygonSet:
+    """What is left of the set where a disc of `radius_nm` fits: slivers thinner
+    than 2 * radius (rounding noise between two outlines) disappear."""
+    return offset(offset(polygons, -radius_nm, tolerance_nm), radius_nm, tolerance_nm)
+
+
+def area_nm2(polygons: PolygonSet) -> float:
+    return float(sum(pc.Area(ring) for ring in polygons))
+
+
+def rings_as_arrays(polygons: PolygonSet) -> list[np.ndarray]:
+    """Each ring as an int64 (n, 2) array; rings of fewer than 3 points dropped."""
+    return [np.asarray(ring, dtype=np.int64) for ring in polygons if len(ring) >= 3]
+
+
+def components(polygons: PolygonSet) -> list[tuple[np.ndarray, list[np.ndarray]]]:
+    """The set's connected pieces: (outer ring, [hole rings]), an island inside a
+    hole being a piece of its own."""
+    if not polygons:
+        return []
+    clipper = pc.Pyclipper()
+    try:
+        clipper.AddPaths(polygons, pc.PT_SUBJECT, True)
+    except pc.ClipperException:
+        return []
+    tree = clipper.Execute2(pc.CT_UNION, pc.PFT_POSITIVE, pc.PFT_POSITIVE)
+    found = []
+    stack = list(tree.Childs)
+    while stack:
+        outer = stack.pop()
+        holes = []
+        for hole in outer.Childs:
+            holes.append(np.asarray(hole.Contour, dtype=np.int64))
+            stack.extend(hole.Childs)
+        found.append((np.asarray(outer.Contour, dtype=np.int64), holes))
+    return found

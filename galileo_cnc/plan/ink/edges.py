@@ -1,0 +1,116 @@
+"""A grid index over the edges of a set of rings: which edges lie near a point or a box.
+
+The fill asks it for the nearest outline point of a ring (to join rings with a
+pen-down move) and the narrow-feature check asks which other copper lies near a
+centre line. Edges are entered in every grid cell that a sample along them falls
+in (samples half a cell apart, so any point of an edge is within half a cell of a
+sample); a query looks at every cell a box covers, grown by one cell.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+_KEY = 1 << 31   # cell key = column * _KEY + row (columns and rows fit in 31 bits)
+
+
+class EdgeIndex:
+    """Edges of closed rings: `a[k]` to `b[k]`, from ring `ring[k]`, its edge `edge[k]`."""
+
+    def __init__(self, rings: list[np.ndarray], cell_nm: int):
+        self.cell = max(int(cell_nm), 1)
+        starts, ring_ids, edge_ids = [], [], []
+        for number, ring in enumerate(rings):
+            starts.append(ring)
+            ring_ids.append(np.full(len(ring), number, dtype=np.int64))
+            edge_ids.append(np.arange(len(ring), dtype=np.int64))
+        if not starts:
+            self.a = self.b = np.zeros((0, 2), dtype=np.int64)
+            self.ring = self.edge = np.zeros(0, dtype=np.int64)
+            self._keys = self._members = np.zeros(0, dtype=np.int64)
+            return
+        self.a = np.concatenate(starts)
+        self.b = np.concatenate([np.roll(ring, -1, axis=0) for ring in rings])
+        self.ring = np.concatenate(ring_ids)
+        self.edge = np.concatenate(edge_ids)
+        self._build()
+
+    def _build(self) -> None:
+        a, b = self.a.astype(np.float64), self.b.astype(np.float64)
+        length = np.hypot(*(b - a).T)
+        samples = np.maximum(np.ceil(length / (self.cell / 2)).astype(np.int64), 1) + 1
+        owner = np.repeat(np.arange(len(a)), samples)
+        first = np.cumsum(samples) - samples
+        t = (np.arange(len(owner)) - first[owner]) / (samples[owner] - 1)
+        points = a[owner] + (b[owner] - a[owner]) * t[:, None]
+        keys = self._key(np.floor(points / self.cell).astype(np.int64))
+        pairs = np.unique(np.stack([keys, owner], axis=1), axis=0)
+        self._keys, self._members = pairs[:, 0], pairs[:, 1]
+
+    @staticmethod
+    def _key(cells: np.ndarray) -> np.ndarray:
+        return (cells[..., 0] + _KEY // 2) * _KEY + (cells[..., 1] + _KEY // 2)
+
+    def __len__(self) -> int:
+        return len(self.a)
+
+    def in_box(self, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
+        """Indices of the edges that may pass through the box (a superset, no repeats)."""
+        if not len(self.a):
+            return np.zeros(0, dtype=np.int64)
+        c = self.cell
+        cx = np.arange(math.floor(x0 / c) - 1, math.floor(x1 / c) + 2)
+        cy = np.arange(math.floor(y0 / c) - 1, math.floor(y1 / c) + 2)
+        keys = self._key(np.stack(np.meshgrid(cx, cy, indexing="ij"), axis=-1).reshape(-1, 2))
+        lo = np.searchsorted(self._keys, keys, "left")
+        hi = np.searchsorted(self._keys, keys, "right")
+        found = [self._members[s:e] for s, e in zip(lo.tolist(), hi.tolist()) if e > s]
+        return np.unique(np.concatenate(found)) if found else np.zeros(0, dtype=np.int64)
+
+    def nearest(self, point: tuple[int, int], search_nm: int) -> tuple[int, float, float] | None:
+        """(edge index, t along it, distance) of the outline point nearest to `point`,
+        searching ever wider from `search_nm`; None when there are no edges."""
+        if not len(self.a):
+            return None
+        x, y = point
+        radius = max(int(search_nm), self.cell)
+        while True:
+            found = self.in_box(x - radius, y - radius, x + radius, y + radius)
+            if len(found):
+                t, distance = point_to_edges(np.array(point, dtype=np.float64),
+                                             self.a[found], self.b[found])
+                best = int(np.argmin(distance))
+                # only an edge within the searched radius is surely the nearest
+                if distance[best] <= radius or len(found) == len(self.a):
+                    return int(found[best]), float(t[best]), float(distance[best])
+            if radius > (1 << 40):
+                return None
+            radius *= 2
+
+
+def point_to_edges(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For point p and segments a[k]-b[k]: the parameter t in [0, 1] of the nearest
+    point of each segment, and the distance to it."""
+    a = a.astype(np.float64)
+    d = b.astype(np.float64) - a
+    length2 = np.einsum("ij,ij->i", d, d)
+    t = np.einsum("ij,ij->i", p - a, d) / np.where(length2 > 0, length2, 1.0)
+    t = np.clip(t, 0.0, 1.0)
+    closest = a + d * t[:, None]
+    return t, np.hypot(*(closest - p).T)
+
+
+def points_to_edges(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance from each of `points` (k, 2) to the nearest of the segments a-b: (k,)."""
+    if not len(a):
+        return np.full(len(points), np.inf)
+    p = points.astype(np.float64)[:, None, :]
+    a = a.astype(np.float64)[None, :, :]
+    d = b.astype(np.float64)[None, :, :] - a
+    length2 = np.sum(d * d, axis=2)
+    t = np.sum((p - a) * d, axis=2) / np.where(length2 > 0, length2, 1.0)
+    t = np.clip(t, 0.0, 1.0)
+    closest = a + d * t[:, :, None]
+    return np.min(np.hypot(closest[..., 0] - p[..., 0], closest[..., 1] - p[..., 1]), axis=1)

@@ -1,0 +1,191 @@
+"""Ink a Gerber layer with the user's pens: the copper becomes pen paths (docs/ink.md).
+
+`ink_program(program, pens_nm)` works out the copper (geometry.py), fills it pen by
+pen, widest first (fill.py), draws what is narrower than the smallest pen as centre
+lines that never join two islands (narrow.py), and returns the ink as a Program of
+its own: one SELECT per pen, then MOVE/LINE/ARC/FLASH rows. The planner takes that
+Program like any other Gerber file, so path order, pen changes, soft limits,
+previews and resume work on ink unchanged. Ring rows carry line 0 (they come from
+the union of many objects); centre lines keep their object's line and column.
+
+A narrower pen fills what the wider ones left: the copper not yet inked (opened by
+GAP_NM so rounding slivers along the edges do not count), where this pen reaches,
+grown by twice its radius and cut back to the copper (so it has room to move).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from galileo_cnc.errors import ReaderWarning, SourcePos
+from galileo_cnc.plan.ink import clip
+from galileo_cnc.plan.ink.arcs import fit_arcs
+from galileo_cnc.plan.ink.fill import DEFAULT_OVERLAP, GAP_NM, PenFill, fill_region
+from galileo_cnc.plan.ink.geometry import DarkImage, dark_geometry
+from galileo_cnc.plan.ink.narrow import (Bridge, NarrowFeature, find_narrow,
+                                        keep_islands_apart)
+from galileo_cnc.plan.ink.shapes import DEFAULT_TOLERANCE_NM
+from galileo_cnc.program.ops import (COL, KIND, LINE, NM_PER_MM, NO_TOOL, TOOL, Aperture,
+                                     OpKind, Program, ProgramBuilder)
+
+#: Default pen margin from the copper's edge: the stepped path strays up to ~0.7 step
+#: from the planned one, half of that is the usual error (docs/ink.md, "Edge margin").
+DEFAULT_EDGE_MARGIN_NM = 2_000
+
+_MOVE, _LINE, _SELECT, _FLASH = (int(OpKind.MOVE), int(OpKind.LINE), int(OpKind.SELECT),
+                                 int(OpKind.FLASH))
+
+
+@dataclass
+class InkPlan:
+    """The ink of one layer for one pen set, and what it covers."""
+
+    program: Program                      # the ink, as rows (module doc)
+    pens_nm: tuple[int, ...]              # widest first; pen key k + 1 is pens_nm[k]
+    copper: DarkImage
+    fills: list[PenFill]
+    narrow: list[NarrowFeature]
+    bridges: list[Bridge]
+    zero_size: int                        # objects of zero-size apertures (no copper)
+    copper_nm2: float
+    filled_nm2: float                     # copper the fills cover
+    inked_nm2: float                      # copper the fills and centre lines cover
+    warnings: list[ReaderWarning] = field(default_factory=list)
+    seconds: float = 0.0
+
+    @property
+    def pen_lifts(self) -> int:
+        return sum(len(f.paths) for f in self.fills) + sum(len(n.pieces) for n in self.narrow)
+
+    def pen_label(self, key: int) -> str:
+        return f"{mm_text(self.pens_nm[key - 1])} mm pen"
+
+
+def mm_text(nm: int) -> str:
+    return f"{nm / NM_PER_MM:.3f}".rstrip("0").rstrip(".")
+
+
+def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
+                tolerance_nm: int = DEFAULT_TOLERANCE_NM, overlap: float = DEFAULT_OVERLAP,
+                edge_margin_nm: int = DEFAULT_EDGE_MARGIN_NM) -> InkPlan:
+    """The ink of a Gerber Program for the pens (widths in nm, any order)."""
+    began = time.perf_counter()
+    pens = tuple(sorted({int(p) for p in pens_nm if int(p) > 0}, reverse=True))
+    if not pens:
+        raise ValueError("no pen: give at least one pen width above 0")
+    copper = dark_geometry(program, tolerance_nm)
+    region = copper.native
+    fills: list[PenFill] = []
+    inked: list = []
+    for number, width in enumerate(pens):
+        radius = width // 2
+        if number == 0:
+            target = region
+        else:
+            left = clip.opening(clip.difference(region, inked), GAP_NM, tolerance_nm)
+            reach = clip.opening(region, radius + edge_margin_nm, tolerance_nm)
+            left = clip.intersection(left, reach)
+            target = (clip.intersection(clip.offset(left, 2 * radius + edge_margin_nm,
+                                                    tolerance_nm), region) if left else [])
+        fill = fill_region(target, width, tolerance_nm, overlap=overlap,
+                           edge_margin_nm=edge_margin_nm) if target else PenFill(width)
+        fills.append(fill)
+        inked = clip.union(inked, fill.ink) if inked else list(fill.ink)
+    filled = clip.area_nm2(clip.intersection(inked, region))
+
+    smallest = pens[-1]
+    limit = smallest + 2 * edge_margin_nm + 4 * tolerance_nm
+    narrow, zero_size = find_narrow(program, limit, smallest, tolerance_nm)
+    bridges = keep_islands_apart(narrow, region, smallest)
+    narrow_ink = clip.stroke([piece for f in narrow for piece in f.pieces], smallest // 2,
+                             tolerance_nm)
+    covered = clip.union(inked, narrow_ink) if narrow_ink else inked
+    plan = InkPlan(_rows(program, pens, fills, narrow), pens, copper, fills, narrow, bridges,
+                   zero_size, clip.area_nm2(region), filled,
+                   clip.area_nm2(clip.intersection(covered, region)))
+    plan.warnings = _warnings(program, plan)
+    plan.program.warnings = list(program.warnings) + plan.warnings
+    plan.seconds = time.perf_counter() - began
+    return plan
+
+
+def _rows(program: Program, pens: tuple[int, ...], fills: list[PenFill],
+          narrow: list[NarrowFeature]) -> Program:
+    out = ProgramBuilder(program.source)
+    for number, fill in enumerate(fills):
+        key = number + 1
+        drawn = [n for n in narrow if n.pen_nm == fill.width_nm] if number == len(fills) - 1 else []
+        if not fill.paths and not drawn:
+            continue
+        out.emit(_SELECT, tool=key)
+        for path in fill.paths:
+            _emit_path(out, path, key, 0, 0)
+        for feature in drawn:
+            _emit_feature(out, feature, key)
+    apertures = {k + 1: Aperture(k + 1, "circle", (w,), extent_nm=(-(w // 2), -(w // 2),
+                                                                   w // 2, w // 2))
+                 for k, w in enumerate(pens)}
+    return out.build("gerber", program.units, apertures=apertures,
+                     metadata={"ink": True, "pens_nm": list(pens),
+                               "source_metadata": program.metadata},
+                     line_count=program.line_count)
+
+
+def _emit_path(out: ProgramBuilder, path: np.ndarray, key: int, line: int, col: int) -> None:
+    x, y = int(path[0][0]), int(path[0][1])
+    if len(path) == 1:
+        out.emit(_FLASH, x, y, tool=key, line=line, col=col)
+        return
+    out.emit(_MOVE, x, y, tool=key, line=line, col=col)
+    closed = len(path) > 3 and np.array_equal(path[0], path[-1])
+    points = path[:-1] if closed else path
+    for kind, ex, ey, i, j in fit_arcs(points, closed=closed):
+        out.emit(kind, ex, ey, i, j, tool=key, line=line, col=col)
+
+
+def _emit_feature(out: ProgramBuilder, feature: NarrowFeature, key: int) -> None:
+    row = feature.row
+    line, col = row[LINE], row[COL]
+    if not feature.cut and row[KIND] != _FLASH:
+        out.emit(_MOVE, *feature.start_nm, tool=key, line=line, col=col)
+        drawn = list(row)
+        drawn[TOOL] = key
+        out.emit(*drawn)
+        return
+    for piece in feature.pieces:
+        _emit_path(out, piece, key, line, col)
+
+
+def _warnings(program: Program, plan: InkPlan) -> list[ReaderWarning]:
+    """One warning per aperture drawn as centre lines, one per bridge avoided."""
+    found: list[ReaderWarning] = []
+    by_aperture: dict[int, list[NarrowFeature]] = {}
+    for feature in plan.narrow:
+        by_aperture.setdefault(int(feature.row[TOOL]), []).append(feature)
+    pen = mm_text(plan.pens_nm[-1])
+    for code, features in sorted(by_aperture.items(), key=lambda kv: kv[1][0].op_index):
+        first = features[0]
+        count = len(features)
+        what = f"{count} object{'s' * (count != 1)} of D{code}" if code != NO_TOOL else \
+            f"{count} object{'s' * (count != 1)}"
+        found.append(ReaderWarning(first.pos, (
+            f"{what} ({mm_text(first.width_nm)} mm wide) too narrow to fill with the {pen} mm pen: "
+            f"drawn as centre lines, {mm_text(first.overdraw_nm)} mm overdraw per side"
+            + (f" (first here, last at line {features[-1].pos.line})" if count > 1 else ""))))
+    for bridge in plan.bridges:
+        found.append(ReaderWarning(bridge.feature.pos, (
+            f"the centre line would join another copper island at "
+            f"{_xy(bridge.other_nm)}: left out for {mm_text(bridge.left_out_nm)} mm "
+            f"from {_xy(bridge.at_nm)}")))
+    if plan.zero_size:
+        found.append(ReaderWarning(SourcePos(program.source, 0, 0), (
+            f"{plan.zero_size} draw{'s' * (plan.zero_size != 1)} with zero-size apertures "
+            "make no copper and are not inked (--mode centre draws them)")))
+    return found
+
+
+def _xy(point: tuple[int, int]) -> str:
+    return f"X {point[0] / NM_PER_MM:.3f}, Y {point[1] / NM_PER_MM:.3f} mm"

@@ -1,0 +1,121 @@
+"""Inking constructed boards: measured from the steps the reference machine makes.
+
+Each case is planned in ink mode, stepped by the reference machine (the firmware's
+twin), and the pen-down steps swept by the pen are compared with the copper.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from inked import ink_of_trace
+
+from galileo_cnc.config.machine import MachineConfig
+from galileo_cnc.job import PenDown
+from galileo_cnc.machine.planner import simulate
+from galileo_cnc.plan.ink import clip
+from galileo_cnc.plan.pipeline import PlanOptions, plan_file
+
+MM = 1_000_000
+HEADER = "%FSLAX46Y46*%\n%MOMM*%\nG75*\n"
+CONFIG = MachineConfig()
+STEP = CONFIG.nm_per_step
+
+
+def plot(tmp_path, body: str, pens=(300_000,)):
+    path = tmp_path / "board.gbr"
+    path.write_text(HEADER + body + "M02*\n")
+    planned = plan_file(path, CONFIG, "auto", options=PlanOptions(mode="ink", pens_nm=pens))
+    trace = simulate(planned.job.commands, CONFIG)
+    ink = ink_of_trace(trace, CONFIG, planned.offset_nm, list(pens))
+    return planned, ink
+
+
+def square(x0, y0, x1, y1):
+    return [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
+
+
+def test_a_square_pad_is_inked_as_a_square(tmp_path):
+    planned, ink = plot(tmp_path, "%ADD10R,1.7X1.7*%\nD10*\nX5000000Y5000000D03*\n")
+    pad = [square(4_150_000, 4_150_000, 5_850_000, 5_850_000)]
+    r = 150_000
+    corners = 4 * (4 - math.pi) * r * r            # a round pen cannot reach square corners
+    perimeter = 4 * 1_700_000
+    uninked = clip.area_nm2(clip.difference(pad, ink))
+    outside = clip.area_nm2(clip.difference(ink, pad))
+    assert uninked <= corners * 1.05 + perimeter * 4_000       # corners + the edge margin
+    assert outside <= perimeter * 2_000                        # stepping, never a pen width
+    x0, y0, x1, y1 = clip.components(ink)[0][0].min(0).tolist() + \
+        clip.components(ink)[0][0].max(0).tolist()
+    for got, want in zip((x0, y0, x1, y1), (4_150_000, 4_150_000, 5_850_000, 5_850_000)):
+        assert abs(got - want) <= 2 * STEP                     # square to within the steps
+    # one island, rings joined inside the copper: one pen lift
+    assert sum(isinstance(c, PenDown) for c in planned.job.commands) == 1
+
+
+def test_a_pour_with_a_clear_cut_out_keeps_its_hole(tmp_path):
+    body = ("G36*\nX0Y0D02*\nX10000000Y0D01*\nX10000000Y6000000D01*\nX0Y6000000D01*\n"
+            "X0Y0D01*\nG37*\n%LPC*%\n%ADD10R,2X2*%\nD10*\nX5000000Y3000000D03*\n%LPD*%\n")
+    planned, ink = plot(tmp_path, body)
+    hole = [square(4_000_000, 2_000_000, 6_000_000, 4_000_000)]
+    copper = planned.ink.copper.native
+    assert clip.area_nm2(clip.intersection(ink, hole)) <= 4 * 2_000_000 * 2_000
+    assert clip.area_nm2(clip.intersection(ink, copper)) >= 0.99 * clip.area_nm2(copper)
+    assert sum(isinstance(c, PenDown) for c in planned.job.commands) <= 2
+
+
+def test_a_narrow_trace_near_another_island_is_cut_not_bridged(tmp_path):
+    # pad A at x 0..1 mm, pad B at x 1.5..2.5 mm; a 0.1 mm trace from A runs up at
+    # x = 1.4 mm, 0.1 mm from B: a 0.3 mm pen there would ink B.
+    body = ("%ADD10R,1X1*%\n%ADD11C,0.1*%\nD10*\nX500000Y500000D03*\nX2000000Y2500000D03*\n"
+            "D11*\nX500000Y500000D02*\nX1400000Y500000D01*\nX1400000Y4000000D01*\n")
+    planned, ink = plot(tmp_path, body)
+    pad_a = [square(0, 0, 1_000_000, 1_000_000)]
+    pad_b = [square(1_500_000, 2_000_000, 2_500_000, 3_000_000)]
+    pieces = [[outer, *holes] for outer, holes in clip.components(ink)]
+    touching = [(clip.area_nm2(clip.intersection(p, pad_a)) > 0,
+                 clip.area_nm2(clip.intersection(p, pad_b)) > 0) for p in pieces]
+    assert (True, False) in touching and (False, True) in touching
+    assert (True, True) not in touching                  # no ink joins A to B
+    bridges = planned.ink.bridges
+    assert bridges and all(b.feature.pos.line == 10 for b in bridges)
+    text = " ".join(str(w) for w in planned.ink.warnings)
+    assert "would join another copper island at X 1.500" in text
+    # the rest of the trace is still drawn (below and above pad B)
+    trace_below = [square(1_350_000, 600_000, 1_450_000, 1_500_000)]
+    assert clip.area_nm2(clip.difference(trace_below, ink)) == 0
+
+
+def test_narrow_features_are_warned_with_their_place_and_overdraw(tmp_path):
+    planned, _ink = plot(tmp_path, "%ADD11C,0.2*%\nD11*\nX0Y0D02*\nX5000000Y0D01*\n")
+    (warning,) = planned.ink.warnings
+    assert warning.pos.line == 6
+    assert "0.2 mm wide" in warning.message and "0.05 mm overdraw per side" in warning.message
+
+
+def test_two_pens_widest_first_and_the_narrow_one_reaches_the_corners(tmp_path):
+    body = "%ADD10R,3X3*%\nD10*\nX5000000Y5000000D03*\n"
+    one, ink_one = plot(tmp_path, body, pens=(800_000,))
+    two, ink_two = plot(tmp_path, body, pens=(800_000, 300_000))
+    pad = [square(3_500_000, 3_500_000, 6_500_000, 6_500_000)]
+    assert list(two.job.pen_labels[k] for k in sorted(set(two.job.pen_changes.values()))) == \
+        ["the 0.8 mm pen", "the 0.3 mm pen"]
+    assert len(two.job.pen_changes) == 2
+    left_one = clip.area_nm2(clip.difference(pad, ink_one))
+    assert left_one >= 4 * (4 - math.pi) * 400_000 ** 2 * 0.9
+    # the trace is swept with the narrow pen only (a lower bound): still less left uninked
+    assert clip.area_nm2(clip.difference(pad, ink_two)) < left_one / 3
+
+
+@pytest.mark.parametrize("mode", ["ink", "centre"])
+def test_modes_plan_the_sample_board(mode):
+    from pathlib import Path
+    sample = Path(__file__).resolve().parents[2] / "samples" / "led-blinker.gbr"
+    planned = plan_file(sample, CONFIG, "auto", options=PlanOptions(mode=mode))
+    assert planned.mode == mode and planned.job.mode == mode
+    assert (planned.ink is not None) == (mode == "ink")
+    if mode == "ink":
+        assert planned.plotted.metadata["ink"] and planned.ink.inked_nm2 > 0.99 * planned.ink.copper_nm2
+    else:
+        assert planned.plotted is planned.program
