@@ -38,8 +38,13 @@ def run(console, arguments: list[str]) -> None:
         return
     if len(artwork.program) >= PLANNING_NOTICE_OPS:
         console.say(f"planning {len(artwork.program)} operations ...")
-    planned = plan_file(artwork, config, offset_nm, options=options)  # PlanError: file:line
+    # the accepted proposal is "auto": in ink mode the fills may need more room
+    choice = "auto" if offset_nm == artwork.proposal_nm else offset_nm
+    planned = plan_file(artwork, config, choice, options=options)  # PlanError: file:line
     job, program = planned.job, planned.plotted
+    if planned.offset_nm != offset_nm:
+        console.say(f"offsets     X {_mm(planned.offset_nm[0])} mm, Y {_mm(planned.offset_nm[1])} "
+                    "mm (the ink reaches past the centre lines)")
     if planned.ink is not None:
         for warning in planned.ink.warnings:
             console.say(str(warning))

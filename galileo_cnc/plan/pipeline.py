@@ -129,6 +129,12 @@ def resolve_offset(artwork: Artwork, choice: OffsetChoice) -> tuple[int, int]:
                           f"got {choice!r}") from None
 
 
+def _union_box(a: Box | None, b: Box | None) -> Box | None:
+    if a is None or b is None:
+        return a or b
+    return (min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3]))
+
+
 def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | None = None,
               offset: OffsetChoice = "auto", *, options: PlanOptions = PlanOptions(),
               margin_nm: int = DEFAULT_MARGIN_NM, group: bool = True,
@@ -149,6 +155,12 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
     if mode == "ink":
         ink = ink_program(artwork.program, options.pens_nm or config.pen_widths_nm)
         plotted = ink.program
+        if offset == "auto":
+            # fills reach out to the copper's edges, past the centre lines and flash
+            # points the proposal was made from: the margin is kept from the ink
+            ink_box = extents(plotted, visited=True)
+            offset_nm = offset_for_box(_union_box(artwork.visited_box_nm, ink_box),
+                                       artwork.margin_nm)
     file_order = options.file_order or not group
     if optimize is None:
         optimize = not file_order and plotted.format in ORDERED_FORMATS

@@ -79,7 +79,7 @@ def test_a_narrow_trace_near_another_island_is_cut_not_bridged(tmp_path):
     assert (True, False) in touching and (False, True) in touching
     assert (True, True) not in touching                  # no ink joins A to B
     bridges = planned.ink.bridges
-    assert bridges and all(b.feature.pos.line == 10 for b in bridges)
+    assert bridges and all(b.feature.pos.line == 12 for b in bridges)
     text = " ".join(str(w) for w in planned.ink.warnings)
     assert "would join another copper island at X 1.500" in text
     # the rest of the trace is still drawn (below and above pad B)
@@ -119,3 +119,12 @@ def test_modes_plan_the_sample_board(mode):
         assert planned.plotted.metadata["ink"] and planned.ink.inked_nm2 > 0.99 * planned.ink.copper_nm2
     else:
         assert planned.plotted is planned.program
+
+
+def test_the_auto_offset_keeps_the_margin_from_the_ink_not_the_flash_point(tmp_path):
+    # a 3 mm pad at the origin: its fill reaches 1.35 mm left of the flash point
+    path = tmp_path / "pad.gbr"
+    path.write_text(HEADER + "%ADD10R,3X3*%\nD10*\nX0Y0D03*\nM02*\n")
+    planned = plan_file(path, CONFIG, "auto", options=PlanOptions(mode="ink", pens_nm=(300_000,)))
+    assert planned.artwork.proposal_nm == (-1_000_000, -1_000_000)
+    assert planned.offset_nm == (-1_348_000 - 1_000_000,) * 2
