@@ -186,7 +186,11 @@ def order(chains: list[Piece], start: Point,
 def _nearest_neighbour(chains: list[Piece], start: Point) -> list[Piece]:
     if not chains:
         return []
-    span = max(max(abs(c.start[0]) + abs(c.start[1]) for c in chains), 1)
+    # cells sized to the box of every end and the start, so the ring search from the
+    # start reaches the chains in a few rings (a 1 nm cell once spun for minutes)
+    xs = [p[0] for c in chains for p in (c.start, c.end)] + [start[0]]
+    ys = [p[1] for c in chains for p in (c.start, c.end)] + [start[1]]
+    span = max(max(xs) - min(xs), max(ys) - min(ys), 1)
     cell = max(span // max(int(math.sqrt(len(chains))), 1), 1)
     grid: dict[tuple[int, int], set[int]] = {}
     for cid, c in enumerate(chains):
