@@ -33,20 +33,13 @@ def _run_info(args: argparse.Namespace) -> int:
 
 def _profile(args: argparse.Namespace):
     from galileo_cnc.config.profile import load_profile
+    from galileo_cnc.config.machine import pen_widths_from_text
     profile = load_profile(args.profile, port=args.port, baud=args.baud)
     if getattr(args, "pens", None):
         # in the config, so the journal keeps them and a resumed job inks the same
         profile = dataclasses.replace(profile, config=profile.config.replace(
-            pen_widths_mm=_pen_widths(args.pens)))
+            pen_widths_mm=pen_widths_from_text(args.pens)))
     return profile
-
-
-def _pen_widths(text: str) -> tuple[float, ...]:
-    try:
-        return tuple(float(part) for part in text.split(",") if part.strip())
-    except ValueError:
-        raise GalileoError(f"--pens: expected widths in mm like 0.3 or 0.3,0.8, got {text!r}") \
-            from None
 
 
 def _plan_options(args: argparse.Namespace):

@@ -323,6 +323,15 @@ MAX_PENS, MAX_PEN_MM = 8, 5.0
 _FIELD_NAMES = frozenset(f.name for f in fields(MachineConfig))
 
 
+def pen_widths_from_text(text: str) -> tuple[float, ...]:
+    """`--pens 0.3,0.8` as widths in mm (the config checks their range)."""
+    try:
+        return tuple(float(part) for part in text.split(",") if part.strip())
+    except ValueError:
+        raise ConfigError(f"--pens: expected widths in mm like 0.3 or 0.3,0.8, got {text!r}") \
+            from None
+
+
 def _check_keys(data: Mapping[str, Any], source: str) -> None:
     unknown = sorted(set(data) - _FIELD_NAMES)
     if unknown:

@@ -11,6 +11,7 @@ import os
 
 from prompt_toolkit.completion import PathCompleter
 
+from galileo_cnc.config.machine import pen_widths_from_text
 from galileo_cnc.console.job_screen import JobScreen, report
 from galileo_cnc.machine.timing import duration_text, job_timing
 from galileo_cnc.plan.offsets import offset_from_text
@@ -67,11 +68,7 @@ def _options(console, arguments: list[str]) -> tuple[PlanOptions, object, list[s
         if flag == "--mode" and value in ("ink", "centre"):
             mode = value
         elif flag == "--pens":
-            try:
-                config = config.replace(pen_widths_mm=tuple(float(w) for w in value.split(",")))
-            except ValueError:
-                raise GalileoError(f"--pens: expected widths in mm like 0.3,0.8, got {value!r}") \
-                    from None
+            config = config.replace(pen_widths_mm=pen_widths_from_text(value))
         else:
             raise GalileoError(f"getg: unknown option {flag} {value}".rstrip()
                                + " (getg [--mode ink|centre] [--pens MM,MM] [FILE])")

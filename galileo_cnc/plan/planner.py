@@ -161,7 +161,7 @@ def _label_pens(job: Job, program: Program) -> None:
     """What each pen change asks for, and each pen's width (for previews and benches):
     ink pens by their width, Gerber apertures by their D code and shape."""
     ink = program.metadata.get("ink", False)
-    for key in set(job.pen_changes.values()) | set(job.aperture) - {NO_TOOL}:
+    for key in set(job.aperture) - {NO_TOOL}:       # pen changes name these too
         aperture = program.apertures.get(key)
         if aperture is None:
             job.pen_labels[key] = f"D{key}"

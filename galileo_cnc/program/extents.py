@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from galileo_cnc.program.geometry import arc_extremes
-from galileo_cnc.program.ops import KIND, POSITIONED_KINDS, TOOL, X, Y, I, J, OpKind, Program
+from galileo_cnc.program.ops import KIND, POSITIONED_KINDS, TOOL, VALUE, X, Y, I, J, OpKind, Program
 
 _DRAWN = (OpKind.LINE, OpKind.ARC_CW, OpKind.ARC_CCW)
 
@@ -21,6 +21,13 @@ def start_points(table: np.ndarray) -> np.ndarray:
     known = previous >= 0
     starts[known] = table[previous[known]][:, [X, Y]]
     return starts
+
+
+def dark_mask(table: np.ndarray) -> np.ndarray:
+    """True for rows under dark polarity: the last %LP before them (dark at the start)."""
+    kind = table[:, KIND]
+    last = np.maximum.accumulate(np.where(kind == OpKind.POLARITY, np.arange(len(table)), -1))
+    return np.where(last >= 0, table[np.maximum(last, 0), VALUE] != 0, True)
 
 
 def region_mask(table: np.ndarray) -> np.ndarray:

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from galileo_cnc.plan.ink import clip as clip_ops
 from galileo_cnc.plan.ink.shapes import signed_area2
 
 Polygon = tuple  # (shell ring, [hole rings]), int64 (n, 2) arrays
@@ -78,19 +79,7 @@ class ClipperBackend:
         return []
 
     def _execute(self, operation, subject: list, clip: list) -> list:
-        pc = self.pc
-        clipper = pc.Pyclipper()
-        added = False
-        for paths, role in ((subject, pc.PT_SUBJECT), (clip, pc.PT_CLIP)):
-            if paths:
-                try:
-                    clipper.AddPaths(paths, role, True)
-                    added = True
-                except pc.ClipperException:  # only degenerate paths (< 3 points or no area)
-                    pass
-        if not added:
-            return []
-        return clipper.Execute(operation, pc.PFT_POSITIVE, pc.PFT_POSITIVE)
+        return clip_ops.boolean(operation, subject, clip)
 
     def unite(self, image: list, batch: list) -> list:
         if not batch:
@@ -118,22 +107,8 @@ class ClipperBackend:
 
     def polygons(self, image: list) -> list[Polygon]:
         """(shell, holes) polygons, shells CCW and holes CW, as int64 arrays."""
-        if not image:
-            return []
-        clipper = self.pc.Pyclipper()
-        clipper.StrictlySimple = True  # as finish(): cheap on an image already united
-        clipper.AddPaths(image, self.pc.PT_SUBJECT, True)
-        tree = clipper.Execute2(self.pc.CT_UNION, self.pc.PFT_POSITIVE, self.pc.PFT_POSITIVE)
-        found = []
-        stack = list(tree.Childs)
-        while stack:
-            outer = stack.pop()
-            holes = []
-            for hole in outer.Childs:
-                holes.append(np.array(hole.Contour, dtype=np.int64))
-                stack.extend(hole.Childs)  # islands inside holes
-            found.append((np.array(outer.Contour, dtype=np.int64), holes))
-        return found
+        # strict as finish(): cheap on an image already united
+        return clip_ops.components(image, strict=True)
 
     def area(self, image: list) -> float:
         return float(sum(self.pc.Area(path) for path in image))

@@ -42,7 +42,9 @@ def stroke(paths: list, radius_nm: int, tolerance_nm: int) -> PolygonSet:
     return engine.Execute(float(radius_nm))
 
 
-def _boolean(operation, subject: PolygonSet, clip: PolygonSet) -> PolygonSet:
+def boolean(operation, subject: PolygonSet, clip: PolygonSet) -> PolygonSet:
+    """Clipper's `operation` (pc.CT_...) of two sets, positive winding; degenerate
+    rings (no area) are ignored."""
     clipper = pc.Pyclipper()
     added = False
     for paths, role in ((subject, pc.PT_SUBJECT), (clip, pc.PT_CLIP)):
@@ -58,19 +60,19 @@ def _boolean(operation, subject: PolygonSet, clip: PolygonSet) -> PolygonSet:
 
 
 def union(*sets: PolygonSet) -> PolygonSet:
-    return _boolean(pc.CT_UNION, [ring for s in sets for ring in s], [])
+    return boolean(pc.CT_UNION, [ring for s in sets for ring in s], [])
 
 
 def difference(subject: PolygonSet, clip: PolygonSet) -> PolygonSet:
     if not subject or not clip:
         return list(subject)
-    return _boolean(pc.CT_DIFFERENCE, subject, clip)
+    return boolean(pc.CT_DIFFERENCE, subject, clip)
 
 
 def intersection(subject: PolygonSet, clip: PolygonSet) -> PolygonSet:
     if not subject or not clip:
         return []
-    return _boolean(pc.CT_INTERSECTION, subject, clip)
+    return boolean(pc.CT_INTERSECTION, subject, clip)
 
 
 def opening(polygons: PolygonSet, radius_nm: int, tolerance_nm: int) -> PolygonSet:
@@ -88,12 +90,15 @@ def rings_as_arrays(polygons: PolygonSet) -> list[np.ndarray]:
     return [np.asarray(ring, dtype=np.int64) for ring in polygons if len(ring) >= 3]
 
 
-def components(polygons: PolygonSet) -> list[tuple[np.ndarray, list[np.ndarray]]]:
+def components(polygons: PolygonSet, strict: bool = False
+               ) -> list[tuple[np.ndarray, list[np.ndarray]]]:
     """The set's connected pieces: (outer ring, [hole rings]), an island inside a
-    hole being a piece of its own."""
+    hole being a piece of its own. `strict`: no ring touches itself or another at a
+    vertex (valid OGC polygons)."""
     if not polygons:
         return []
     clipper = pc.Pyclipper()
+    clipper.StrictlySimple = strict
     try:
         clipper.AddPaths(polygons, pc.PT_SUBJECT, True)
     except pc.ClipperException:

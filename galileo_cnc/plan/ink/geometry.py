@@ -21,11 +21,10 @@ import numpy as np
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.plan.ink import shapes
 from galileo_cnc.plan.ink.backends import make_backend
-from galileo_cnc.program.extents import region_mask, start_points
+from galileo_cnc.program.extents import dark_mask, region_mask, start_points
 from galileo_cnc.program.ops import (
     KIND,
     TOOL,
-    VALUE,
     Aperture,
     I,
     J,
@@ -41,7 +40,6 @@ DEFAULT_BACKEND = "clipper"
 _LINE, _ARC_CW, _ARC_CCW = int(OpKind.LINE), int(OpKind.ARC_CW), int(OpKind.ARC_CCW)
 _FLASH, _MOVE = int(OpKind.FLASH), int(OpKind.MOVE)
 _REGION_BEGIN, _REGION_END = int(OpKind.REGION_BEGIN), int(OpKind.REGION_END)
-_POLARITY = int(OpKind.POLARITY)
 _STROKES = (_LINE, _ARC_CW, _ARC_CCW)
 
 
@@ -122,10 +120,7 @@ class _Inker:
         kind = table[:, KIND]
         self.starts = start_points(table)
         inside = region_mask(table)
-        index = np.arange(len(table))
-        # Polarity in force at each row: the last %LP before it, dark at the start.
-        last = np.maximum.accumulate(np.where(kind == _POLARITY, index, -1))
-        dark = np.where(last >= 0, table[np.maximum(last, 0), VALUE] != 0, True)
+        dark = dark_mask(table)
         objects = np.flatnonzero(((np.isin(kind, _STROKES) | (kind == _FLASH)) & ~inside)
                                  | (kind == _REGION_BEGIN))
         self.region_end = dict(zip(np.flatnonzero(kind == _REGION_BEGIN).tolist(),

@@ -25,8 +25,8 @@ import numpy as np
 from galileo_cnc.errors import SourcePos
 from galileo_cnc.plan.ink import clip, shapes
 from galileo_cnc.plan.ink.edges import EdgeIndex, point_to_edges, points_to_edges
-from galileo_cnc.program.extents import region_mask, start_points
-from galileo_cnc.program.ops import (COL, I, J, KIND, LINE, NO_TOOL, TOOL, VALUE, X, Y,
+from galileo_cnc.program.extents import dark_mask, region_mask, start_points
+from galileo_cnc.program.ops import (COL, I, J, KIND, LINE, NO_TOOL, TOOL, X, Y,
                                      Aperture, OpKind, Program)
 
 #: Extra distance kept between a centre line's ink and other copper: the stepped
@@ -37,7 +37,6 @@ SAMPLE_NM = 5_000
 
 _LINE, _CW, _CCW, _FLASH = (int(OpKind.LINE), int(OpKind.ARC_CW), int(OpKind.ARC_CCW),
                             int(OpKind.FLASH))
-_POLARITY = int(OpKind.POLARITY)
 
 
 @dataclass
@@ -88,10 +87,7 @@ def find_narrow(program: Program, limit_nm: int, pen_nm: int,
     `pen_nm`; also the count of zero-size objects (they make no copper)."""
     table = program.table
     kind = table[:, KIND]
-    index = np.arange(len(table))
-    last = np.maximum.accumulate(np.where(kind == _POLARITY, index, -1))
-    dark = np.where(last >= 0, table[np.maximum(last, 0), VALUE] != 0, True)
-    candidates = np.isin(kind, (_LINE, _CW, _CCW, _FLASH)) & dark & ~region_mask(table)
+    candidates = np.isin(kind, (_LINE, _CW, _CCW, _FLASH)) & dark_mask(table) & ~region_mask(table)
     starts = start_points(table)
     widths = {code: aperture_width(ap) for code, ap in program.apertures.items()
               if ap.shape != "block"}
@@ -226,10 +222,7 @@ def _runs(mask: np.ndarray) -> list[np.ndarray]:
 
 
 def _nearest_point(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[int, int]:
-    a = a.astype(np.float64)
-    d = b.astype(np.float64) - a
-    length2 = np.einsum("ij,ij->i", d, d)
-    t = np.clip(np.einsum("ij,ij->i", p - a, d) / np.where(length2 > 0, length2, 1.0), 0, 1)
-    closest = a + d * t[:, None]
-    best = int(np.argmin(np.hypot(*(closest - p).T)))
-    return (int(round(closest[best][0])), int(round(closest[best][1])))
+    t, distance = point_to_edges(p.astype(np.float64), a, b)
+    best = int(np.argmin(distance))
+    point = a[best] + (b[best] - a[best]) * t[best]
+    return (int(round(point[0])), int(round(point[1])))
