@@ -7,7 +7,11 @@
    Program with Pillow ("galileo"); for G-code, its own drawn paths;
 2. pen-up travel as thin grey lines and pen-down strokes in dark blue, both
    rebuilt from the reference machine's step trace, so the picture shows what
-   the machine does, not what the file says.
+   the machine does, not what the file says;
+3. given the `job`, each pen's strokes at that pen's width (round ends, a flash
+   as the pen's disc); given the `copper` as well (an ink plan's), the copper the
+   ink leaves bare and the ink outside the copper in colours of their own, with
+   their areas in PreviewInfo (docs/preview.md, "Ink").
 
 Artwork coordinates are the file's (nm); subtracting `offset_nm` gives work
 coordinates, the frame the job and its trace use (docs/preview.md).
@@ -30,16 +34,20 @@ from PIL import Image, ImageDraw
 from galileo_cnc.preview.artwork import (BACKGROUND, DEFAULT_PYGERBER_LIMIT, PixelFrame,
                                          artwork_box, draw_program, paste_pygerber)
 from galileo_cnc.config.machine import MachineConfig
-from galileo_cnc.machine.planner import JobSteps
+from galileo_cnc.job import ArcTo, Flash, Job, LineTo, PenDown
+from galileo_cnc.machine.blocks import Pause
+from galileo_cnc.machine.planner import JobSteps, ReferenceMachine
 from galileo_cnc.machine.trace import Trace
+from galileo_cnc.program.ops import NM_PER_MM, Program
 
 #: a step trace in memory, or one stepped piece by piece as it is read
 Steps = Union[Trace, JobSteps]
-from galileo_cnc.program.ops import Program
 
 # Colours (RGB): strong strokes over the light artwork (artwork.ART), so both stay readable.
 STROKE = (20, 40, 160)          # dark blue
 TRAVEL = (190, 190, 190)        # light grey
+UNINKED = (255, 120, 0)         # orange: copper the ink leaves bare
+OUTSIDE = (220, 0, 200)         # magenta: ink outside the copper
 
 DEFAULT_PX_PER_MM = 20.0
 DEFAULT_MAX_PX = 4000
@@ -60,14 +68,22 @@ class PreviewInfo:
     stroke_box_mm: tuple[float, float, float, float] | None
     view_mm: tuple[float, float, float, float]   # the area the image shows
     notes: list[str] = field(default_factory=list)  # e.g. why pygerber was not used
+    # Given the copper (mm², counted in pixels of the image; None without copper):
+    uninked_mm2: float | None = None    # copper no stroke covers
+    outside_mm2: float | None = None    # strokes outside the copper
 
     def summary(self) -> str:
-        """One line for the user: size, artwork renderer, what the pen drew."""
+        """One line for the user: size, artwork renderer, what the pen drew (and,
+        with copper, what it left bare and drew outside)."""
         art = {"pygerber": "artwork by pygerber", "galileo": "artwork by galileo-cnc",
                "none": "no artwork"}.get(self.renderer, self.renderer)
         why = f" ({'; '.join(self.notes)})" if self.notes else ""
+        ink = ""
+        if self.uninked_mm2 is not None:
+            ink = (f", {self.uninked_mm2:.2f} mm² copper uninked, "
+                   f"{self.outside_mm2:.2f} mm² ink outside the copper")
         return (f"{self.width_px}x{self.height_px} px, {art}{why}, {self.strokes} pen strokes, "
-                f"{self.drawn_mm:.1f} mm drawn")
+                f"{self.drawn_mm:.1f} mm drawn{ink}")
 
     def pixel(self, x_mm: float, y_mm: float) -> tuple[int, int]:
         """(column, row) of the pixel showing work point (x_mm, y_mm)."""
@@ -82,7 +98,9 @@ def render_preview(program: Program, trace: Steps, config: MachineConfig,
                    px_per_mm: float = DEFAULT_PX_PER_MM, max_px: int = DEFAULT_MAX_PX,
                    margin_mm: float = 2.0, pen_width_mm: float = 0.15,
                    artwork: bool = True, travel: bool = True,
-                   pygerber_limit: int = DEFAULT_PYGERBER_LIMIT) -> PreviewInfo:
+                   pygerber_limit: int = DEFAULT_PYGERBER_LIMIT,
+                   job: Job | None = None, pen_widths_nm: dict[int, int] | None = None,
+                   copper=None, ink_tolerance_nm: int | None = None) -> PreviewInfo:
     """Draw the trace's pen strokes over the artwork and save the image (PNG etc.).
 
     `trace` must be the run of the job planned from `program` with `offset_nm`,
@@ -91,7 +109,19 @@ def render_preview(program: Program, trace: Steps, config: MachineConfig,
 
     The trace is read in chunks of _CHUNK_STEPS steps, twice: once for the view
     and the pen-up/pen-down runs, once to draw (docs/preview.md, "Cost").
+
+    Ink (docs/preview.md, "Ink"): given `job` (the job `trace` is the run of), each
+    pen-down run is drawn as the pen inks it: at the width of the pen in the holder
+    (`pen_widths_nm`, pen key -> nm, by default `job.pen_widths_nm`; `pen_width_mm`
+    for a pen of width 0 or unknown), round, a flash as the pen's disc. `copper`
+    (an ink plan's `DarkImage`, or a pyclipper polygon set; program nm, like the
+    artwork) paints the copper no stroke covers in UNINKED and the strokes outside
+    it in OUTSIDE, and fills in `uninked_mm2` and `outside_mm2`; misses and spills
+    within `ink_tolerance_nm` (default one motor step) are not counted.
     """
+    if pen_widths_nm is not None and job is None:
+        raise ValueError("pen_widths_nm needs the job: it says which pen draws when")
+    as_inked = job is not None or copper is not None
     notes: list[str] = []
     runs = _scan_runs(trace, start, config)
     # The artwork's box and the head path decide the view and the scale.
@@ -118,9 +148,21 @@ def render_preview(program: Program, trace: Steps, config: MachineConfig,
 
     # Travel goes straight onto the canvas; strokes onto a mask painted over it at
     # the end, so one pass draws both and the strokes still cover the travel.
-    stroke_mask = Image.new("L", size, 0)
-    pen_px = max(1, round(pen_width_mm * scale))
-    strokes = _RunPainter(runs.strokes, ImageDraw.Draw(stroke_mask), 255, pen_px, box=True)
+    if as_inked:
+        # each pen's sweep, exactly (_SweepPainter): one painter per pen width
+        ink = np.zeros((size[1], size[0]), dtype=np.uint8)
+        default_nm = round(pen_width_mm * NM_PER_MM)
+        widths = np.full(len(runs.strokes), default_nm, dtype=np.int64) if job is None else \
+            _stroke_widths_nm(runs.strokes, job, config, start, default_nm,
+                              job.pen_widths_nm if pen_widths_nm is None else pen_widths_nm)
+        strokes = [_SweepPainter(runs.strokes[widths == w], ink, w / 2 / NM_PER_MM * scale,
+                                 to_px, spm)
+                   for w in (np.unique(widths).tolist() or [default_nm])]
+    else:
+        stroke_mask = Image.new("L", size, 0)
+        pen_px = max(1, round(pen_width_mm * scale))
+        strokes = [_RunPainter(runs.strokes, ImageDraw.Draw(stroke_mask), 255, pen_px,
+                               box=True)]
     travels = _RunPainter(runs.travel, ImageDraw.Draw(canvas) if travel else None, TRAVEL, 1)
     previous = None                         # pixel of the event before the chunk
     for first, x, y in _events(trace, start, axes=2):
@@ -130,14 +172,198 @@ def render_preview(program: Program, trace: Steps, config: MachineConfig,
         change[1:] = (col[1:] != col[:-1]) | (row[1:] != row[:-1])
         change[0] = previous is None or (col[0], row[0]) != previous
         previous = (col[-1], row[-1])
-        for painter in (strokes, travels):
+        for painter in (*strokes, travels):
             painter.feed(first, x, y, col, row, change)
-    canvas.paste(STROKE, (0, 0) + size, stroke_mask)
+    uninked = outside = None
+    if as_inked:
+        outlines = None
+        if copper is not None:
+            tolerance = config.nm_per_step if ink_tolerance_nm is None else ink_tolerance_nm
+            outlines = _copper_outlines(copper, to_px, offset_nm, max(0, int(tolerance)))
+        bare, stray = _paint_ink(canvas, ink, outlines)
+        if copper is not None:
+            uninked, outside = bare / scale ** 2, stray / scale ** 2
+        del ink
+    else:
+        canvas.paste(STROKE, (0, 0) + size, stroke_mask)
     canvas.save(out_path)
 
+    boxes = [b for b in (p.box_mm(spm) for p in strokes) if b is not None]
+    box = (min(b[0] for b in boxes), min(b[1] for b in boxes),
+           max(b[2] for b in boxes), max(b[3] for b in boxes)) if boxes else None
+    drawn = sum(p.length_steps for p in strokes) / spm
     return PreviewInfo(str(out_path), size[0], size[1], scale, renderer,
-                       len(runs.strokes), strokes.length_steps / spm,
-                       travels.length_steps / spm, strokes.box_mm(spm), view, notes)
+                       len(runs.strokes), drawn, travels.length_steps / spm, box, view, notes,
+                       uninked, outside)
+
+
+# ---- which pen draws when ------------------------------------------------------------
+
+@dataclass(frozen=True)
+class PenStretches:
+    """The pens of a job along its trace: pen `keys[k]` is in the holder from trace
+    event `first_event[k]` (event 0 is the start, event n the head after the n-th
+    tick) to the next stretch. `keys[k]` is None before the first pen is known."""
+
+    first_event: np.ndarray        # int64, increasing, first_event[0] == 0
+    keys: list[int | None]
+
+    def key_at(self, events: np.ndarray) -> list[int | None]:
+        """The pen in the holder at each of the trace events `events`."""
+        at = np.searchsorted(self.first_event, np.asarray(events), side="right") - 1
+        return [self.keys[k] for k in at.tolist()]
+
+
+_DRAWING = (PenDown, LineTo, ArcTo, Flash)
+
+
+def pen_stretches(job: Job, config: MachineConfig,
+                  start: tuple[int, int, int] = (0, 0, 0)) -> PenStretches:
+    """Which pen is in the holder at which trace event, for the trace of `job` stepped
+    from work position `start` by the reference machine.
+
+    A pen change stops the job before command c (job.pen_changes), so the new pen's
+    stretch begins at the first event of command c: 1 + the events of commands
+    0 .. c-1. Each planned move of n events makes n events of the trace, each with a
+    tick of its own (the timing model, machine/timing.py, counts them the same way:
+    the trace's tick of event 1 + events before c is the timing's start of command
+    c, tick for tick; tests/preview/test_ink.py checks it). The commands are planned
+    on a reference machine from one change to the next, up to the last change (no
+    stepping: memory is one stretch's planned moves). Before the first change, the
+    pen is the aperture of the first drawing command (a job with one pen has no
+    change at all)."""
+    changes = sorted(job.pen_changes.items())
+    first_change = changes[0][0] if changes else len(job.commands)
+    initial = next((job.aperture[k] for k in range(min(first_change, len(job.commands)))
+                    if isinstance(job.commands[k], _DRAWING)), None)
+    firsts, keys = [0], [initial]
+    machine = ReferenceMachine(config, start)
+    done, events = 0, 0
+    for command, key in changes:
+        events += sum(item.n for item in machine.plan(job.commands[done:command])
+                      if not isinstance(item, Pause))
+        done = command
+        firsts.append(1 + events)
+        keys.append(key)
+    return PenStretches(np.asarray(firsts, dtype=np.int64), keys)
+
+
+def _stroke_widths_nm(strokes: np.ndarray, job: Job, config: MachineConfig,
+                      start: tuple[int, int, int], default_nm: int,
+                      widths_nm: dict[int, int]) -> np.ndarray:
+    """Pen width (nm) of each stroke run (first, last events): the pen in the holder
+    at its first event; `default_nm` for a pen of width 0 or unknown."""
+    keys = pen_stretches(job, config, start).key_at(strokes[:, 0])
+    width = {key: int(widths_nm.get(key) or 0) for key in set(keys)}
+    return np.array([width[key] if width[key] > 0 else default_nm for key in keys],
+                    dtype=np.int64)
+
+
+# ---- ink over copper -------------------------------------------------------------------
+#
+# The copper is rasterised here, band of rows by band, on the image's own pixel grid
+# (a pixel is copper when its centre is inside, by the positive winding rule of the
+# polygon set), and compared with the same rows of the ink mask: no copper mask of
+# the whole image is ever held.
+
+# Cells (rows x (columns + 1)) of one band's winding accumulator: 8 MB of float64.
+_BAND_CELLS = 1 << 20
+
+
+def _paint_ink(canvas: Image.Image, ink: np.ndarray, outlines) -> tuple[int, int]:
+    """Paint the strokes (`ink`, 255 where inked) in STROKE and, given the copper's
+    `outlines` (_copper_outlines), the copper no stroke covers in UNINKED and the
+    strokes outside the copper in OUTSIDE, but for the pixels within the tolerance
+    of the copper's outline; a band of rows at a time. (uninked pixels, outside
+    pixels)."""
+    width, height = canvas.size
+    band = max(1, _BAND_CELLS // (width + 1))
+    uninked = outside = 0
+    for r0 in range(0, height, band):
+        r1 = min(height, r0 + band)
+        inked = ink[r0:r1] != 0
+        paint = [(STROKE, inked)]
+        if outlines is not None:
+            inner, outer = (_copper_rows(edges, r0, r1, width) for edges in outlines)
+            bare, stray = inner & ~inked, inked & ~outer
+            uninked += int(np.count_nonzero(bare))
+            outside += int(np.count_nonzero(stray))
+            paint += [(UNINKED, bare), (OUTSIDE, stray)]
+        for colour, mask in paint:
+            if mask.any():
+                canvas.paste(colour, (0, r0, width, r1), Image.fromarray(mask))
+    return uninked, outside
+
+
+def _copper_outlines(copper, to_px, offset_nm, tolerance_nm: int):
+    """The edges (_copper_edges) of the copper shrunk and grown by the tolerance:
+    bare copper counts inside the first, ink outside the copper outside the second,
+    so a miss or a spill of less than the tolerance (the planner's edge margin, a
+    step's rounding) is neither."""
+    from galileo_cnc.plan.ink import clip     # pyclipper: only previews with copper need it
+
+    rings = _copper_rings(copper)
+    if tolerance_nm <= 0:
+        edges = _copper_edges(rings, to_px, offset_nm)
+        return edges, edges
+    arc = max(1, tolerance_nm // 8)          # round corners within 1/8 of the tolerance
+    return (_copper_edges(clip.offset(rings, -tolerance_nm, arc), to_px, offset_nm),
+            _copper_edges(clip.offset(rings, tolerance_nm, arc), to_px, offset_nm))
+
+
+def _copper_rings(copper) -> list:
+    """The rings of a DarkImage (its pyclipper set, or shells and holes of another
+    backend's) or of a pyclipper polygon set."""
+    native = getattr(copper, "native", copper)
+    if isinstance(native, list):
+        return [ring for ring in native if len(ring) >= 3]
+    return [ring for shell, holes in copper.polygons() for ring in (shell, *holes)]
+
+
+def _copper_edges(rings: list, to_px, offset_nm) -> np.ndarray:
+    """(E, 5) float64: the edges of the rings (program nm) that cross a row of pixel
+    centres, in pixel coordinates, as (top row, bottom row, column at the top,
+    columns per row, winding): +1 going down the image (a counter-clockwise ring's
+    left side)."""
+    ox, oy = offset_nm
+    parts = []
+    for ring in rings:
+        points = np.asarray(ring, dtype=np.float64).reshape(-1, 2)
+        if len(points) < 3:
+            continue
+        col, row = to_px.xy((points[:, 0] - ox) / NM_PER_MM, (points[:, 1] - oy) / NM_PER_MM)
+        c0, r0 = col, row
+        c1, r1 = np.roll(col, -1), np.roll(row, -1)
+        down = r1 > r0
+        top, bottom = np.where(down, r0, r1), np.where(down, r1, r0)
+        crosses = np.ceil(top) < np.ceil(bottom)          # some centre row in [top, bottom)
+        top_col = np.where(down, c0, c1)
+        slope = (np.where(down, c1, c0) - top_col)[crosses] / (bottom - top)[crosses]
+        parts.append(np.stack([top[crosses], bottom[crosses], top_col[crosses], slope,
+                               np.where(down, 1.0, -1.0)[crosses]], axis=1))
+    return np.concatenate(parts) if parts else np.zeros((0, 5))
+
+
+def _copper_rows(edges: np.ndarray, r0: int, r1: int, width: int) -> np.ndarray:
+    """(r1 - r0, width) bool: pixels of rows r0 .. r1-1 whose centre is inside the
+    copper (winding number > 0). Each edge crosses the rows of centres in
+    [top, bottom); a crossing at column x adds its winding to the pixels from
+    ceil(x) rightwards."""
+    first = np.maximum(np.ceil(edges[:, 0]), r0).astype(np.int64)
+    stop = np.minimum(np.ceil(edges[:, 1]), r1).astype(np.int64)
+    here = stop > first
+    if not here.any():
+        return np.zeros((r1 - r0, width), dtype=bool)
+    first, stop, edge = first[here], stop[here], edges[here]
+    count = stop - first
+    which = np.repeat(np.arange(len(first)), count)
+    row = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count) + first[which]
+    column = edge[which, 2] + (row - edge[which, 0]) * edge[which, 3]
+    at = np.clip(np.ceil(column), 0, width).astype(np.int64)
+    winding = np.bincount((row - r0) * (width + 1) + at, weights=edge[which, 4],
+                          minlength=(r1 - r0) * (width + 1))
+    inside = np.cumsum(winding.reshape(r1 - r0, width + 1), axis=1)[:, :width]
+    return inside > 0.5
 
 
 # ---- the head path, from the trace -----------------------------------------------
@@ -302,8 +528,11 @@ class _RunPainter:
         if self.draw is not None:
             keep = change[index] | starts | stops
             kept = index[keep]
-            self._paint(np.stack([col[kept], row[kept]], axis=1).astype(np.float32),
-                        run[keep], end)
+            self._paint(self._points(x, y, col, row, kept), run[keep], end)
+
+    def _points(self, x, y, col, row, kept) -> np.ndarray:
+        """The kept events as the points to draw: their pixels."""
+        return np.stack([col[kept], row[kept]], axis=1).astype(np.float32)
 
     def _length(self, x, y, index, run, event, stops) -> None:
         """Length over samples every _LENGTH_SAMPLE events from each run's first,
@@ -346,6 +575,84 @@ class _RunPainter:
                     self.draw.ellipse((x0 - dot, y0 - dot, x0 + dot, y0 + dot), fill=self.colour)
             else:
                 self._open = (r, piece[-2:].copy(), origin, left)
+
+
+class _SweepPainter(_RunPainter):
+    """Strokes as a round pen of `radius_px` inks them: 255 in `ink` (rows x columns,
+    uint8) at the pixels whose centre is within the radius of the path. The path is
+    the run's events thinned to those that change pixel, as for _RunPainter, but at
+    their exact positions (Pillow would put them on whole pixels and draw a whole
+    number of pixels wide, the odd one on a side that depends on the direction). A
+    run's path continues across chunks from its last point; a run of one point is
+    the pen's disc."""
+
+    def __init__(self, runs: np.ndarray, ink: np.ndarray, radius_px: float,
+                 to_px: PixelFrame, steps_per_mm: float):
+        super().__init__(runs, ink, 255, 0, box=True)
+        self.radius, self.to_px, self.spm = float(radius_px), to_px, steps_per_mm
+
+    def _points(self, x, y, col, row, kept) -> np.ndarray:
+        c, r = self.to_px.xy(x[kept] / self.spm, y[kept] / self.spm)
+        return np.stack([c, r], axis=1)
+
+    def _paint(self, points: np.ndarray, run: np.ndarray, end: int) -> None:
+        if not len(run):
+            return
+        starts, ends = [], []
+        cuts = np.flatnonzero(run[1:] != run[:-1]) + 1
+        for lo, hi in zip([0, *cuts.tolist()], [*cuts.tolist(), len(run)]):
+            r = int(run[lo])
+            piece = points[lo:hi]
+            if self._open is not None and self._open[0] == r:
+                piece = np.concatenate([self._open[1], piece])
+            if len(piece) > 1:
+                starts.append(piece[:-1])
+                ends.append(piece[1:])
+            else:                                     # a dot, so far
+                starts.append(piece)
+                ends.append(piece)
+            self._open = None if self.last[r] < end else (r, piece[-1:].copy())
+        _sweep(self.draw, np.concatenate(starts), np.concatenate(ends), self.radius)
+
+
+# Candidate pixels tested at once by _sweep: some 20 MB of temporaries.
+_SWEEP_BATCH = 1 << 18
+
+
+def _sweep(ink: np.ndarray, a: np.ndarray, b: np.ndarray, radius: float) -> None:
+    """Set to 255 the pixels of `ink` whose centre is within `radius` of a segment
+    a[k]-b[k] (pixel coordinates, centres at integers). Each segment's box of pixels
+    is tested; boxes of one size are tested together (the thinned paths' segments
+    are a pixel or two long, so there are few sizes), a batch at a time."""
+    height, width = ink.shape
+    lo = np.ceil(np.minimum(a, b) - radius).astype(np.int64)
+    hi = np.floor(np.maximum(a, b) + radius).astype(np.int64)
+    np.maximum(lo, 0, out=lo)
+    np.minimum(hi, (width - 1, height - 1), out=hi)
+    span = hi - lo + 1
+    inside = (span > 0).all(axis=1)
+    if not inside.any():
+        return
+    a, b, lo, span = a[inside], b[inside], lo[inside], span[inside]
+    flat = ink.reshape(-1)
+    sizes, group = np.unique(span, axis=0, return_inverse=True)
+    group = group.reshape(-1)
+    for g, (columns, rows) in enumerate(sizes.tolist()):
+        members = np.flatnonzero(group == g)
+        per_batch = max(1, _SWEEP_BATCH // (columns * rows))
+        for first in range(0, len(members), per_batch):
+            k = members[first:first + per_batch]
+            col = lo[k, 0, None, None] + np.arange(columns)[None, None, :]
+            row = lo[k, 1, None, None] + np.arange(rows)[None, :, None]
+            ax, ay = a[k, 0, None, None], a[k, 1, None, None]
+            dx, dy = b[k, 0, None, None] - ax, b[k, 1, None, None] - ay
+            length2 = dx * dx + dy * dy
+            px, py = col - ax, row - ay
+            t = np.clip((px * dx + py * dy) / np.where(length2 > 0, length2, 1.0), 0.0, 1.0)
+            px = px - t * dx
+            py = py - t * dy
+            near = px * px + py * py <= radius * radius
+            flat[(row * width + col)[near]] = 255
 
 
 # ---- view and pixels ---------------------------------------------------------------

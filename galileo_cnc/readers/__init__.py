@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import os
 
-from galileo_cnc.errors import GalileoError, UnknownFormatError
+from galileo_cnc.errors import SourcePos
 from galileo_cnc.program.ops import Program
 from galileo_cnc.readers.dxf import looks_like_dxf, read_dxf
+from galileo_cnc.readers.dxf.scan import BINARY_SENTINEL
 from galileo_cnc.readers.gcode import looks_like_gcode, read_gcode
 from galileo_cnc.readers.gerber import looks_like_gerber, read_gerber
+from galileo_cnc.readers.source import (UnrecognisedFileError, binary_error, decode,
+                                        first_binary_byte, read_bytes)
 
 
 def detect_format(text: str) -> str | None:
@@ -22,21 +25,32 @@ def detect_format(text: str) -> str | None:
     return None
 
 
-def read_file(path: str | os.PathLike) -> Program:
-    """Read a Gerber, G-code or DXF file into a Program; errors name the file and line."""
-    try:
-        with open(path, "rb") as handle:
-            text = handle.read().decode("utf-8", errors="replace")
-    except OSError as problem:
-        raise GalileoError(f"{path}: cannot read: {problem.strerror or problem}") from None
+def read_file(path: str | os.PathLike, *, max_ops: int | None = None) -> Program:
+    """Read a Gerber, G-code or DXF file into a Program; errors name the file and line.
+
+    Only regular text files are read (see readers/source.py); `max_ops` overrides the
+    op limit (readers/limits.py, $GALILEO_MAX_OPS).
+    """
+    data = read_bytes(path)
+    if data.startswith(BINARY_SENTINEL):
+        return read_dxf(path, max_ops=max_ops)  # binary DXF
+    at = first_binary_byte(data)
+    if at is not None:
+        raise binary_error(os.fsdecode(path), data, at)
+    text = decode(data)
+    del data
     fmt = detect_format(text)
     if fmt == "gerber":
-        return read_gerber(path, text)
+        return read_gerber(path, text, max_ops=max_ops)
     if fmt == "gcode":
-        return read_gcode(path, text)
+        return read_gcode(path, text, max_ops=max_ops)
     if fmt == "dxf":
-        return read_dxf(path)             # reads the bytes itself: binary DXF too
-    raise UnknownFormatError(
-        f"{path}: neither a Gerber RS-274X, a G-code nor a DXF file "
-        "(Gerber starts with %FS/%MO/G04, G-code with G/M/N words, DXF with a 0/SECTION "
-        "group)")
+        del text
+        return read_dxf(path, max_ops=max_ops)  # reads the bytes itself: binary DXF too
+    blank = len(text) - len(text.lstrip())
+    line = text.count("\n", 0, blank) + 1
+    raise UnrecognisedFileError(
+        SourcePos(os.fsdecode(path), line, 1),
+        ("the file is empty: " if not text.strip() else "")
+        + "neither a Gerber RS-274X, a G-code nor a DXF file (Gerber starts with %FS/%MO/G04, "
+        "G-code with G/M/N words, DXF with a 0/SECTION group)", text[blank:blank + 80])

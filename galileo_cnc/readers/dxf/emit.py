@@ -14,6 +14,7 @@ import math
 
 from galileo_cnc.errors import SourcePos
 from galileo_cnc.program.ops import NO_TOOL, OpKind, ProgramBuilder
+from galileo_cnc.readers import limits
 from galileo_cnc.readers.dxf import geometry as geo
 from galileo_cnc.readers.dxf.errors import DxfError
 from galileo_cnc.readers.dxf.scan import EntityLines
@@ -46,6 +47,7 @@ class Emitter:
         self.widths_noted: int | None = None
         self.paths = 0
         self.joined = 0
+        self.max_ops = limits.MAX_OPS
 
     def entity(self, info: EntityLines | None, handle: str | None) -> None:
         """The entity whose paths follow (for the rows' lines and the handle map)."""
@@ -137,6 +139,9 @@ class Emitter:
             emit(_PEN_DOWN, 0, 0, 0, 0, NO_TOOL, 0, line, 1)
         for kind, x, y, i, j, line in rows:
             emit(kind, x, y, i, j, NO_TOOL, 0, line, 1)
+        if self.out.count() > self.max_ops:
+            raise DxfError(SourcePos(self.source, max(self.line, 1), 1),
+                           limits.ops_message(self.max_ops, "by this entity the drawing makes"))
         self.paths += 1
         if self.handle:
             self.handles.setdefault(first, self.handle)

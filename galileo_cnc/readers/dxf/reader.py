@@ -13,9 +13,11 @@ from typing import Iterable
 
 from galileo_cnc.errors import SourcePos
 from galileo_cnc.program.ops import Program, ProgramBuilder
+from galileo_cnc.readers import limits
 from galileo_cnc.readers.dxf.errors import DxfError
 from galileo_cnc.readers.dxf.scan import BINARY_SENTINEL, scan_ascii, scan_binary
 from galileo_cnc.readers.dxf.units import INSUNITS, UNIT_NAMES, Scale
+from galileo_cnc.readers.source import FileAccessError, check_text, read_bytes
 
 DEFAULT_TOLERANCE_NM = 5000
 # Units of the inch family: Program.units says "in" for these, "mm" for the others.
@@ -24,7 +26,7 @@ _IMPERIAL = frozenset(["in", "ft", "mi", "uin", "mil", "yd", "us-ft", "us-in", "
 
 def read_dxf(path: str | os.PathLike, *, units: str | None = None,
              layers: Iterable[str] | str | None = None, tolerance_nm: int = DEFAULT_TOLERANCE_NM,
-             points: bool = False) -> Program:
+             points: bool = False, max_ops: int | None = None) -> Program:
     """Read the DXF file at `path` (see docs/dxf.md).
 
     units: "mm" or "in" (or another name in units.UNIT_NAMES) overrides $INSUNITS.
@@ -33,6 +35,8 @@ def read_dxf(path: str | os.PathLike, *, units: str | None = None,
     tolerance_nm: how far the lines and arcs that stand for an ELLIPSE, a SPLINE or
         a non-uniformly scaled circle may stray from it.
     points: draw POINT entities as dots (a zero-length pen-down).
+    max_ops: the op limit (readers/limits.py; None: $GALILEO_MAX_OPS or MAX_OPS). Block
+        expansion has its own limit (MAX_BLOCK_ENTITIES, $GALILEO_MAX_BLOCK_ENTITIES).
     """
     name = path if isinstance(path, str) else os.fsdecode(path)
     if not (isinstance(tolerance_nm, (int, float)) and tolerance_nm > 0):
@@ -45,12 +49,12 @@ def read_dxf(path: str | os.PathLike, *, units: str | None = None,
             raise DxfError(SourcePos(name, 0, 0), f"unknown unit {units!r}: use one of "
                            + ", ".join(sorted(set(UNIT_NAMES) - {"µm"})))
     try:
-        with open(name, "rb") as handle:
-            data = handle.read()
-    except OSError as problem:
-        raise DxfError(SourcePos(name, 0, 0),
-                       f"cannot read the file: {problem.strerror or problem}") from None
+        data = read_bytes(name)
+    except FileAccessError as problem:  # missing, not a regular file, too big
+        raise DxfError(SourcePos(name, 0, 0), f"cannot read the file: {problem.why}") from None
     binary = data.startswith(BINARY_SENTINEL)
+    if not binary:
+        check_text(name, data, DxfError)
     scan = scan_binary(name, data) if binary else scan_ascii(name, data)
 
     from galileo_cnc.readers.dxf.load import load  # ezdxf is imported only to read a file
@@ -79,6 +83,7 @@ def read_dxf(path: str | os.PathLike, *, units: str | None = None,
     all_layers = _layer_names(doc, attribute)
     selection = _selection(name, layers, all_layers)
     emitter = Emitter(out, Scale(factor), name)
+    emitter.max_ops = limits.max_ops(max_ops)
     walker = Walker(doc, scan, emitter, tolerance_units, selection, points, name)
     walker.run()
 

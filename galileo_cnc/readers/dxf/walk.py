@@ -25,6 +25,7 @@ from typing import Callable
 from ezdxf.math import OCS, Matrix44, Vec3, arc_angle_span_deg, ellipse_param_span
 
 from galileo_cnc.errors import SourcePos
+from galileo_cnc.readers import limits
 from galileo_cnc.readers.dxf import geometry as geo
 from galileo_cnc.readers.dxf.errors import DxfError
 from galileo_cnc.readers.dxf.scan import MODELSPACE, EntityLines, Scan
@@ -57,6 +58,10 @@ class Walker:
         self.notes: dict[str, int] = {}  # one-off warnings: message -> line
         self._layout_cache: dict[str, list[EntityLines]] = {}
         self.current: EntityLines | None = None
+        self.visits = 0  # entities visited inside blocks (each copy counted)
+        self.max_visits = limits.max_block_entities()
+        self._expansion: dict[str, int] = {}  # block name -> entities one INSERT of it visits
+        self._expanding: set[str] = set()
         handlers: dict[str, Callable] = {
             "LINE": self._line, "POINT": self._point, "CIRCLE": self._circle,
             "ARC": self._arc, "LWPOLYLINE": self._lwpolyline, "POLYLINE": self._polyline,
@@ -98,6 +103,8 @@ class Walker:
              key: str) -> None:
         listed = self._layout_lines(key)
         aligned = len(listed) == len(entities)
+        if depth:
+            self.visits += len(entities)
         for index, entity in enumerate(entities):
             dxftype = entity.dxftype()
             info = self._find(entity, dxftype, listed, index, aligned)
@@ -150,10 +157,49 @@ class Walker:
                            f"'{name}' insert itself?")
         entities = list(block)
         key = block.name.upper()
-        copies = insert.multi_insert() if insert.mcount > 1 else (insert,)
+        count = insert.mcount if insert.mcount > 1 else 1
+        cost = count * self._expanded(block.name)
+        if self.visits + cost > self.max_visits:
+            line = info.line if info else 0
+            copies = f"{count:,} copies" if count > 1 else "one copy"
+            raise DxfError(SourcePos(self.source, max(line, 1), 1), limits.ops_message(
+                self.max_visits, f"INSERT of block '{name}' ({copies}, nested blocks expanded) "
+                "would draw", "entities through block references",
+                f"set {limits.MAX_BLOCK_ENTITIES_ENV}=<count>"))
+        copies = insert.multi_insert() if count > 1 else (insert,)
         for copy in copies:
             inner = copy.matrix44()
             self.walk(entities, inner if matrix is None else inner @ matrix, layer, depth + 1, key)
+
+    def _expanded(self, name: str, depth: int = 0) -> int:
+        """Entities that walking block `name` once visits, nested INSERTs (and MINSERT
+        cells) expanded, counted without walking them; capped just above the limit (a
+        block that inserts itself counts as beyond it)."""
+        key = name.upper()
+        known = self._expansion.get(key)
+        if known is not None:
+            return known
+        if depth > MAX_BLOCK_DEPTH:
+            return 0  # walking stops there with its own error
+        cap = self.max_visits + 1
+        if key in self._expanding:
+            return cap
+        self._expanding.add(key)
+        total = 0
+        for entity in self.doc.blocks.get(name) or ():
+            total += 1
+            if entity.dxftype() == "INSERT":
+                try:
+                    copies = max(1, int(entity.mcount))
+                except Exception:  # a broken MINSERT: walking it reports the problem
+                    copies = 1
+                total += copies * self._expanded(attribute(entity, "name", ""), depth + 1)
+            if total >= cap:
+                total = cap
+                break
+        self._expanding.discard(key)
+        self._expansion[key] = total
+        return total
 
     def _skip(self, dxftype: str, info: EntityLines | None) -> None:
         self.skipped[dxftype] += 1

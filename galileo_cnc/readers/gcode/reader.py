@@ -11,11 +11,13 @@ from __future__ import annotations
 import io
 import os
 import re
-from typing import Iterable
+from itertools import islice
+from typing import Iterable, Iterator
 
 from galileo_cnc.errors import GcodeError, SourcePos
-from galileo_cnc.program.ops import (NM_PER_INCH, NM_PER_MM, NO_TOOL, OpKind, Program,
-                                     ProgramBuilder)
+from galileo_cnc.program.ops import (COL, COLUMNS, LINE, NM_PER_INCH, NM_PER_MM, NO_TOOL,
+                                     OpKind, Program, ProgramBuilder)
+from galileo_cnc.readers import limits
 from galileo_cnc.readers.gcode import codes
 from galileo_cnc.readers.gcode.arcs import r_form_centre_offset, radius_mismatch
 from galileo_cnc.readers.gcode.lexer import (MAX_FRACTION_DIGITS, MAX_INTEGER_DIGITS, Word,
@@ -44,17 +46,42 @@ _FAST_LINE = re.compile(
     r"(?:([Ff])[ \t]*(\d{1,6}(?:\.\d{0,6})?|\.\d{1,6})[ \t]*)?(?:;.*)?\n?", re.ASCII)
 
 
-def read_gcode(source: str | os.PathLike, text: str | None = None) -> Program:
-    """Read a G-code file (or `text`, with `source` naming it in messages)."""
+# Lines read between two checks of the op limit (limits.MAX_OPS): no per-line cost.
+CHECK_EVERY_LINES = 65_536
+# Characters turned into lines at a time: a whole-text io.StringIO takes four bytes a
+# character, a 1 MB piece at a time as fast and in constant memory.
+_PIECE_CHARS = 1 << 20
+
+
+def read_gcode(source: str | os.PathLike, text: str | None = None, *,
+               max_ops: int | None = None) -> Program:
+    """Read a G-code file (or `text`, with `source` naming it in messages).
+
+    `max_ops` overrides the op limit (readers/limits.py, $GALILEO_MAX_OPS).
+    """
     name = source if isinstance(source, str) else os.fsdecode(source)
-    if text is not None:
-        return _Reader(name).run(io.StringIO(text.removeprefix("\ufeff"), newline=None))
-    try:
-        # Undecodable bytes become U+FFFD: harmless in comments, an error in code.
-        with open(name, encoding="utf-8-sig", errors="replace", newline=None) as lines:
-            return _Reader(name).run(lines)
-    except OSError as exc:
-        raise GcodeError(SourcePos(name, 0, 0), f"cannot read the file: {exc.strerror or exc}")
+    if text is None:
+        from galileo_cnc.readers.source import FileAccessError, read_text
+
+        try:
+            # Undecodable bytes become U+FFFD: harmless in comments, an error in code.
+            text = read_text(name, GcodeError)
+        except FileAccessError as problem:  # missing, not a regular file, too big
+            raise GcodeError(SourcePos(name, 0, 0), f"cannot read the file: {problem.why}") from None
+    return _Reader(name, limits.max_ops(max_ops)).run(_lines(text.removeprefix("\ufeff")))
+
+
+def _lines(text: str) -> Iterator[str]:
+    """The lines of `text` as io.StringIO(text, newline=None) gives them (\\r\\n and \\r
+    read as \\n), a piece at a time; pieces end after a line break."""
+    start, size = 0, len(text)
+    while start < size:
+        end = text.find("\n", start + _PIECE_CHARS)
+        if end < 0:
+            end = text.find("\r", start + _PIECE_CHARS)  # old Mac line ends only
+        end = size if end < 0 else end + 1
+        yield from io.StringIO(text[start:end], newline=None)
+        start = end
 
 
 class _Reader:
@@ -62,8 +89,9 @@ class _Reader:
 
     use_fast_path = True  # tests switch it off to check both paths agree
 
-    def __init__(self, source: str):
+    def __init__(self, source: str, max_ops: int = limits.MAX_OPS):
         self.source = source
+        self.max_ops = max_ops
         self.out = ProgramBuilder(source)
         self.nm_per_unit = NM_PER_MM
         self.file_units: str | None = None
@@ -90,22 +118,36 @@ class _Reader:
     def run(self, lines: Iterable[str]) -> Program:
         line_no = 0
         fast_line = _FAST_LINE.fullmatch if self.use_fast_path else lambda raw: None
-        for line_no, raw in enumerate(lines, 1):
-            fast = fast_line(raw)
-            if fast and not self.ended and self._fast_line(fast, line_no):
-                continue
-            raw = raw.rstrip("\n")
-            if self.ended:
-                self._warn_if_code_after_end(line_no, raw)
-                continue
-            if "%" in raw and raw.strip() == "%":
-                continue  # tape start/end marker
-            words = split_words(raw, self.source, line_no)
-            if words:
-                self.line, self.raw = line_no, raw
-                self._execute(words)
+        numbered = enumerate(lines, 1)
+        while True:
+            before = line_no
+            for line_no, raw in islice(numbered, CHECK_EVERY_LINES):
+                fast = fast_line(raw)
+                if fast and not self.ended and self._fast_line(fast, line_no):
+                    continue
+                raw = raw.rstrip("\n")
+                if self.ended:
+                    self._warn_if_code_after_end(line_no, raw)
+                    continue
+                if "%" in raw and raw.strip() == "%":
+                    continue  # tape start/end marker
+                words = split_words(raw, self.source, line_no)
+                if words:
+                    self.line, self.raw = line_no, raw
+                    self._execute(words)
+            if self.out.count() > self.max_ops:
+                self._too_many_ops()
+            if line_no - before < CHECK_EVERY_LINES:
+                break
         return self.out.build("gcode", self.file_units or "mm", line_count=line_no,
                               metadata={"home_rows": self.home_rows})
+
+    def _too_many_ops(self) -> None:
+        """The op limit is crossed: name the line of the first op beyond it."""
+        row = self.max_ops * len(COLUMNS)
+        line, col = self.out.rows[row + LINE], self.out.rows[row + COL]
+        raise GcodeError(SourcePos(self.source, line, col),
+                         limits.ops_message(self.max_ops, "by this line the file makes"))
 
     def _fast_line(self, m: re.Match, line_no: int) -> bool:
         """Run a line of the _FAST_LINE shape; False leaves it to the general path.

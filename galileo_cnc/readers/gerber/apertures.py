@@ -9,6 +9,7 @@ from fractions import Fraction
 from galileo_cnc.program.ops import Aperture
 from galileo_cnc.readers.gerber.macros import MacroError, MacroTemplate, shapes_extent
 from galileo_cnc.readers.gerber.numbers import parse_decimal, to_nm
+from galileo_cnc.readers.limits import MAX_ROTATION_DEGREES
 
 STANDARD_SHAPES = {"C": "circle", "R": "rectangle", "O": "obround", "P": "polygon"}
 # How many size parameters each standard template takes before the hole.
@@ -62,6 +63,9 @@ def _standard(code: int, template: str, parameters: list[Fraction], units: str) 
         if not 3 <= vertices <= 12:
             raise MacroError(f"polygon aperture needs 3 to 12 vertices, got {vertices}")
         rotation = parameters[2] if len(parameters) > 2 else Fraction(0)
+        if abs(rotation) > MAX_ROTATION_DEGREES:
+            raise MacroError(f"polygon aperture rotated {float(rotation):g} degrees (at most "
+                             f"{MAX_ROTATION_DEGREES} either way)")
         diameter = to_nm(parameters[0], units)
         return Aperture(code, shape, (diameter,), _hole(parameters[3:], units),
                         rotation_udeg=round(rotation * 1_000_000), vertices=vertices,

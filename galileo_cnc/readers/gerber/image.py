@@ -16,6 +16,7 @@ import numpy as np
 
 from galileo_cnc.program.ops import I, J, KIND, X, Y, OpKind
 from galileo_cnc.readers.gerber.numbers import parse_decimal, round_div, to_nm
+from galileo_cnc.readers.limits import MAX_SCALE
 
 ARC_CW_KIND, ARC_CCW_KIND = int(OpKind.ARC_CW), int(OpKind.ARC_CCW)
 _AB = re.compile(r"(?:A([+-]?[\d.]+))?(?:B([+-]?[\d.]+))?$")
@@ -61,6 +62,8 @@ class ImageTransform:
         if code == "SF":
             self.scale_a = parse_decimal(a) if a else Fraction(1)
             self.scale_b = parse_decimal(b) if b else Fraction(1)
+            if max(abs(self.scale_a), abs(self.scale_b)) > MAX_SCALE:
+                raise ValueError(f"%SF scale factor beyond {MAX_SCALE}")
             return (self.scale_a, self.scale_b) != (1, 1)
         # OF
         self.offset_a_nm = to_nm(parse_decimal(a), units) if a else 0

@@ -18,6 +18,7 @@ import numpy as np
 
 from galileo_cnc.program.ops import I, J, KIND, X, Y, OpKind
 from galileo_cnc.readers.gerber.numbers import parse_decimal, round_div
+from galileo_cnc.readers.limits import MAX_ROTATION_DEGREES, MAX_SCALE
 
 ARC_CW, ARC_CCW = int(OpKind.ARC_CW), int(OpKind.ARC_CCW)
 
@@ -36,11 +37,17 @@ class LoadTransform:
                 raise ValueError("expected %LMN*, %LMX*, %LMY* or %LMXY*")
             self.mirror = body
         elif code == "LR":
-            self.rotation_deg = parse_decimal(body)
+            rotation = parse_decimal(body)
+            if abs(rotation) > MAX_ROTATION_DEGREES:
+                raise ValueError(f"%LR rotation of {float(rotation):g} degrees (at most "
+                                 f"{MAX_ROTATION_DEGREES} either way)")
+            self.rotation_deg = rotation
         else:
             scale = parse_decimal(body)
             if scale <= 0:
                 raise ValueError("expected a positive %LS scale factor")
+            if scale > MAX_SCALE:
+                raise ValueError(f"%LS scale factor {float(scale):g} (at most {MAX_SCALE})")
             self.scale = scale
 
     def is_identity(self) -> bool:

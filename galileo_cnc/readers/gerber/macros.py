@@ -20,6 +20,8 @@ from dataclasses import dataclass
 from fractions import Fraction
 
 from galileo_cnc.readers.gerber.numbers import MAX_NM, parse_decimal, to_nm
+from galileo_cnc.readers.limits import (MAX_EXPRESSION_DEPTH, MAX_MACRO_VALUE_BITS,
+                                        MAX_ROTATION_DEGREES)
 
 _TOKEN = re.compile(r"\s*(?:(\d+\.?\d*(?:[eE][+-]?\d+)?|\.\d+(?:[eE][+-]?\d+)?)|\$(\d+)|([-+xX/()]))")
 ARC_SEGMENTS_PER_QUARTER = 8
@@ -143,37 +145,48 @@ class _ExpressionParser:
     def _peek(self):
         return self.tokens[self.index] if self.index < len(self.tokens) else ("end", None)
 
-    def sum(self) -> Fraction:
-        value = self.product()
+    def _bounded(self, value: Fraction) -> Fraction:
+        if max(value.numerator.bit_length(), value.denominator.bit_length()) > MAX_MACRO_VALUE_BITS:
+            raise MacroError(f"a value in expression {self.text[:40]!r} grows beyond "
+                             f"{MAX_MACRO_VALUE_BITS} bits (about {MAX_MACRO_VALUE_BITS * 3 // 10} "
+                             "digits): a macro that multiplies a value again and again?")
+        return value
+
+    def sum(self, depth: int = 0) -> Fraction:
+        value = self.product(depth)
         while self._peek() in (("op", "+"), ("op", "-")):
             operator = self.tokens[self.index][1]
             self.index += 1
-            value = value + self.product() if operator == "+" else value - self.product()
+            right = self.product(depth)
+            value = self._bounded(value + right if operator == "+" else value - right)
         return value
 
-    def product(self) -> Fraction:
-        value = self.unary()
+    def product(self, depth: int = 0) -> Fraction:
+        value = self.unary(depth)
         while self._peek() in (("op", "x"), ("op", "/")):
             operator = self.tokens[self.index][1]
             self.index += 1
-            right = self.unary()
+            right = self.unary(depth)
             if operator == "x":
-                value *= right
+                value = self._bounded(value * right)
             elif right == 0:
                 raise MacroError(f"division by zero in expression {self.text!r}")
             else:
-                value /= right
+                value = self._bounded(value / right)
         return value
 
-    def unary(self) -> Fraction:
+    def unary(self, depth: int = 0) -> Fraction:
+        if depth > MAX_EXPRESSION_DEPTH:
+            raise MacroError(f"expression nested more than {MAX_EXPRESSION_DEPTH} deep "
+                             f"(parentheses and signs) in {self.text[:40]!r}...")
         kind, value = self._peek()
         if (kind, value) in (("op", "-"), ("op", "+")):
             self.index += 1
-            operand = self.unary()
+            operand = self.unary(depth + 1)
             return -operand if value == "-" else operand
         if (kind, value) == ("op", "("):
             self.index += 1
-            inner = self.sum()
+            inner = self.sum(depth + 1)
             if self._peek() != ("op", ")"):
                 raise MacroError(f"missing ')' in expression {self.text!r}")
             self.index += 1
@@ -195,6 +208,9 @@ def _place(points, rotation_deg: Fraction, units: str) -> tuple[tuple[int, int],
 
     Unrotated Fraction points convert exactly; computed (float) points round.
     """
+    if abs(rotation_deg) > MAX_ROTATION_DEGREES:
+        raise MacroError(f"rotation of {float(rotation_deg):g} degrees (at most "
+                         f"{MAX_ROTATION_DEGREES} either way)")
     if rotation_deg % 360 == 0 and all(isinstance(v, Fraction) for p in points for v in p):
         return tuple((to_nm(x, units), to_nm(y, units)) for x, y in points)
     angle = math.radians(float(rotation_deg))

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 
 from galileo_cnc.program.ops import NM_PER_INCH, NM_PER_MM
+from galileo_cnc.readers.limits import MAX_NUMBER_CHARS
 
 NM_PER_UNIT = {"mm": NM_PER_MM, "in": NM_PER_INCH}
 MAX_NM = 10**12  # a kilometre: anything larger is a broken file, and must not overflow int64
@@ -29,6 +30,11 @@ def round_div(numerator: int, denominator: int) -> int:
 
 def parse_decimal(text: str) -> Fraction:
     """'0.254', '-.5', '1.', '2E-3' as an exact Fraction; ValueError if not a number."""
+    if len(text) > MAX_NUMBER_CHARS:
+        text = text.strip()
+        if len(text) > MAX_NUMBER_CHARS:
+            raise ValueError(f"number of {len(text):,} characters (at most {MAX_NUMBER_CHARS}): "
+                             f"{text[:20]}...")
     m = _DECIMAL.match(text)
     if not m or not (m.group(2) or m.group(3)):
         raise ValueError(f"not a decimal number: {text!r}")

@@ -14,18 +14,20 @@ applied to the coordinates at the end, the rest is recorded with a warning.
 
 from __future__ import annotations
 
+import os
 import re
 from array import array
 from collections import Counter
 
 import numpy as np
 
-from galileo_cnc.errors import GerberError, SourcePos
+from galileo_cnc.errors import GerberError, ReaderWarning, SourcePos
 from galileo_cnc.program.geometry import single_quadrant_centre
 from galileo_cnc.program.ops import COL as COL_COL
 from galileo_cnc.program.ops import LINE as LINE_COL
 from galileo_cnc.program.ops import (COLUMNS, KIND, NO_TOOL, POSITIONED_KINDS, X, Y, Aperture,
                                      OpKind, Program, ProgramBuilder)
+from galileo_cnc.readers import limits
 from galileo_cnc.readers.gerber import vectorised as batch_reader
 from galileo_cnc.readers.gerber.apertures import define_aperture, parse_parameters
 from galileo_cnc.readers.gerber.image import ImageTransform
@@ -51,6 +53,11 @@ PEN_DOWN, SELECT = int(OpKind.PEN_DOWN), int(OpKind.SELECT)
 NCOL = len(COLUMNS)
 MAX_DIGITS = batch_reader.MAX_DIGITS  # a 6.6 format has 12; more is a broken file
 MAX_COORDINATE_CHARS = MAX_DIGITS + 1  # and a sign
+MAX_COORD_NM = limits.MAX_GERBER_COORD_NM  # 10 m: coordinates beyond are refused
+MAX_APERTURE = 2**31 - 1  # aperture numbers are 32-bit integers (Gerber specification)
+MAX_CODE_CHARS = limits.MAX_NUMBER_CHARS
+# Characters that can follow a stray '*' inside %AD: the parameters go on.
+_AD_CONTINUATION = frozenset("0123456789.+-X,")
 # X2/X3 attribute commands kept as metadata.
 _ATTRIBUTES = ("TF", "TA", "TO", "TD")
 # Deprecated commands with no geometric effect on a plot: accepted with a warning.
@@ -60,25 +67,31 @@ _IGNORED_DEPRECATED = {"IJ": "image justify", "IO": "image offset", "IC": "input
                        "PD": "plotter defaults", "FL": "film"}
 
 
-def read_gerber(source, text: str | None = None, min_run: int = batch_reader.MIN_RUN) -> Program:
+def read_gerber(source, text: str | None = None, min_run: int = batch_reader.MIN_RUN, *,
+                max_ops: int | None = None) -> Program:
     """Read an RS-274X file (or `text`, with `source` naming it) into a Program.
 
     `min_run` is the shortest run of coordinate blocks read vectorised; tests set it
-    to 1 or to a huge number to compare both ways of reading.
+    to 1 or to a huge number to compare both ways of reading. `max_ops` overrides the
+    op limit (readers/limits.py, $GALILEO_MAX_OPS).
     """
     name = str(source)
     if text is None:
-        with open(source, "rb") as handle:
-            text = handle.read().decode("utf-8", errors="replace")
-    return GerberReader(name, text).run(min_run)
+        from galileo_cnc.readers.source import read_text
+
+        text = read_text(source, GerberError)
+    return GerberReader(name, text, max_ops).run(min_run)
 
 
 class GerberReader:
     """Graphics state plus the statement loop. One instance reads one file."""
 
-    def __init__(self, name: str, text: str):
+    def __init__(self, name: str, text: str, max_ops: int | None = None):
         self.name = name
         self.text = text
+        self.max_ops = limits.max_ops(max_ops)
+        self.includes: list[str] = []  # the %IF files being read, innermost last
+        self.format_assumed_at: int | None = None  # line of the first coordinate read without %FS
         self.builder = ProgramBuilder(name)
         self.rows = self.builder.rows  # where ops go now (an %AB block redirects it)
         self.warning_counts: Counter[str] = Counter()
@@ -86,6 +99,9 @@ class GerberReader:
         self.apertures: dict[int, Aperture] = {}
         self.macros: dict[str, MacroTemplate] = {}
         self.blocks: dict[int, np.ndarray] = {}  # %AB aperture blocks, as op rows
+        self.block_rows = 0  # rows held in self.blocks (they count against the op limit)
+        self.definitions = 0  # %AD and %AM statements read
+        self.max_definitions = limits.max_apertures()
         self.block_stack: list[tuple[int, array]] = []
         self.image = ImageTransform()
         self.load = LoadTransform()
@@ -103,7 +119,8 @@ class GerberReader:
         self.aperture = NO_TOOL
         self.pen_down = False
         self.in_region = False
-        self.step_repeat: tuple[int, int, int, int, int] | None = None  # nx, ny, dx, dy, first row
+        # nx, ny, dx, dy, first row, offset of the %SR statement
+        self.step_repeat: tuple[int, int, int, int, int, int] | None = None
         self.ended = False
         # Rows store the statement's character offset in the `line` column while
         # reading; offsets become line and column once, at the end.
@@ -115,17 +132,23 @@ class GerberReader:
         """Read the whole text. Runs of `min_run` or more plain coordinate blocks
         are read vectorised; a huge `min_run` reads every statement one by one
         (the reference the vectorised path is tested against)."""
+        self.min_run = min_run
+        end = self._read_statements()
+        self._finish(end)
+        return self._program()
+
+    def _read_statements(self) -> int:
+        """Read the statements of self.text; the offset where reading stopped."""
         end = 0
         for extended, content, start, end in self._statements():
             if extended:
                 self.offset = start
                 self._extended(content)
             else:
-                self._words(content, start, min_run)
+                self._words(content, start, self.min_run)
             if self.ended:
                 break
-        self._finish(end)
-        return self._program()
+        return end
 
     def _words(self, pieces: list[str], starts: np.ndarray, min_run: int) -> None:
         """Word statements (the text between two '*', blanks included) in order,
@@ -133,6 +156,8 @@ class GerberReader:
         for chunk in range(0, len(pieces), batch_reader.CHUNK_STATEMENTS):
             end = chunk + batch_reader.CHUNK_STATEMENTS
             self._word_chunk(pieces[chunk:end], starts[chunk:end], min_run)
+            if len(self.rows) > self.max_ops * NCOL:
+                self._too_many_ops(self.rows, "the file")
             if self.ended:
                 return
 
@@ -215,6 +240,20 @@ class GerberReader:
     def error(self, message: str, text: str = "") -> GerberError:
         return GerberError(SourcePos(self.name, *self._position()), message, text)
 
+    def _too_many_ops(self, rows: array, what: str) -> None:
+        """Op limit crossed by plain statements: name the first one beyond it."""
+        self.offset = rows[self.max_ops * NCOL + LINE_COL]
+        raise self.error(limits.ops_message(self.max_ops, f"by this statement {what} makes"))
+
+    def _check_ops(self, extra: int, what: str) -> None:
+        """Refuse, at the current statement, `extra` more rows beyond the op limit."""
+        if len(self.rows) // NCOL + self.block_rows + extra > self.max_ops:
+            raise self.error(limits.ops_message(self.max_ops, what))
+
+    def _out_of_range(self, axis: str, value: int, text: str = "") -> GerberError:
+        return self.error(f"{axis} coordinate of {value / 1e9:g} m is out of range (at most "
+                          f"{MAX_COORD_NM / 1e9:g} m from the origin)", text)
+
     def warn(self, key: str, message: str, text: str = "") -> None:
         """Count a tolerated oddity; the first of each kind is kept with its position."""
         self.warn_many(key, 1, message, text)
@@ -222,7 +261,9 @@ class GerberReader:
     def warn_many(self, key: str, count: int, message: str, text: str = "") -> None:
         """`count` oddities of one kind, the first of them at the current statement."""
         if not self.warning_counts[key]:
-            self.builder.warn(*self._position(), message, text)
+            # Named by self.name, not the builder's source: an %IF file warns as itself.
+            self.builder.warnings.append(ReaderWarning(SourcePos(self.name, *self._position()),
+                                                       message, text))
         self.warning_counts[key] += count
 
     def emit(self, kind: int, x: int = 0, y: int = 0, i: int = 0, j: int = 0,
@@ -265,9 +306,13 @@ class GerberReader:
         if xs is not None:
             value = int(xs) * fmt_x.numerator if fmt_x.plain else fmt_x.to_nm(xs)
             x = x + value if self.incremental else value
+            if not -MAX_COORD_NM <= x <= MAX_COORD_NM:
+                raise self._out_of_range("X", x, match.string.strip())
         if ys is not None:
             value = int(ys) * fmt_y.numerator if fmt_y.plain else fmt_y.to_nm(ys)
             y = y + value if self.incremental else value
+            if not -MAX_COORD_NM <= y <= MAX_COORD_NM:
+                raise self._out_of_range("Y", y, match.string.strip())
         if d == "1":
             if self.interpolation == 1 and not self.in_region and self.aperture != NO_TOOL:
                 if self.pen_down:
@@ -277,7 +322,12 @@ class GerberReader:
                                       LINE, x, y, 0, 0, self.aperture, 0, self.offset, 0))
                     self.pen_down = True
             else:
-                self._interpolate(x, y, fmt_x.to_nm(is_) if is_ else 0, fmt_y.to_nm(js) if js else 0)
+                i = fmt_x.to_nm(is_) if is_ else 0
+                j = fmt_y.to_nm(js) if js else 0
+                if not (-MAX_COORD_NM <= i <= MAX_COORD_NM and -MAX_COORD_NM <= j <= MAX_COORD_NM):
+                    raise self._out_of_range("I" if abs(i) > MAX_COORD_NM else "J",
+                                             i if abs(i) > MAX_COORD_NM else j, match.string.strip())
+                self._interpolate(x, y, i, j)
         elif d == "2":
             self.rows.extend((MOVE, x, y, 0, 0, NO_TOOL, 0, self.offset, 0))
             self.pen_down = False
@@ -291,6 +341,7 @@ class GerberReader:
             # RS-274-D files and include fragments carry no header.
             self.warn("no-fs", "no %FS before the first coordinate: assuming %FSLAX24Y24*")
             self.fs = (False, 2, 4, 2, 4)
+            self.format_assumed_at = self._position()[0]
         if self.units is None:
             self.warn("no-units", "no %MO before the first coordinate: assuming inches")
             self.units = "in"
@@ -328,11 +379,16 @@ class GerberReader:
         if block is None:
             self.emit(FLASH, x, y, tool=self.aperture)
             return
+        self._check_ops(len(block), f"flashing block aperture D{self.aperture} "
+                                    f"({len(block):,} operations) here would make")
         copy = self.load.transform_rows(block)
+        if len(copy) and (np.abs(copy[:, [X, Y]]).max() + max(abs(x), abs(y)) > MAX_COORD_NM):
+            raise self.error(f"flashing block aperture D{self.aperture} here puts its image "
+                             f"out of range (more than {MAX_COORD_NM / 1e9:g} m from the origin)")
         moving = np.isin(copy[:, KIND], POSITIONED_KINDS)
         copy[moving, X] += x
         copy[moving, Y] += y
-        self.rows.extend(copy.ravel().tolist())
+        self.rows.frombytes(memoryview(copy).cast("B"))
 
     # --- word commands ------------------------------------------------------------
 
@@ -346,7 +402,7 @@ class GerberReader:
             handler(self)
             return
         m = _SELECT.fullmatch(compact)
-        if m and int(m.group(2)) >= 10:
+        if m and len(m.group(2)) <= 10 and int(m.group(2)) >= 10:
             if m.group(1):
                 self.warn("G54", f"G{m.group(1)} before an aperture select is deprecated")
             self._select(int(m.group(2)))
@@ -364,6 +420,9 @@ class GerberReader:
             raise self.error("expected a Gerber word command (letter followed by a number)", original)
         values: dict[str, str] = {}
         for letter, number in words:
+            if len(number) > MAX_CODE_CHARS:
+                raise self.error(f"{letter} word with a number of {len(number):,} characters "
+                                 f"(at most {MAX_CODE_CHARS})", original)
             if letter == "G":
                 code = int(float(number))
                 handler = _WORD_COMMANDS.get(f"G{code:02d}")
@@ -413,6 +472,8 @@ class GerberReader:
         return str(round(value))
 
     def _select(self, code: int) -> None:
+        if code > MAX_APERTURE:
+            raise self.error(f"aperture number D{code} is out of range (at most D{MAX_APERTURE})")
         if code not in self.apertures:
             if self.apertures or self.macros:
                 raise self.error(f"aperture D{code} is used but not defined (%ADD{code}...)")
@@ -449,6 +510,9 @@ class GerberReader:
         self.incremental = incremental
 
     def _end(self) -> None:
+        if self.in_region:
+            raise self.error("region (G36) still open at the end of the file: expected G37 "
+                             "before M02")
         self.ended = True
 
     # --- extended commands --------------------------------------------------------
@@ -465,10 +529,25 @@ class GerberReader:
         if head.startswith("AM"):
             self._macro(head[2:].strip(), blocks[1:])
             return
+        if head.startswith("AD") and len(blocks) > 1:
+            blocks = self._stray_stars(blocks, content)
         for block in blocks:
             block = block.strip()
             if block:
                 self._extended_block(block)
+
+    def _stray_stars(self, blocks: list[str], content: str) -> list[str]:
+        """A '*' inside an %AD's parameters ('%ADD10C,0.1*X0.05*%', as some CAD tools
+        write) is ignored with a warning when what follows goes on with parameters."""
+        merged = [blocks[0]]
+        for block in blocks[1:]:
+            stripped = block.strip()
+            if stripped and stripped[0] in _AD_CONTINUATION and merged[-1].lstrip().startswith("AD"):
+                self.warn("ad-stray-star", "stray '*' inside an %AD statement is ignored", content)
+                merged[-1] = merged[-1].rstrip() + stripped
+            else:
+                merged.append(block)
+        return merged
 
     def _extended_block(self, block: str) -> None:
         code = block[:2]
@@ -496,6 +575,10 @@ class GerberReader:
             self.warn("fs-trailing", "trailing zero omission is deprecated", block)
         if notation == "I":
             self.warn("fs-incremental", "incremental notation is deprecated", block)
+        if self.format_assumed_at is not None:
+            raise self.error(f"coordinates before %FS (from line {self.format_assumed_at}) were "
+                             "read with an assumed format: %FS must come before the first "
+                             "coordinate", block)
         self.fs = (zeros == "T", int(xi), int(xd), int(yi), int(yd))
         self.incremental = notation == "I"
         self.metadata["format"] = f"{xi}.{xd}"
@@ -522,9 +605,16 @@ class GerberReader:
         m = _AD.match(block)
         if not m:
             raise self.error("expected %ADDnn<template>[,<parameters>]*", block)
+        self._count_definition(block)
+        if len(m.group(1)) > 10:
+            raise self.error(f"aperture number of {len(m.group(1)):,} digits (at most "
+                             f"D{MAX_APERTURE})", block)
         code, template, parameters = int(m.group(1)), m.group(2).strip(), m.group(3)
         if code < 10:
             raise self.error(f"aperture numbers start at D10, got D{code}", block)
+        if code > MAX_APERTURE:
+            raise self.error(f"aperture number D{code} is out of range (at most D{MAX_APERTURE})",
+                             block)
         if self.units is None:
             self.warn("no-units", "no %MO before the first aperture: assuming inches")
             self._set_units("in")
@@ -540,7 +630,15 @@ class GerberReader:
             self.warn("redefined-aperture", f"aperture D{code} defined again: the new one wins", block)
         self.apertures[code] = aperture
 
+    def _count_definition(self, block: str) -> None:
+        self.definitions += 1
+        if self.definitions > self.max_definitions:
+            raise self.error(f"more than {self.max_definitions:,} aperture and macro definitions "
+                             f"(%AD, %AM), the limit (set {limits.MAX_APERTURES_ENV}=<count> to "
+                             "raise it)", block)
+
     def _macro(self, name: str, body: list[str]) -> None:
+        self._count_definition(f"AM{name}")
         if not name:
             raise self.error("expected a macro name after %AM")
         try:
@@ -560,6 +658,8 @@ class GerberReader:
             raise self.error("expected %SRXnYnIdJd* or %SR*", block)
         self._close_step_repeat()
         nx, ny, di, dj = m.groups()
+        if len(nx or "") > 18 or len(ny or "") > 18:
+            raise self.error("step-and-repeat count with more than 18 digits", block)
         nx, ny = int(nx or 1), int(ny or 1)
         if nx < 1 or ny < 1:
             raise self.error("step-and-repeat counts must be at least 1", block)
@@ -570,29 +670,41 @@ class GerberReader:
         except ValueError as problem:
             raise self.error(str(problem), block) from None
         if nx * ny > 1:
-            self.step_repeat = (nx, ny, dx, dy, len(self.rows) // NCOL)
+            self.step_repeat = (nx, ny, dx, dy, len(self.rows) // NCOL, self.offset)
 
     def _close_step_repeat(self) -> None:
         if self.step_repeat is None:
             return
-        nx, ny, dx, dy, first = self.step_repeat
+        nx, ny, dx, dy, first, where = self.step_repeat
         self.step_repeat = None
         rows = np.frombuffer(self.rows, dtype=np.int64).reshape(-1, NCOL)[first:].copy()
         if not len(rows):
             return
+        here = self.offset
+        self.offset = where  # limits are reported at the %SR statement
+        self._check_ops((nx * ny - 1) * (len(rows) + 1),
+                        f"%SR repeating {len(rows):,} operations {nx:,} x {ny:,} times would make")
         moving = np.isin(rows[:, KIND], POSITIONED_KINDS + (
             int(OpKind.SELECT), int(OpKind.REGION_BEGIN), int(OpKind.REGION_END), int(OpKind.POLARITY)))
-        for ix in range(nx):
-            for iy in range(ny):
-                if ix == 0 and iy == 0:
-                    continue
-                copy = rows.copy()
-                copy[moving, X] += ix * dx
-                copy[moving, Y] += iy * dy
-                # Each copy starts with the pen up at its first point.
-                self.rows.extend((MOVE, int(copy[0, X]), int(copy[0, Y]), 0, 0, NO_TOOL, 0,
-                                  int(copy[0, -2]), int(copy[0, -1])))
-                self.rows.extend(copy.ravel().tolist())
+        reach = int(np.abs(rows[:, [X, Y]]).max()) + max((nx - 1) * abs(dx), (ny - 1) * abs(dy))
+        if reach > MAX_COORD_NM:
+            raise self.error(f"%SR repeats the image {nx:,} x {ny:,} times up to "
+                             f"{reach / 1e9:g} m from the origin (at most {MAX_COORD_NM / 1e9:g} m)")
+        self.offset = here
+        # Each copy is a pen-up move to its first point, then the block's rows moved by
+        # (ix dx, iy dy); copies in the order ix, then iy, made a slab at a time.
+        unit = np.concatenate((rows[:1], rows))
+        unit[0, :7] = (MOVE, rows[0, X], rows[0, Y], 0, 0, NO_TOOL, 0)
+        unit_moving = np.concatenate(([moving[0]], moving))
+        per_slab = max(1, 65_536 // len(unit))
+        count = nx * ny - 1
+        for start in range(0, count, per_slab):
+            index = np.arange(start + 1, min(start + 1 + per_slab, count + 1), dtype=np.int64)
+            ix, iy = index // ny, index % ny  # copy k is (k // ny, k % ny); 0 is the block itself
+            slab = np.broadcast_to(unit, (len(index),) + unit.shape).copy()
+            slab[:, unit_moving, X] += (ix * dx)[:, None]
+            slab[:, unit_moving, Y] += (iy * dy)[:, None]
+            self.rows.frombytes(memoryview(slab).cast("B"))
         self.pen_down = False
 
     def _aperture_block(self, block: str) -> None:
@@ -602,18 +714,58 @@ class GerberReader:
                 raise self.error("%AB* closes a block that was never opened", block)
             code, outer, (self.x, self.y) = self.block_stack.pop()
             rows = np.frombuffer(self.rows, dtype=np.int64).reshape(-1, NCOL).copy()
+            self.block_rows += len(rows) - len(self.blocks.get(code, ()))
             self.blocks[code] = rows
             self.apertures[code] = Aperture(code, "block", extent_nm=_rows_extent(rows))
             self.rows = outer
             self.pen_down = False
             return
-        m = re.fullmatch(r"ABD(\d+)", body)
-        if not m:
-            raise self.error("expected %ABDnn* or %AB*", block)
+        m = re.fullmatch(r"ABD(\d{1,10})", body)
+        if not m or int(m.group(1)) > MAX_APERTURE:
+            raise self.error("expected %ABDnn* or %AB* (nn at most 2147483647)", block)
         # A block is a definition: the current point after it is the one before it.
         self.block_stack.append((int(m.group(1)), self.rows, (self.x, self.y)))
         self.rows = array("q")
         self.pen_down = False
+
+    def _include(self, block: str) -> None:
+        """%IF<file>*: read another file's statements here (old RS-274X; gerbv reads it).
+        The file is found beside this one; its rows carry the %IF statement's position,
+        its errors and warnings its own."""
+        from galileo_cnc.readers.source import FileAccessError, read_text
+
+        target = block[2:].strip()
+        if not target:
+            raise self.error("expected a file name after %IF", block)
+        if len(self.includes) >= limits.MAX_INCLUDE_DEPTH:
+            raise self.error(f"include files (%IF) nested more than {limits.MAX_INCLUDE_DEPTH} "
+                             "deep: does a file include itself?", block)
+        path = target if os.path.isabs(target) else \
+            os.path.join(os.path.dirname(self.name) or ".", target)
+        try:
+            text = read_text(path, GerberError)
+        except FileAccessError as problem:
+            raise self.error(f"include file {target!r} (%IF) cannot be read: {problem.why} "
+                             f"(looked for {path})", block) from None
+        self.warn("IF", "%IF include files are deprecated: the included file is read here", block)
+        where, rows, first = self.offset, self.rows, len(self.rows)
+        depth = len(self.block_stack)
+        outer = self.name, self.text
+        self.includes.append(path)
+        self.name, self.text = path, text
+        end = self._read_statements()
+        if not self.ended and text[end:].strip():
+            self._unparsed(end)
+        self.includes.pop()
+        self.name, self.text = outer
+        self.offset = where
+        if self.rows is not rows or len(self.block_stack) != depth:
+            raise self.error("an aperture block (%AB) must open and close in one file", block)
+        if len(self.rows) > first:
+            view = np.frombuffer(self.rows, dtype=np.int64).reshape(-1, NCOL)
+            view[first // NCOL:, LINE_COL] = where  # the included rows sit at the %IF
+            view[first // NCOL:, COL_COL] = 0
+            del view  # a buffer exported by the array would stop it from growing
 
     def _load_transform(self, block: str) -> None:
         self.metadata.setdefault("load_transforms", []).append(block)
@@ -674,12 +826,25 @@ class GerberReader:
         _offsets_to_positions(table, self.text)
         if not self.image.is_identity():
             self.image.apply(table)
+            self._check_image_range(table)
         self.metadata["warning_counts"] = dict(self.warning_counts)
         self.metadata["image"] = self.image.describe()
         self.metadata["incremental"] = self.incremental
         return Program(self.name, "gerber", self.units or "in", table, apertures=self.apertures,
                        metadata=self.metadata, warnings=self.builder.warnings,
                        line_count=self.text.count("\n") + (0 if self.text.endswith("\n") else 1))
+
+
+    def _check_image_range(self, table: np.ndarray) -> None:
+        """The image transforms (%SF, %OF, ...) may not move anything out of range."""
+        if not len(table):
+            return
+        beyond = np.flatnonzero((np.abs(table[:, [X, Y]]) > MAX_COORD_NM).any(axis=1))
+        if len(beyond):
+            row = table[beyond[0]]
+            raise GerberError(SourcePos(self.name, int(row[LINE_COL]), int(row[COL_COL])),
+                              "the deprecated image transforms (%AS, %MI, %SF, %OF, %IR) put "
+                              f"this point out of range (more than {MAX_COORD_NM / 1e9:g} m from the origin)")
 
 
 def _offsets_to_positions(table: np.ndarray, text: str) -> None:
@@ -741,4 +906,5 @@ _EXTENDED_COMMANDS = {
     "OF": GerberReader._image_parameter,
     "SF": GerberReader._image_parameter,
     "AS": GerberReader._image_parameter,
+    "IF": GerberReader._include,
 }

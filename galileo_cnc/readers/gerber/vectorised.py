@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from galileo_cnc.program.ops import COLUMNS, NO_TOOL, OpKind
+from galileo_cnc.readers.limits import MAX_GERBER_COORD_NM
 
 MIN_RUN = 32  # shorter runs are cheaper statement by statement
 CHUNK_STATEMENTS = 8192  # statements scanned at once: bounds the per-character arrays
@@ -164,6 +165,8 @@ def read_run(reader, words: Words, first: int, stop: int, starts: np.ndarray) ->
         return False
     present, value, digits, mode, starts = present[active], value[active], digits[active], \
         mode[active], starts[active]
+    if _too_big(value, digits, fmt_x, fmt_y):
+        return False  # near or beyond the coordinate bound: the one-by-one path names it
     implicit = ~present[:, D]
     if implicit[0] and not reader.dcode:
         return False  # coordinates before any D code: the one-by-one path warns
@@ -188,6 +191,8 @@ def read_run(reader, words: Words, first: int, stop: int, starts: np.ndarray) ->
 
     x = _modal(present[:, X], _scaled(value[:, X], digits[:, X], fmt_x), reader.x, reader.incremental)
     y = _modal(present[:, Y], _scaled(value[:, Y], digits[:, Y], fmt_y), reader.y, reader.incremental)
+    if reader.incremental and max(np.abs(x).max(), np.abs(y).max()) > MAX_GERBER_COORD_NM:
+        return False  # the sums leave the bound: the one-by-one path names the statement
     # The pen is down before a D01 only if the previous operation was a D01 too.
     was_drawing = np.concatenate(([reader.pen_down], draws[:-1]))
     pen_down_first = draws & ~was_drawing
@@ -260,6 +265,20 @@ def _single_quadrant(kinds, i, j, arcs, sx, sy, ex, ey) -> bool:
     i[k[closed]] = 0
     j[k[closed]] = 0
     return True
+
+
+def _too_big(value: np.ndarray, digits: np.ndarray, fmt_x, fmt_y) -> bool:
+    """True if any X, Y, I or J may come near the coordinate bound once scaled: checked
+    in float, where nothing wraps, with a margin of two; int64 scaling of what passes
+    stays far inside int64."""
+    for columns, fmt in (([X, I], fmt_x), ([Y, J], fmt_y)):
+        magnitude = np.abs(value[:, columns]).astype(np.float64)
+        if fmt.trailing_zeros_omitted:
+            width = fmt.integer_digits + fmt.decimal_digits
+            magnitude *= 10.0 ** np.maximum(width - digits[:, columns], 0)
+        if magnitude.max(initial=0.0) * (fmt.numerator / fmt.denominator) > MAX_GERBER_COORD_NM / 2:
+            return True
+    return False
 
 
 def _scaled(numbers: np.ndarray, written: np.ndarray, fmt) -> np.ndarray:
