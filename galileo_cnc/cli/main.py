@@ -67,7 +67,8 @@ def _run_preview(args: argparse.Namespace) -> int:
                         options=_plan_options(args))
     # stepped piece by piece as the preview reads it: no whole trace in memory
     steps = JobSteps(planned.job.commands, config)
-    info = render_preview(planned.program, steps, config, planned.offset_nm, args.output)
+    info = render_preview(planned.program, steps, config, planned.offset_nm, args.output,
+                          job=planned.job, copper=planned.copper)
     print(f"{args.output}: {info.summary()}")
     return 0
 

@@ -142,7 +142,8 @@ def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.s
                              f"({result.confirmed} of {result.total} commands confirmed)")
             return EXIT_INTERRUPTED
         progress.message(f"\aprocess has finished in {duration_text(time.monotonic() - began)}")
-        _write_outputs(options, link, job, program, offset, out)
+        _write_outputs(options, link, job, program, offset, out,
+                       planned.copper if planned is not None else None)
     finally:
         link.close()
     return EXIT_OK
@@ -159,7 +160,9 @@ def _say_ink(ink, out: TextIO) -> None:
 
 
 def _write_outputs(options: PlotOptions, link: MachineLink, job: Job, program: Program,
-                   offset: tuple[int, int], out: TextIO) -> None:
+                   offset: tuple[int, int], out: TextIO, copper=None) -> None:
+    """The step trace and the preview; `copper` (ink mode) colours what the ink
+    left bare and drew outside."""
     if not (options.trace or options.preview):
         return
     trace = job_trace(link, job)
@@ -168,7 +171,8 @@ def _write_outputs(options: PlotOptions, link: MachineLink, job: Job, program: P
         out.write(f"step trace: {options.trace} ({len(trace)} steps)\n")
     if options.preview:
         from galileo_cnc.preview.render import render_preview
-        info = render_preview(program, trace, link.config, offset, options.preview)
+        info = render_preview(program, trace, link.config, offset, options.preview,
+                              job=job, copper=copper)
         out.write(f"preview: {options.preview}: {info.summary()}\n")
 
 

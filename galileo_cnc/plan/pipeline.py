@@ -107,6 +107,12 @@ class PlannedFile:
     def program(self) -> Program:
         return self.artwork.program
 
+    @property
+    def copper(self):
+        """The copper the ink was planned for (program nm; None outside ink mode): the
+        preview colours what the ink left bare and drew outside it."""
+        return self.ink.copper if self.ink is not None else None
+
 
 def load_artwork(source: str | Path | Program, margin_nm: int = DEFAULT_MARGIN_NM) -> Artwork:
     """Read `source` (a path, or a Program already read) and find where it sits."""

@@ -1,6 +1,7 @@
 """The galileo-cnc command as a user runs it: a real subprocess."""
 
 import json
+import re
 import os
 import subprocess
 import sys
@@ -15,6 +16,8 @@ from galileo_cnc.machine.timing import duration_text, job_timing
 from galileo_cnc.plan.offsets import proposed_offset
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 from galileo_cnc.plan.planner import plan_program
+from galileo_cnc.preview.render import UNINKED
+from galileo_cnc.program.ops import NM_PER_MM
 from galileo_cnc.readers import read_file
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -87,9 +90,10 @@ def test_plot_the_sample_board_on_sim_with_trace_and_preview(tmp_path):
 
 
 def test_plot_inks_the_sample_board_with_two_pens(tmp_path):
-    trace_file = tmp_path / "board.npz"
+    trace_file, png = tmp_path / "board.npz", tmp_path / "board.png"
     result = galileo("plot", "samples/led-blinker.gbr", "--port", "sim://?speed=0", "--yes",
-                     "--pens", "0.3,0.8", "--trace", str(trace_file), home=tmp_path)
+                     "--pens", "0.3,0.8", "--trace", str(trace_file), "--preview", str(png),
+                     home=tmp_path)
     assert result.returncode == 0, result.stderr
     out = result.stdout
     assert "ink: pens 0.8, 0.3 mm, " in out and "% of the copper inked" in out
@@ -101,6 +105,15 @@ def test_plot_inks_the_sample_board_with_two_pens(tmp_path):
     assert Trace.load(trace_file).same_steps(simulate(planned.job.commands))
     journal = json.loads((tmp_path / "journal.json").read_text())
     assert journal["mode"] == "ink" and "widths_mm = [0.8, 0.3]" in journal["profile"]
+    # the preview measures the ink against the copper: almost none left bare or spilt
+    found = re.search(r"([\d.]+) mm² copper uninked, ([\d.]+) mm² ink outside", out)
+    assert found, out
+    copper_mm2 = planned.ink.copper_nm2 / NM_PER_MM ** 2
+    assert float(found[1]) < 0.01 * copper_mm2 and float(found[2]) < 0.005 * copper_mm2
+    with Image.open(png) as image:
+        pixels = np.asarray(image.convert("RGB")).reshape(-1, 3)
+    bare_px = np.all(pixels == UNINKED, axis=1).sum()
+    assert bare_px <= float(found[1]) * 20 ** 2 * 2      # 20 px/mm, and the outlines' share
 
 
 def test_plot_waits_for_enter_at_pen_changes_without_yes(tmp_path):
