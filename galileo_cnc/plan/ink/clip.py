@@ -16,14 +16,27 @@ PolygonSet = list
 
 
 def offset(polygons: PolygonSet, delta_nm: int, tolerance_nm: int) -> PolygonSet:
-    """Grow (delta > 0) or shrink (delta < 0) the set by |delta| with round corners."""
+    """Grow (delta > 0) or shrink (delta < 0) the set by |delta| with round corners.
+
+    Input and result are cleaned of vertices within a quarter of the tolerance of
+    their neighbours' line: outlines made of many overlapping strokes (Eagle's
+    vector-filled pours) carry tens of thousands of collinear or nearly coincident
+    points that every offset keeps and Clipper's union is slow on (3 s instead of
+    3 ms an offset on a real pour)."""
     if not polygons:
         return []
     if delta_nm == 0:
         return list(polygons)
     engine = pc.PyclipperOffset(2.0, float(tolerance_nm))
-    engine.AddPaths(polygons, pc.JT_ROUND, pc.ET_CLOSEDPOLYGON)
-    return engine.Execute(float(delta_nm))
+    engine.AddPaths(clean(polygons, tolerance_nm), pc.JT_ROUND, pc.ET_CLOSEDPOLYGON)
+    return clean(engine.Execute(float(delta_nm)), tolerance_nm)
+
+
+def clean(polygons: PolygonSet, tolerance_nm: int) -> PolygonSet:
+    """The set without vertices that move the outline by less than tolerance / 4
+    (Clipper's CleanPolygons); rings left with fewer than three points are dropped."""
+    cleaned = pc.CleanPolygons(polygons, max(tolerance_nm / 4, 1.0))
+    return [ring for ring in cleaned if len(ring) >= 3]
 
 
 def stroke(paths: list, radius_nm: int, tolerance_nm: int) -> PolygonSet:
