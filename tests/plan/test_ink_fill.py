@@ -15,6 +15,7 @@ from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.job import PenDown
 from galileo_cnc.machine.planner import simulate
 from galileo_cnc.plan.ink import clip
+from galileo_cnc.plan.ink.fill import fill_region, island_batches
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 
 MM = 1_000_000
@@ -129,3 +130,26 @@ def test_the_auto_offset_keeps_the_margin_from_the_ink_not_the_flash_point(tmp_p
     planned = plan_file(path, CONFIG, "auto", options=PlanOptions(mode="ink", pens_nm=(300_000,)))
     assert planned.artwork.proposal_nm == (-1_000_000, -1_000_000)
     assert planned.offset_nm == (-1_348_000 - 1_000_000,) * 2
+
+
+
+def test_islands_filled_in_batches_ink_the_same_as_all_at_once():
+    # twelve pads and a pour with a pad-shaped hole holding a pad of its own: an island
+    # inside a hole is an island too, and no batch may lose or split one
+    pads = [square(x * 3 * MM, y * 3 * MM, x * 3 * MM + 2 * MM, y * 3 * MM + MM)
+            for x in range(4) for y in range(3)]
+    pour = [square(0, 10 * MM, 8 * MM, 16 * MM), square(3 * MM, 12 * MM, 5 * MM, 14 * MM)[::-1],
+            square(3_600_000, 12_600_000, 4_400_000, 13_400_000)]
+    region = clip.union(pads + pour)
+    batches = island_batches(region, most_vertices=10)
+    assert len(batches) > 3
+    assert sum(len(clip.components(b)) for b in batches) == len(clip.components(region)) == 14
+    assert sum(clip.area_nm2(b) for b in batches) == clip.area_nm2(region)
+
+    apart = fill_region(region, 300_000, 1_000, batch_vertices=10)
+    together = fill_region(region, 300_000, 1_000, batch_vertices=10 ** 9)
+    assert len(apart.paths) == len(together.paths) == 14       # one pen lift an island
+    assert apart.rings == together.rings
+    both = clip.area_nm2(clip.intersection(apart.ink, together.ink))
+    assert both == pytest.approx(clip.area_nm2(together.ink), rel=1e-9)
+    assert both == pytest.approx(clip.area_nm2(apart.ink), rel=1e-9)

@@ -40,6 +40,8 @@ GAP_NM = 5_000
 #: Vertices of a ring tried as ends of joins to the rings around it: one per JOIN_EVERY
 #: spacings of its length, at least JOIN_SAMPLES and at most JOIN_MOST.
 JOIN_SAMPLES, JOIN_EVERY, JOIN_MOST = 12, 8, 256
+#: Outline vertices per batch of islands filled together (fill_region).
+BATCH_VERTICES = 4_000
 
 
 @dataclass
@@ -54,8 +56,44 @@ class PenFill:
 
 
 def fill_region(region: list, width_nm: int, tolerance_nm: int, *,
-                overlap: float = DEFAULT_OVERLAP, edge_margin_nm: int = 0) -> PenFill:
-    """Rings, gap strokes and joins of one pen over `region` (a polygon set)."""
+                overlap: float = DEFAULT_OVERLAP, edge_margin_nm: int = 0,
+                batch_vertices: int = BATCH_VERTICES) -> PenFill:
+    """Rings, gap strokes and joins of one pen over `region` (a polygon set).
+
+    Islands never share ink, so they are filled in batches of neighbours (see
+    `island_batches`): each polygon operation then sweeps a few islands, not the
+    board (Clipper's sweep slows with every outline a scanline crosses)."""
+    fill = PenFill(width_nm)
+    for batch in island_batches(region, batch_vertices):
+        part = _fill_batch(batch, width_nm, tolerance_nm, overlap, edge_margin_nm)
+        fill.paths.extend(part.paths)
+        fill.rings += part.rings
+        fill.gap_strokes += part.gap_strokes
+        fill.ink.extend(part.ink)       # disjoint: each batch's ink stays in its islands
+    return fill
+
+
+def island_batches(region: list, most_vertices: int = BATCH_VERTICES) -> list[list]:
+    """The region's islands (outer ring and holes) as polygon sets of neighbours: sorted
+    by left edge and cut into runs of at most `most_vertices` (an island bigger than
+    that is a batch of its own), so a batch is a narrow vertical strip of the board."""
+    pieces = clip.components(region)
+    pieces.sort(key=lambda piece: (int(piece[0][:, 0].min()), int(piece[0][:, 1].min())))
+    batches, batch, count = [], [], 0
+    for outer, holes in pieces:
+        size = len(outer) + sum(len(h) for h in holes)
+        if batch and count + size > most_vertices:
+            batches.append(batch)
+            batch, count = [], 0
+        batch.extend([outer, *holes])
+        count += size
+    if batch:
+        batches.append(batch)
+    return batches
+
+
+def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
+                edge_margin_nm: int) -> PenFill:
     radius = width_nm // 2
     spacing = max(int(round(width_nm * (1.0 - overlap))), 1)
     fill = PenFill(width_nm)
