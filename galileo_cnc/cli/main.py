@@ -73,6 +73,27 @@ def _run_preview(args: argparse.Namespace) -> int:
     return 0
 
 
+def _run_convert(args: argparse.Namespace) -> int:
+    from galileo_cnc.plan.convert import converted_gcode
+    from galileo_cnc.plan.measure import job_lengths
+    from galileo_cnc.plan.pipeline import plan_file
+
+    config = _profile(args).config
+    planned = plan_file(args.file, config, args.offset, margin_nm=round(args.margin * NM_PER_MM),
+                        options=_plan_options(args))
+    lines = 0
+    with open(args.output, "w", encoding="ascii", newline="\n") as out:
+        for line in converted_gcode(planned, config):
+            out.write(line + "\n")
+            lines += 1
+    lengths = job_lengths(planned.job)
+    metres = config.steps_per_mm * 1000
+    print(f"{args.output}: {lines} lines, {lengths.drawn_steps / metres:.2f} m drawn, "
+          f"{lengths.travel_steps / metres:.2f} m pen-up travel, {lengths.lifts} pen lifts "
+          f"({planned.mode} mode{', paths ordered' if planned.job.ordered else ''})")
+    return 0
+
+
 def _run_ports(args: argparse.Namespace) -> int:
     from galileo_cnc.transport.discovery import answers_with_banner, list_ports
 
@@ -109,7 +130,7 @@ def _add_connection_options(parser: argparse.ArgumentParser) -> None:
 
 
 def _add_job_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("file", help="Gerber (RS-274X) or G-code file")
+    parser.add_argument("file", help="Gerber (RS-274X), G-code or DXF file")
     parser.add_argument("--offset", default="auto", metavar="auto|none|X,Y",
                         help="subtracted from every coordinate: auto = the minimum minus the "
                         "margin (default), none, or X,Y in mm")
@@ -138,7 +159,7 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", metavar="COMMAND")
 
     info = commands.add_parser("info", help="describe a Gerber or G-code file")
-    info.add_argument("file", help="Gerber (RS-274X) or G-code file")
+    info.add_argument("file", help="Gerber (RS-274X), G-code or DXF file")
     info.add_argument("--json", action="store_true", help="print machine-readable JSON")
     info.add_argument("--margin", type=float, default=1.0, metavar="MM",
                       help="margin kept from the origin by the proposed offset (default 1 mm)")
@@ -162,6 +183,13 @@ def build_parser() -> argparse.ArgumentParser:
     preview.add_argument("-o", "--output", required=True, metavar="PNG")
     preview.add_argument("--profile", metavar="TOML", help="machine profile")
     preview.set_defaults(run=_run_preview, port=None, baud=None)
+
+    convert = commands.add_parser("convert", help="write the plot as G-code in mm (for this "
+                                  "machine or a GRBL board)")
+    _add_job_options(convert)
+    convert.add_argument("-o", "--output", required=True, metavar="NC")
+    convert.add_argument("--profile", metavar="TOML", help="machine profile (feed, pens)")
+    convert.set_defaults(run=_run_convert, port=None, baud=None)
 
     ports = commands.add_parser("ports", help="list serial ports (and sim://)")
     ports.add_argument("--probe", action="store_true",

@@ -57,6 +57,22 @@ class PlanError(GalileoError):
         super().__init__(f"{pos}: {message}" if pos else message)
 
 
+def plotting_order(program: Program, config: MachineConfig, offset_nm: tuple[int, int],
+                   group: bool = True, optimize: bool = False
+                   ) -> tuple[list[tuple[int, list[int]]], bool, bool]:
+    """The (op index, row) pairs in the order they are plotted, and whether they were
+    grouped by aperture and ordered for travel (see plan_program)."""
+    several_pens = len(drawing_apertures(program)) > 1
+    if optimize and group and program.format in ("gerber", "dxf") and pure_geometry(program):
+        # one pen per aperture, each pen's paths chained and ordered (plan/paths.py);
+        # the program point at the work origin is where the head starts
+        start = (int(offset_nm[0]), int(offset_nm[1]))
+        return optimised_order(program, start, config.nm_per_step, several_pens), True, True
+    if group and several_pens and program.format == "gerber":
+        return group_by_aperture(program), True, False
+    return list(enumerate(program.table.tolist())), False, False
+
+
 def plan_program(program: Program, config: MachineConfig | None = None,
                  offset_nm: tuple[int, int] = (0, 0), group: bool = True,
                  on_progress: Callable[[int, int], None] | None = None,
@@ -71,16 +87,8 @@ def plan_program(program: Program, config: MachineConfig | None = None,
     ox, oy = offset_nm
     job = Job(program.source, (int(ox), int(oy)))
     several_pens = len(drawing_apertures(program)) > 1
-    if optimize and group and program.format in ("gerber", "dxf") and pure_geometry(program):
-        # one pen per aperture, each pen's paths chained and ordered (plan/paths.py);
-        # the program point at the work origin is where the head starts
-        ordered = optimised_order(program, (ox, oy), config.nm_per_step, several_pens)
-        job.grouped = job.ordered = True
-    elif group and several_pens and program.format == "gerber":
-        ordered = group_by_aperture(program)
-        job.grouped = True
-    else:
-        ordered = list(enumerate(program.table.tolist()))
+    ordered, job.grouped, job.ordered = plotting_order(program, config, offset_nm, group,
+                                                       optimize)
     aperture = NO_TOOL
     pen = None                         # the aperture whose pen is in the holder
     pen_down: bool | None = None       # unknown until the job sets it
@@ -97,7 +105,10 @@ def plan_program(program: Program, config: MachineConfig | None = None,
             continue
         if kind in DRAWING_KINDS and row[TOOL] != NO_TOOL:
             aperture = row[TOOL]
-        if several_pens and kind in DRAWING_KINDS and aperture != pen:
+        # the pen changes before it is first lowered: at a PEN_DOWN (G-code's M3 after
+        # T, Gerber's D01 after a move) as at a draw, else the old pen dips first
+        if several_pens and (kind in DRAWING_KINDS or kind == OpKind.PEN_DOWN) \
+                and aperture != pen and aperture != NO_TOOL:
             if pen_down is not False:
                 job.add(PenUp(), index, aperture)
                 pen_down = False

@@ -418,11 +418,11 @@ def test_pen_selection():
     fails("T1.5", "whole pen number", 1, 1)
 
 
-def test_motor_codes_are_accepted_silently_and_unknown_m_codes_warn():
-    program = read("M17\nM18\nM84\nM6\nM7\nM0")
+def test_motor_and_pause_codes_are_accepted_silently_and_unknown_m_codes_warn():
+    program = read("M17\nM18\nM84\nM6\nM7\nM0\nM1\nM8")
     assert len(program) == 0
     assert [(w.pos.line, w.message) for w in program.warnings] == [
-        (5, "unknown M code M7 is ignored"), (6, "unknown M code M0 is ignored")]
+        (5, "unknown M code M7 is ignored"), (8, "unknown M code M8 is ignored")]
 
 
 def test_s_words_are_ignored():

@@ -47,8 +47,9 @@ M_PEN_UP = ("5",)
 M_END = ("2", "30")
 M_TOOL_CHANGE = ("6",)    # the T word already selected the pen
 M_MOTORS = ("17", "18", "84")  # the planner powers the motors for each job
+M_PAUSE = ("0", "1")      # GRBL waits for cycle start; the plotter asks at pen changes (T)
 M_PEN = M_PEN_DOWN + M_PEN_UP
-M_KNOWN = set(M_PEN_DOWN + M_PEN_UP + M_END + M_TOOL_CHANGE + M_MOTORS)
+M_KNOWN = set(M_PEN_DOWN + M_PEN_UP + M_END + M_TOOL_CHANGE + M_MOTORS + M_PAUSE)
 
 # Parameter letters the reader accepts besides G, M and N.
 # S (spindle speed, or a servo pen's angle) is accepted and ignored.
