@@ -9,12 +9,14 @@ inserted once; G-code keeps its file order, where feeds and pen moves are modal.
 - MOVE -> Rapid (the machine lifts the pen itself), LINE -> PenDown if the pen is
   not known to be down, then LineTo; ARC_CW/CCW -> PenDown if needed, then ArcTo
   with the centre rounded to the nearest step and given relative to the rounded
-  start; FLASH -> Rapid to the point (unless there), Flash; PEN_UP/PEN_DOWN,
+  start (an arc farther than the machine's MAX_ARC_COORD steps from its centre is
+  drawn as chords within half a step); FLASH -> Rapid to the point (unless there),
+  Flash; PEN_UP/PEN_DOWN,
   DWELL, FEED (nm/s -> steps/s) as themselves; SELECT, POLARITY and the REGION
   markers emit nothing (region contours are drawn as outlines);
 - a MOVE or LINE that lands on the step it starts from is dropped;
-- at the first draw or flash of each aperture (when there are several) the pen is
-  lifted and `Job.pen_changes` records the command where the user swaps pens;
+- at the first draw, flash or pen-down of each aperture (when there are several) the
+  pen is lifted and `Job.pen_changes` records the command where the user swaps pens;
 - the job ends with PenUp and EndJob;
 - soft limits: the finished command list is planned (not stepped) by the reference
   machine, whose travel check is the firmware's; a refusal becomes a PlanError that
@@ -33,8 +35,10 @@ from galileo_cnc.errors import GalileoError, SourcePos
 from galileo_cnc.job import (NO_OP, ArcTo, Command, Dwell, EndJob, Flash, Job, LineTo,
                              MachineError, PenDown, PenUp, Rapid, SetFeed)
 from galileo_cnc.machine import ReferenceMachine
+from galileo_cnc.machine.arcs import MAX_ARC_COORD
 from galileo_cnc.plan.ink.inking import mm_text
 from galileo_cnc.plan.ink.narrow import aperture_width
+from galileo_cnc.plan.ink.shapes import arc_points
 from galileo_cnc.plan.order import (DRAWING_KINDS, drawing_apertures, group_by_aperture,
                                    optimised_order, pure_geometry)
 from galileo_cnc.program.ops import (I, J, KIND, LINE, COL, NO_TOOL, TOOL, VALUE, X, Y,
@@ -55,6 +59,13 @@ class PlanError(GalileoError):
         self.op_index = op_index
         self.message = message
         super().__init__(f"{pos}: {message}" if pos else message)
+
+
+def _within_arc_range(start: tuple[int, int], centre: tuple[int, int],
+                      end: tuple[int, int]) -> bool:
+    """Whether the machine can draw the arc natively (machine/arcs.py: MAX_ARC_COORD)."""
+    return max(abs(start[0] - centre[0]), abs(start[1] - centre[1]),
+               abs(end[0] - centre[0]), abs(end[1] - centre[1])) <= MAX_ARC_COORD
 
 
 def plotting_order(program: Program, config: MachineConfig, offset_nm: tuple[int, int],
@@ -138,8 +149,20 @@ def plan_program(program: Program, config: MachineConfig | None = None,
                 pen_down = True
             start = at if at is not None else (steps(at_nm[0]), steps(at_nm[1]))
             centre = (steps(at_nm[0] + row[I]), steps(at_nm[1] + row[J]))
-            add(ArcTo(target[0], target[1], centre[0] - start[0], centre[1] - start[1],
-                      cw=kind == OpKind.ARC_CW))
+            if _within_arc_range(start, centre, target):
+                add(ArcTo(target[0], target[1], centre[0] - start[0], centre[1] - start[1],
+                          cw=kind == OpKind.ARC_CW))
+            else:
+                # the machine's arcs reach MAX_ARC_COORD steps from the centre (204.8 mm
+                # on the seed's machine): a flatter arc is drawn as chords within half a
+                # step of it
+                chords = arc_points(*at_nm, x_nm, y_nm, row[I], row[J], kind == OpKind.ARC_CW,
+                                    max(config.nm_per_step // 2, 1))
+                point = start
+                for x, y in chords[1:].tolist():
+                    if (step := (steps(x), steps(y))) != point:
+                        add(LineTo(*step))
+                        point = step
             at, at_nm = target, (x_nm, y_nm)
         elif kind == OpKind.FLASH:
             if target != at:

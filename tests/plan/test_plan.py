@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pytest
@@ -182,3 +183,26 @@ def test_sample_board_with_the_proposed_offset_simulates_and_ends_pen_up():
     with pytest.raises(PlanError) as info:
         plan_program(program, CFG, (10 * MM, 0))
     assert info.value.axis == "X" and info.value.pos.line == 70
+
+
+def test_an_arc_beyond_the_machines_arc_range_is_drawn_as_chords_within_half_a_step():
+    from galileo_cnc.job import ArcTo, LineTo
+    from galileo_cnc.machine.arcs import MAX_ARC_COORD
+    from galileo_cnc.readers.gcode import read_gcode
+
+    config = MachineConfig()
+    radius_mm = 300                                   # 48,000 steps: past 32,767
+    assert radius_mm * config.steps_per_mm > MAX_ARC_COORD
+    # a 20 degree piece of a 300 mm circle (centre far above), and a small arc after it
+    program = read_gcode("flat.nc", "G21 G90\nG0 X10 Y5\nM3\n"
+                         "G3 X112.606043 Y23.092214 I0 J300\nG2 X114.606043 Y23.092214 I1 J0\n")
+    job = plan_program(program, config)
+    chords = [c for c in job.commands if isinstance(c, LineTo)]
+    arcs = [c for c in job.commands if isinstance(c, ArcTo)]
+    assert len(arcs) == 1 and len(chords) > 10
+    centre = (10 * config.steps_per_mm, 305 * config.steps_per_mm)
+    for chord in chords:                            # every chord end on the circle
+        distance = math.hypot(chord.x_steps - centre[0], chord.y_steps - centre[1])
+        assert abs(distance - radius_mm * config.steps_per_mm) <= 1.0
+    end = (config.nm_to_steps(112_606_043), config.nm_to_steps(23_092_214))
+    assert (chords[-1].x_steps, chords[-1].y_steps) == end
