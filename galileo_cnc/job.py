@@ -162,6 +162,8 @@ class Job:
     mode: str = "centre"                    # "ink" or "centre" (plan/pipeline.py)
     ordered: bool = False                   # paths chained and ordered (plan/paths.py)
     pens_nm: tuple = ()                     # ink mode: the pen set it was inked for
+    layers: tuple = ()                      # DXF: the layers read (empty: all)
+    units: str | None = None                # DXF: units given instead of $INSUNITS
     #: command index -> aperture: stop before that command for a pen change.
     pen_changes: dict[int, int] = field(default_factory=dict)
     #: aperture (pen key) -> what to ask for: "the 0.3 mm pen", "pen for aperture D11 (...)"

@@ -19,8 +19,11 @@ help [COMMAND]
     Print this help, or only the part about COMMAND (help getg).
 
 [getg]
-getg [FILE]
-    Plot a Gerber (RS-274X) or G-code file. Without FILE it asks for one
+getg [--mode ink|centre] [--pens MM,MM] [--layers A,B] [--units mm|in] [FILE]
+    Plot a Gerber (RS-274X), G-code or DXF file. Gerber copper is inked with
+    your pens (the profile's, or --pens 0.3,0.8); --mode centre draws each
+    object's centre line with one pen per aperture. --layers picks a DXF
+    drawing's layers, --units mm|in its units. Without FILE it asks for one
     (Tab completes paths, ~ included). A job larger than the machine's travel
     is refused at once, with both sizes. It shows the smallest X and Y the
     artwork uses and proposes offsets that move the whole job (travel moves
@@ -29,8 +32,8 @@ getg [FILE]
     then plans the job (a move outside the travel is refused, naming the file
     line, the axis and the distance in mm), shows the number of machine
     commands and the estimated time, and streams it with a progress bar. When
-    the artwork switches aperture the bell rings and it asks for the pen of
-    that aperture: insert it and press Enter. q or Ctrl-C stops the job (the
+    the job needs another pen the bell rings and it asks for it ("insert the
+    0.8 mm pen"): insert it and press Enter. q or Ctrl-C stops the job (the
     machine ramps down); `resume` continues it. At the end: "process has
     finished" and the time taken; the machine is ready for the next command.
 

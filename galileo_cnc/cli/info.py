@@ -72,6 +72,9 @@ def summarize(artwork: Artwork) -> dict:
         "proposed_offset_mm": {"x": _mm(offset[0]), "y": _mm(offset[1])},
         "warnings": [str(w) for w in program.warnings],
         "warning_counts": program.metadata.get("warning_counts", {}),
+        # DXF: every layer with the entities it holds, and the ones read (None: all)
+        "layers": program.metadata.get("layers"),
+        "selected_layers": program.metadata.get("selected_layers"),
     }
 
 
@@ -108,6 +111,13 @@ def format_summary(summary: dict) -> str:
     counts = summary["counts"]
     lines.append(f"counts      {counts['draws']} draws, {counts['arcs']} arcs, "
                  f"{counts['flashes']} flashes, {counts['regions']} regions")
+    if summary.get("layers"):
+        chosen = summary["selected_layers"]
+        lines.append(f"layers      {len(summary['layers'])}"
+                     + (f", reading {', '.join(chosen)}" if chosen else "")
+                     + " (--layers A,B picks them)")
+        for name, count in summary["layers"].items():
+            lines.append(f"  {name:<30} {count:>6} entities")
     if summary["apertures"]:
         lines.append("apertures")
         for ap in summary["apertures"]:

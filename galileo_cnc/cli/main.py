@@ -18,7 +18,8 @@ def _run_info(args: argparse.Namespace) -> int:
     from galileo_cnc.cli.info import format_summary, summarize
     from galileo_cnc.plan.pipeline import load_artwork
 
-    artwork = load_artwork(args.file, margin_nm=round(args.margin * NM_PER_MM))
+    artwork = load_artwork(args.file, margin_nm=round(args.margin * NM_PER_MM),
+                           layers=_layers(args), units=args.units)
     summary = summarize(artwork)
     options = _plan_options(args)
     if options.mode_for(artwork.program) == "ink":
@@ -44,7 +45,12 @@ def _profile(args: argparse.Namespace):
 
 def _plan_options(args: argparse.Namespace):
     from galileo_cnc.plan.pipeline import PlanOptions
-    return PlanOptions(mode=args.mode, file_order=getattr(args, "file_order", False))
+    return PlanOptions(mode=args.mode, file_order=getattr(args, "file_order", False),
+                       layers=_layers(args), units=args.units)
+
+
+def _layers(args: argparse.Namespace) -> tuple[str, ...]:
+    return tuple(name.strip() for name in (args.layers or "").split(",") if name.strip())
 
 
 def _run_plot(args: argparse.Namespace) -> int:
@@ -53,7 +59,8 @@ def _run_plot(args: argparse.Namespace) -> int:
     options = PlotOptions(args.file, _profile(args), offset=args.offset,
                           margin_nm=round(args.margin * NM_PER_MM), yes=args.yes,
                           preview=args.preview, trace=args.trace, resume=args.resume,
-                          group=not args.file_order, mode=args.mode)
+                          group=not args.file_order, mode=args.mode,
+                          layers=_layers(args), units=args.units)
     return run_plot(options)
 
 
@@ -140,6 +147,14 @@ def _add_job_options(parser: argparse.ArgumentParser) -> None:
                         help="keep the file's order (default: Gerber and DXF paths chained "
                         "and ordered per pen to cut pen-up travel)")
     _add_ink_options(parser)
+    _add_drawing_options(parser)
+
+
+def _add_drawing_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--layers", metavar="A,B", help="DXF: draw only these layers "
+                        "(info lists them)")
+    parser.add_argument("--units", choices=("mm", "in"), help="DXF: the drawing's units, "
+                        "instead of its $INSUNITS (a drawing without them is read as mm)")
 
 
 def _add_ink_options(parser: argparse.ArgumentParser) -> None:
@@ -165,6 +180,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="margin kept from the origin by the proposed offset (default 1 mm)")
     info.add_argument("--profile", metavar="TOML", help="machine profile (its pens)")
     _add_ink_options(info)
+    _add_drawing_options(info)
     info.set_defaults(run=_run_info, port=None, baud=None)
 
     plot = commands.add_parser("plot", help="plot a file without questions (batch getg)")

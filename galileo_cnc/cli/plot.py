@@ -80,6 +80,8 @@ class PlotOptions:
     resume: bool = False
     group: bool = True
     mode: str = "auto"
+    layers: tuple[str, ...] = ()
+    units: str | None = None
 
 
 def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.stderr) -> int:
@@ -90,7 +92,8 @@ def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.s
     if not options.resume:              # a resumed job is planned from its journal
         planned = plan_file(options.file, profile.config, options.offset,
                             margin_nm=options.margin_nm, on_progress=progress.planning,
-                            options=PlanOptions(mode=options.mode, file_order=not options.group))
+                            options=PlanOptions(mode=options.mode, file_order=not options.group,
+                                                layers=options.layers, units=options.units))
 
     link = MachineLink.open(profile.port, profile.baud, profile.config, profile.path)
     link.on_message = progress.message

@@ -30,7 +30,8 @@ def run(console, arguments: list[str]) -> None:
     if not path:
         return
     console.link.check_config()             # a board built for another machine: say so first
-    artwork = load_artwork(os.path.expanduser(path))   # GalileoError: one message, no traceback
+    artwork = load_artwork(os.path.expanduser(path), layers=options.layers,
+                           units=options.units)     # GalileoError: one message, no traceback
     if (problem := artwork.misfit(console.config)) is not None:
         console.say(problem)                          # before any question or planning
         return
@@ -59,9 +60,12 @@ def run(console, arguments: list[str]) -> None:
 
 
 def _options(console, arguments: list[str]) -> tuple[PlanOptions, object, list[str]]:
-    """`--mode ink|centre` and `--pens 0.3,0.8` before the file name (the profile's pens
-    otherwise); GalileoError for anything else that starts with --."""
+    """`--mode ink|centre`, `--pens 0.3,0.8` (the profile's pens otherwise), and a DXF
+    drawing's `--layers A,B` and `--units mm|in`, before the file name; GalileoError
+    for anything else that starts with --."""
     mode, config, rest = "auto", console.config, list(arguments)
+    layers: tuple[str, ...] = ()
+    units = None
     while rest and rest[0].startswith("--"):
         flag = rest.pop(0)
         value = rest.pop(0) if rest else ""
@@ -69,10 +73,15 @@ def _options(console, arguments: list[str]) -> tuple[PlanOptions, object, list[s
             mode = value
         elif flag == "--pens":
             config = config.replace(pen_widths_mm=pen_widths_from_text(value))
+        elif flag == "--layers" and value:
+            layers = tuple(name.strip() for name in value.split(",") if name.strip())
+        elif flag == "--units" and value in ("mm", "in"):
+            units = value
         else:
             raise GalileoError(f"getg: unknown option {flag} {value}".rstrip()
-                               + " (getg [--mode ink|centre] [--pens MM,MM] [FILE])")
-    return PlanOptions(mode=mode), config, rest
+                               + " (getg [--mode ink|centre] [--pens MM,MM] [--layers A,B] "
+                               "[--units mm|in] [FILE])")
+    return PlanOptions(mode=mode, layers=layers, units=units), config, rest
 
 
 def choose_offset(console, artwork: Artwork) -> tuple[int, int] | None:

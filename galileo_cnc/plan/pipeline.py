@@ -72,11 +72,13 @@ class PlanOptions:
     each object's centre line with one pen per aperture (the seed's way), "auto" is
     ink for Gerber and centre for everything else. `pens_nm` overrides the
     profile's pens. `file_order` keeps the file's order: no grouping by pen, no
-    path order."""
+    path order. `layers` and `units` choose what of a DXF drawing is read (read_dxf)."""
 
     mode: str = "auto"
     pens_nm: tuple[int, ...] = ()
     file_order: bool = False
+    layers: tuple[str, ...] = ()
+    units: str | None = None
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -114,9 +116,12 @@ class PlannedFile:
         return self.ink.copper if self.ink is not None else None
 
 
-def load_artwork(source: str | Path | Program, margin_nm: int = DEFAULT_MARGIN_NM) -> Artwork:
-    """Read `source` (a path, or a Program already read) and find where it sits."""
-    program = source if isinstance(source, Program) else read_file(source)
+def load_artwork(source: str | Path | Program, margin_nm: int = DEFAULT_MARGIN_NM, *,
+                 layers: tuple[str, ...] = (), units: str | None = None) -> Artwork:
+    """Read `source` (a path, or a Program already read) and find where it sits;
+    `layers` and `units` are a DXF drawing's (readers.read_file)."""
+    program = source if isinstance(source, Program) \
+        else read_file(source, layers=layers, units=units)
     return Artwork(program, extents(program), extents(program, visited=True), margin_nm)
 
 
@@ -151,7 +156,8 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
     leaves it. `group=False` is the older spelling of options.file_order; `optimize`
     (None: unless file order) is for replanning a journaled job exactly as it was."""
     config = config or MachineConfig()
-    artwork = source if isinstance(source, Artwork) else load_artwork(source, margin_nm)
+    artwork = source if isinstance(source, Artwork) else \
+        load_artwork(source, margin_nm, layers=options.layers, units=options.units)
     if (problem := artwork.misfit(config)) is not None:
         raise PlanError(problem)
     offset_nm = resolve_offset(artwork, offset)
@@ -174,4 +180,5 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
                        on_progress=on_progress, optimize=optimize)
     job.mode = mode
     job.pens_nm = ink.pens_nm if ink is not None else ()
+    job.layers, job.units = tuple(options.layers), options.units
     return PlannedFile(artwork, offset_nm, job, plotted, mode, ink)

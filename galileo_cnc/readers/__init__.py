@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 
-from galileo_cnc.errors import SourcePos
+from galileo_cnc.errors import GalileoError, SourcePos
 from galileo_cnc.program.ops import Program
 from galileo_cnc.readers.dxf import looks_like_dxf, read_dxf
 from galileo_cnc.readers.dxf.scan import BINARY_SENTINEL
@@ -25,28 +25,34 @@ def detect_format(text: str) -> str | None:
     return None
 
 
-def read_file(path: str | os.PathLike, *, max_ops: int | None = None) -> Program:
+def read_file(path: str | os.PathLike, *, max_ops: int | None = None,
+              layers: tuple[str, ...] = (), units: str | None = None) -> Program:
     """Read a Gerber, G-code or DXF file into a Program; errors name the file and line.
 
     Only regular text files are read (see readers/source.py); `max_ops` overrides the
-    op limit (readers/limits.py, $GALILEO_MAX_OPS).
+    op limit (readers/limits.py, $GALILEO_MAX_OPS). `layers` and `units` are a DXF
+    drawing's (read_dxf); given for another format they are an error, not ignored.
     """
     data = read_bytes(path)
+    dxf_options = {"layers": tuple(layers) or None, "units": units}
     if data.startswith(BINARY_SENTINEL):
-        return read_dxf(path, max_ops=max_ops)  # binary DXF
+        return read_dxf(path, max_ops=max_ops, **dxf_options)  # binary DXF
     at = first_binary_byte(data)
     if at is not None:
         raise binary_error(os.fsdecode(path), data, at)
     text = decode(data)
     del data
     fmt = detect_format(text)
+    if fmt in ("gerber", "gcode") and (layers or units):
+        raise GalileoError(f"{os.fsdecode(path)}: --layers and --units are for DXF drawings; "
+                           f"this is a {'Gerber' if fmt == 'gerber' else 'G-code'} file")
     if fmt == "gerber":
         return read_gerber(path, text, max_ops=max_ops)
     if fmt == "gcode":
         return read_gcode(path, text, max_ops=max_ops)
     if fmt == "dxf":
         del text
-        return read_dxf(path, max_ops=max_ops)  # reads the bytes itself: binary DXF too
+        return read_dxf(path, max_ops=max_ops, **dxf_options)  # reads the bytes: binary too
     blank = len(text) - len(text.lstrip())
     line = text.count("\n", 0, blank) + 1
     raise UnrecognisedFileError(

@@ -64,6 +64,9 @@ class JournalEntry:
     ordered: bool = False
     #: ink mode: the pens (nm) the job was inked for
     pens_nm: tuple = ()
+    #: DXF: the layers read (empty: all) and the units given instead of $INSUNITS
+    layers: tuple = ()
+    units: str | None = None
 
     def index_of_seq(self, seq: int) -> int | None:
         """The command a sequence number of this session would belong to (the

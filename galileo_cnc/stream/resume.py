@@ -108,7 +108,8 @@ def plan_resume(link: MachineLink, entry: JournalEntry) -> ResumePoint:
     config = MachineConfig.from_mapping(tomllib.loads(entry.profile), "journal")
     planned = plan_file(entry.source, config, entry.offset_nm,
                         options=PlanOptions(mode=entry.mode, file_order=not entry.group,
-                                            pens_nm=tuple(entry.pens_nm)),
+                                            pens_nm=tuple(entry.pens_nm),
+                                            layers=tuple(entry.layers), units=entry.units),
                         optimize=entry.ordered)
     job, artwork = planned.job, planned.artwork
     if len(job) != entry.total:

@@ -354,7 +354,8 @@ class JobStreamer:
             source, digest, self.job.offset_nm, self.link.config.to_toml(),
             self.job.grouped, len(self.job), self.start - 1, self.start, first_seq,
             start_position=self.job_start, mode=self.job.mode, ordered=self.job.ordered,
-            pens_nm=tuple(self.job.pens_nm)))
+            pens_nm=tuple(self.job.pens_nm), layers=tuple(self.job.layers),
+            units=self.job.units))
 
     def _journal_end(self, state: str, reason: str = "") -> None:
         if self.journal is not None and self.journal.entry is not None:

@@ -195,3 +195,46 @@ def test_plot_resume_continues_the_interrupted_job(tmp_path, monkeypatch):
     assert main(["plot", str(ROOT / "samples" / "led-blinker.gbr"), "--resume", "--yes",
                  "--port", url]) == 1         # nothing left to resume
     forget_named_machines()
+
+
+def test_dxf_layers_and_units_on_the_command_line(tmp_path):
+    import ezdxf
+
+    drawing = ezdxf.new()                       # no $INSUNITS: read as mm unless told
+    drawing.header["$INSUNITS"] = 0
+    space = drawing.modelspace()
+    space.add_line((0, 0), (2, 0), dxfattribs={"layer": "OUTLINE"})
+    space.add_line((2, 0), (2, 1), dxfattribs={"layer": "OUTLINE"})
+    space.add_circle((1, 3), 0.5, dxfattribs={"layer": "HOLES"})
+    path = tmp_path / "panel.dxf"
+    drawing.saveas(path)
+
+    result = galileo("info", str(path))
+    assert result.returncode == 0, result.stderr
+    assert "layers      4 (--layers A,B picks them)" in result.stdout
+    assert re.search(r"OUTLINE +2 entities", result.stdout)
+    assert re.search(r"HOLES +1 entities", result.stdout)
+
+    result = galileo("info", str(path), "--layers", "outline", "--units", "in", "--json")
+    info = json.loads(result.stdout)
+    assert info["selected_layers"] == ["OUTLINE"] and info["counts"]["draws"] == 2
+    assert info["bbox_mm"] == {"min_x": 0.0, "min_y": 0.0, "max_x": 50.8, "max_y": 25.4}
+
+    trace_file = tmp_path / "panel.npz"
+    result = galileo("plot", str(path), "--layers", "OUTLINE", "--units", "in", "--yes",
+                     "--port", "sim://?speed=0", "--offset", "none", "--trace", str(trace_file),
+                     home=tmp_path)
+    assert result.returncode == 0, result.stderr
+    journal = json.loads((tmp_path / "journal.json").read_text())
+    assert journal["layers"] == ["OUTLINE"] and journal["units"] == "in"   # resume reads so
+    config = MachineConfig()
+    where = Trace.load(trace_file).positions()
+    drawn = where[where[:, 2] == config.pen_down_z_steps]
+    assert drawn[:, 0].max() == round(50.8 * config.steps_per_mm)        # 2 in, not 2 mm
+    assert drawn[:, 1].max() == round(25.4 * config.steps_per_mm)        # no circle at 3 in
+
+    result = galileo("info", str(path), "--layers", "NOPE")
+    assert result.returncode == 1 and "NOPE" in result.stderr and "OUTLINE" in result.stderr
+    result = galileo("info", "samples/led-blinker.gbr", "--layers", "TOP")
+    assert result.returncode == 1
+    assert "--layers and --units are for DXF drawings; this is a Gerber file" in result.stderr

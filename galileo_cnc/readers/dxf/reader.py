@@ -75,7 +75,7 @@ def read_dxf(path: str | os.PathLike, *, units: str | None = None,
             what = "no $INSUNITS" if code is None else \
                 ("$INSUNITS 0 (unitless)" if code == 0 else f"$INSUNITS {code} (not a length)")
             out.warn(0, 0, f"the drawing has {what}: read as millimetres "
-                     "(units='in' reads it as inches)")
+                     "(--units in reads it as inches)")
         code = 4
     unit, factor = INSUNITS[code]
     tolerance_units = tolerance_nm / float(factor)
@@ -107,7 +107,9 @@ def read_dxf(path: str | os.PathLike, *, units: str | None = None,
         "insunits": insunits,
         "nm_per_unit": str(factor),
         "layers": layer_counts,
-        "selected_layers": sorted(selection) if selection is not None else None,
+        # as the drawing spells them
+        "selected_layers": [layer for layer in all_layers if layer.casefold() in selection]
+        if selection is not None else None,
         "entities": dict(walker.drawn),
         "skipped": dict(walker.skipped),
         "invalid": dict(walker.invalid),
