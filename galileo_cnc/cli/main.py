@@ -96,7 +96,7 @@ def _run_convert(args: argparse.Namespace) -> int:
     lengths = job_lengths(planned.job)
     metres = config.steps_per_mm * 1000
     print(f"{args.output}: {lines} lines, {lengths.drawn_steps / metres:.2f} m drawn, "
-          f"{lengths.travel_steps / metres:.2f} m pen-up travel, {lengths.lifts} pen lifts "
+          f"{lengths.travel_steps / metres:.2f} m pen-up travel, {lengths.lifts} pen lift{'' if lengths.lifts == 1 else 's'} "
           f"({planned.mode} mode{', paths ordered' if planned.job.ordered else ''})")
     return 0
 

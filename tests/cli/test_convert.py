@@ -69,11 +69,11 @@ def test_ink_with_two_pens_reads_back_to_the_same_plot(tmp_path):
 
 
 def test_a_dxf_drawing_converts_with_its_arcs(tmp_path):
-    # 13 lines and 9 arcs as the seed's CAD2G example: one chain but for a lone piece
+    # 13 lines and 9 arcs like the seed's CAD2G example: chained into one stroke
     drawing = CORPUS / "dxf" / "autocad" / "ezdxf-AC1003_LINE_Example.dxf"
     stdout, text, back = converted_and_back(tmp_path, drawing)
     planned = plan_file(drawing)
     config = MachineConfig()
     assert pen_down_runs(back.job, config) == pen_down_runs(planned.job, config)
     assert text.count("\nG2 ") + text.count("\nG3 ") == 9
-    assert "2 pen lifts" in stdout and text.count("\nM3\n") == 2
+    assert "1 pen lift (" in stdout and text.count("\nM3\n") == 1

@@ -184,3 +184,191 @@ def _travel(job) -> float:
 
 def _lifts(job) -> int:
     return sum(isinstance(c, Rapid) for c in job.commands)
+
+
+# --------------------------------------------------------------------------- chaining
+
+
+def _strokes_needed(pieces, join_nm: int = STEP) -> int:
+    """The fewest strokes that draw `pieces` (paths only, ends that meet exactly):
+    per connected group of paths, half its odd-degree ends, at least one."""
+    parent: dict = {}
+
+    def find(p):
+        parent.setdefault(p, p)
+        while parent[p] != p:
+            p = parent[p]
+        return p
+
+    degree: dict = {}
+    for piece in pieces:
+        a, b = piece.start, piece.end
+        degree[a] = degree.get(a, 0) + 1
+        degree[b] = degree.get(b, 0) + 1
+        parent[find(a)] = find(b)
+    odd: dict = {}
+    for point, d in degree.items():
+        odd[find(point)] = odd.get(find(point), 0) + d % 2
+    return sum(max(1, count // 2) for count in odd.values())
+
+
+def test_a_junction_is_drawn_in_as_few_strokes_as_its_ends_allow():
+    # a lollipop: a stem A-B, a loop B-C-B of two arcs, and a second stem B-D, in an
+    # order where joining the first path found at B leaves the loop as a stroke of its
+    # own: 2 strokes. Every arrival at B can leave by another path: A-B-C-B-D, one.
+    stem = path((0, 0), (10 * MM, 0), index=0)
+    other_stem = path((10 * MM, 0), (10 * MM, -10 * MM), index=1)
+    arc_up = path((10 * MM, 0), (20 * MM, 0, 5 * MM, 0, True), index=2)
+    arc_down = path((20 * MM, 0), (10 * MM, 0, -5 * MM, 0, True), index=3)
+    pieces = [stem, other_stem, arc_up, arc_down]
+    chains = paths.chain(pieces, STEP)
+    assert len(chains) == 1
+    assert len(chains[0].rows) == 5                # one MOVE, four segments
+    assert_same_drawing([r for p in pieces for r in p.rows], chains[0].rows, 0)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_chaining_random_grid_drawings_needs_no_more_strokes_than_the_ends_force(seed):
+    # unit segments on a small grid, each drawn either way, shuffled: many junctions
+    # of three and four paths
+    rng = random.Random(seed)
+    edges = set()
+    while len(edges) < 40:
+        x, y = rng.randrange(6), rng.randrange(6)
+        dx, dy = rng.choice(((1, 0), (0, 1)))
+        edges.add(((x, y), (x + dx, y + dy)))
+    pieces = []
+    for k, (a, b) in enumerate(sorted(edges)):
+        a, b = (b, a) if rng.random() < 0.5 else (a, b)
+        pieces.append(path((a[0] * MM, a[1] * MM), (b[0] * MM, b[1] * MM), index=k))
+    rng.shuffle(pieces)
+    chains = paths.chain(pieces, STEP)
+    assert len(chains) == _strokes_needed(pieces)
+    assert_same_drawing([r for p in pieces for r in p.rows],
+                        [r for c in chains for r in c.rows], 0)
+
+
+def test_ends_linked_through_a_third_end_join_only_within_a_step():
+    # three ends 4 um apart in a row: the outer two are 8 um apart, more than a step,
+    # so one of them must stay apart (assert_same_drawing allows a step of gap)
+    a = path((0, 0), (10 * MM, 0), index=0)
+    b = path((10 * MM + 4000, 0), (10 * MM + 4000, 10 * MM), index=1)
+    c = path((10 * MM + 8000, 0), (20 * MM, 0), index=2)
+    chains = paths.chain([a, b, c], STEP)
+    assert len(chains) == 2
+    assert_same_drawing(a.rows + b.rows + c.rows, [r for ch in chains for r in ch.rows])
+
+
+# --------------------------------------------------------------------------- ordering
+
+
+def _best_travel(chains, start) -> float:
+    """Shortest pen-up travel over every order and direction (brute force)."""
+    import itertools
+
+    best = math.inf
+    for perm in itertools.permutations(range(len(chains))):
+        for flips in itertools.product((False, True), repeat=len(chains)):
+            here, total = start, 0.0
+            for k, flip in zip(perm, flips):
+                c = chains[k]
+                a, b = (c.end, c.start) if flip else (c.start, c.end)
+                total += math.dist(here, a)
+                here = b
+            best = min(best, total)
+    return best
+
+
+def test_a_comb_is_drawn_up_and_down_flipping_every_other_tooth():
+    # teeth 1 mm apart, all given bottom to top: only flipping teeth in place gives
+    # the known optimum, 1 mm of travel between teeth
+    teeth = [path((k * MM, 0), (k * MM, 10 * MM), index=k) for k in range(12)]
+    tour, end = paths.order(teeth, (0, 0))
+    assert paths.travel_nm(tour, (0, 0)) == pytest.approx(11 * MM, abs=1)
+    assert end in ((11 * MM, 0), (11 * MM, 10 * MM))
+    assert sorted(min(c.rows[0][0], c.rows[-1][0]) for c in tour) == list(range(12))
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_few_chains_take_the_shortest_order(seed):
+    rng = random.Random(seed)
+    chains = []
+    for k in range(rng.randint(2, 6)):
+        a = (rng.randrange(50 * MM), rng.randrange(50 * MM))
+        b = (a[0] + rng.randrange(-20 * MM, 20 * MM), a[1] + rng.randrange(-20 * MM, 20 * MM))
+        chains.append(path(a, b, index=k))
+    start = (rng.randrange(50 * MM), rng.randrange(50 * MM))
+    tour, _end = paths.order(chains, start)
+    assert paths.travel_nm(tour, start) == pytest.approx(_best_travel(chains, start), abs=1)
+
+
+def test_a_single_chain_flip_in_the_middle_of_a_long_tour():
+    # a row of 30 short paths left to right, one of them given right to left; more
+    # chains than the exhaustive search takes, so the local search must turn it
+    row = [path((k * 3 * MM, 0), (k * 3 * MM + 2 * MM, 0), index=k) for k in range(30)]
+    row[17] = row[17].reversed()
+    tour, _end = paths.order(row, (0, 0))
+    assert paths.travel_nm(tour, (0, 0)) == pytest.approx(29 * MM, abs=1)
+
+
+def _random_paths(seed: int, count: int):
+    """`count` random pieces: open paths of lines and arcs, closed loops, flashes."""
+    rng = random.Random(seed)
+    rows = []
+    for k in range(count):
+        x, y = rng.randrange(100 * MM), rng.randrange(100 * MM)
+        if k % 7 == 0:
+            r = [0] * 9
+            r[KIND], r[X], r[Y] = int(OpKind.FLASH), x, y
+            rows.append((k, r))
+            continue
+        rows.append((k, row(MOVE, x, y)))
+        for _ in range(rng.randint(1, 3)):
+            nx, ny = x + rng.randrange(-3 * MM, 3 * MM), y + rng.randrange(-3 * MM, 3 * MM)
+            if rng.random() < 0.3:       # a half circle to (nx, ny)
+                rows.append((k, row(CW, nx, ny, (nx - x) // 2, (ny - y) // 2)))
+            else:
+                rows.append((k, row(LINE, nx, ny)))
+            x, y = nx, ny
+        if k % 5 == 0:                   # closed
+            rows.append((k, row(LINE, *rows[-1 - 0][1][X:Y + 1])))
+    return rows
+
+
+def test_ordering_is_deterministic_and_draws_the_same():
+    rows = _random_paths(11, 600)
+    first, end = paths.optimise(rows, (0, 0), STEP)
+    again, end_again = paths.optimise([(i, list(r)) for i, r in rows], (0, 0), STEP)
+    assert first == again and end == end_again
+    assert_same_drawing(rows, first)
+    ours = paths.travel_nm(paths.cut_pieces(first, (0, 0)), (0, 0))
+    assert ours < 0.5 * paths.travel_nm(paths.cut_pieces(rows, (0, 0)), (0, 0))
+
+
+def test_a_move_budget_of_zero_still_orders_every_chain():
+    rows = _random_paths(5, 200)
+    drawn, _end = paths.optimise(rows, (0, 0), STEP, moves=0)
+    assert_same_drawing(rows, drawn)
+
+
+def test_many_paths_order_better_than_nearest_neighbour():
+    # 800 random short paths: greedy + 2-opt + Or-opt must beat a plain nearest
+    # neighbour tour by a clear margin (no timing here: the bench measures time)
+    rng = random.Random(2)
+    chains = []
+    for k in range(800):
+        a = (rng.randrange(120 * MM), rng.randrange(120 * MM))
+        b = (a[0] + rng.randrange(-2 * MM, 2 * MM), a[1] + rng.randrange(-2 * MM, 2 * MM))
+        chains.append(path(a, b, index=k))
+    left, here, nn = set(range(len(chains))), (0, 0), 0.0
+    while left:
+        k, flip = min(((k, f) for k in left for f in (False, True)),
+                      key=lambda kf: math.dist(here, chains[kf[0]].end if kf[1]
+                                               else chains[kf[0]].start))
+        left.discard(k)
+        c = chains[k].reversed() if flip else chains[k]
+        nn += math.dist(here, c.start)
+        here = c.end
+    tour, _end = paths.order(chains, (0, 0))
+    assert len(tour) == len(chains)
+    assert paths.travel_nm(tour, (0, 0)) < 0.85 * nn
