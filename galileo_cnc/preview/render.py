@@ -494,7 +494,9 @@ class _RunPainter:
                  box: bool = False):
         self.first, self.last = runs[:, 0], runs[:, 1]
         self.draw, self.colour, self.width = draw, colour, width
-        self.length_steps = 0.0
+        # squared segment length (integer steps^2) -> count: the sum is taken once, in
+        # key order, so the length does not depend on how the trace was chunked
+        self._squared_lengths: dict[int, int] = {}
         self.want_box, self.lo, self.hi = box, None, None   # extent (x, y steps)
         self._sample = None    # (run, x, y): the last length sample so far
         self._open = None      # (run, last two points, first point, left its pixel)
@@ -534,6 +536,11 @@ class _RunPainter:
         """The kept events as the points to draw: their pixels."""
         return np.stack([col[kept], row[kept]], axis=1).astype(np.float32)
 
+    @property
+    def length_steps(self) -> float:
+        return math.fsum(count * math.sqrt(value)
+                         for value, count in sorted(self._squared_lengths.items()))
+
     def _length(self, x, y, index, run, event, stops) -> None:
         """Length over samples every _LENGTH_SAMPLE events from each run's first,
         and its last, so step staircases do not count as extra length."""
@@ -545,7 +552,10 @@ class _RunPainter:
             xs, ys, ids = np.append(sx, xs), np.append(sy, ys), np.append(r, ids)
         if len(ids):
             same = ids[1:] == ids[:-1]
-            self.length_steps += float(np.hypot(np.diff(xs)[same], np.diff(ys)[same]).sum())
+            squared = np.diff(xs)[same] ** 2 + np.diff(ys)[same] ** 2
+            values, counts = np.unique(squared, return_counts=True)
+            for value, count in zip(values.tolist(), counts.tolist()):
+                self._squared_lengths[value] = self._squared_lengths.get(value, 0) + count
             self._sample = (ids[-1], xs[-1], ys[-1])
 
     def _paint(self, points: np.ndarray, run: np.ndarray, end: int) -> None:
