@@ -90,3 +90,4 @@ def test_vectorised_runs_give_the_same_program_as_statement_by_statement(path):
     assert np.array_equal(fast.table, reference.table)
     assert [str(w) for w in fast.warnings] == [str(w) for w in reference.warnings]
     assert fast.metadata == reference.metadata
+    assert fast.apertures == reference.apertures

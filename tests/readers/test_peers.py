@@ -363,8 +363,11 @@ def describe(e: BaseException) -> str:
 @functools.cache
 def _ours(rel: str):
     from galileo_cnc.readers.gerber import read_gerber
+    from galileo_cnc.readers.gerber.transformed import with_source_apertures
 
-    return ours_summary(read_gerber(corpus_dir() / rel))
+    # Peers count per D code of the file; ours puts a flash under %LR on the aperture's
+    # image (a key of its own), so count those under the file's D code too.
+    return ours_summary(with_source_apertures(read_gerber(corpus_dir() / rel)))
 
 
 @functools.cache

@@ -69,7 +69,7 @@ def _standard(code: int, template: str, parameters: list[Fraction], units: str) 
         diameter = to_nm(parameters[0], units)
         return Aperture(code, shape, (diameter,), _hole(parameters[3:], units),
                         rotation_udeg=round(rotation * 1_000_000), vertices=vertices,
-                        extent_nm=_polygon_extent(diameter, vertices, float(rotation)))
+                        extent_nm=polygon_extent(diameter, vertices, float(rotation)))
     size = tuple(to_nm(p, units) for p in parameters[:sizes])
     half_w = (size[0] + 1) // 2
     half_h = (size[-1] + 1) // 2
@@ -81,7 +81,7 @@ def _hole(parameters: list[Fraction], units: str) -> tuple[int, ...]:
     return tuple(to_nm(p, units) for p in parameters[:2])
 
 
-def _polygon_extent(diameter_nm: int, vertices: int, rotation_deg: float):
+def polygon_extent(diameter_nm: int, vertices: int, rotation_deg: float):
     r = diameter_nm / 2
     xs, ys = [], []
     for k in range(vertices):

@@ -14,6 +14,7 @@ applied to the coordinates at the end, the rest is recorded with a warning.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import re
 from array import array
@@ -25,8 +26,8 @@ from galileo_cnc.errors import GerberError, ReaderWarning, SourcePos
 from galileo_cnc.program.geometry import single_quadrant_centre
 from galileo_cnc.program.ops import COL as COL_COL
 from galileo_cnc.program.ops import LINE as LINE_COL
-from galileo_cnc.program.ops import (COLUMNS, KIND, NO_TOOL, POSITIONED_KINDS, X, Y, Aperture,
-                                     OpKind, Program, ProgramBuilder)
+from galileo_cnc.program.ops import (COLUMNS, KIND, NO_TOOL, POSITIONED_KINDS, TOOL, X, Y,
+                                     Aperture, OpKind, Program, ProgramBuilder)
 from galileo_cnc.readers import limits
 from galileo_cnc.readers.gerber import vectorised as batch_reader
 from galileo_cnc.readers.gerber.apertures import define_aperture, parse_parameters
@@ -34,6 +35,7 @@ from galileo_cnc.readers.gerber.image import ImageTransform
 from galileo_cnc.readers.gerber.load import LoadTransform
 from galileo_cnc.readers.gerber.macros import MacroTemplate
 from galileo_cnc.readers.gerber.numbers import AxisFormat, decimal_to_nm, parse_decimal
+from galileo_cnc.readers.gerber.transformed import derived_key, source_code, transform_aperture
 
 # G04 comments get their own branch: EAGLE writes "%" inside them (G04 #@! %TF...).
 _STATEMENT = re.compile(r"\s*(?:G0?4[^*]*\*|%([^%]*)%|([^%*]*)\*)")
@@ -105,6 +107,9 @@ class GerberReader:
         self.block_stack: list[tuple[int, array]] = []
         self.image = ImageTransform()
         self.load = LoadTransform()
+        # (file code, transform key) -> (the aperture it was made from, derived key).
+        self.derived: dict[tuple, tuple[Aperture, int]] = {}
+        self.derived_count = 0
         # Format and units.
         self.units: str | None = None
         self.fs: tuple | None = None  # (trailing, incremental, xi, xd, yi, yd)
@@ -116,7 +121,10 @@ class GerberReader:
         self.interpolation = 1
         self.quadrant: int | None = None
         self.dcode = ""  # the last D01/D02/D03, as text
-        self.aperture = NO_TOOL
+        self.aperture = NO_TOOL  # as selected by the file
+        # What draws and flashes carry in the tool column: the selected aperture, or its
+        # image under the load transform; None until first used (see drawing_tool).
+        self.tool: int | None = NO_TOOL
         self.pen_down = False
         self.in_region = False
         # nx, ny, dx, dy, first row, offset of the %SR statement
@@ -315,11 +323,14 @@ class GerberReader:
                 raise self._out_of_range("Y", y, match.string.strip())
         if d == "1":
             if self.interpolation == 1 and not self.in_region and self.aperture != NO_TOOL:
+                tool = self.tool
+                if tool is None:
+                    tool = self.drawing_tool()
                 if self.pen_down:
-                    self.rows.extend((LINE, x, y, 0, 0, self.aperture, 0, self.offset, 0))
+                    self.rows.extend((LINE, x, y, 0, 0, tool, 0, self.offset, 0))
                 else:
                     self.rows.extend((PEN_DOWN, self.x, self.y, 0, 0, NO_TOOL, 0, self.offset, 0,
-                                      LINE, x, y, 0, 0, self.aperture, 0, self.offset, 0))
+                                      LINE, x, y, 0, 0, tool, 0, self.offset, 0))
                     self.pen_down = True
             else:
                 i = fmt_x.to_nm(is_) if is_ else 0
@@ -351,9 +362,12 @@ class GerberReader:
         if not self.pen_down:
             self.emit(PEN_DOWN, self.x, self.y)
             self.pen_down = True
-        tool = NO_TOOL if self.in_region else self.aperture
-        if not self.in_region and tool == NO_TOOL:
+        if self.in_region:
+            tool = NO_TOOL
+        elif self.aperture == NO_TOOL:
             raise self.error("expected an aperture (Dnn) to be selected before drawing")
+        else:
+            tool = self.drawing_tool()
         mode = self.interpolation
         if mode == 1:
             self.emit(LINE, x, y, tool=tool)
@@ -377,11 +391,13 @@ class GerberReader:
         self.pen_down = False
         block = self.blocks.get(self.aperture)
         if block is None:
-            self.emit(FLASH, x, y, tool=self.aperture)
+            self.emit(FLASH, x, y, tool=self.drawing_tool())
             return
         self._check_ops(len(block), f"flashing block aperture D{self.aperture} "
                                     f"({len(block):,} operations) here would make")
         copy = self.load.transform_rows(block)
+        if not self.load.is_identity():
+            self._transform_tools(copy)
         if len(copy) and (np.abs(copy[:, [X, Y]]).max() + max(abs(x), abs(y)) > MAX_COORD_NM):
             raise self.error(f"flashing block aperture D{self.aperture} here puts its image "
                              f"out of range (more than {MAX_COORD_NM / 1e9:g} m from the origin)")
@@ -389,6 +405,61 @@ class GerberReader:
         copy[moving, X] += x
         copy[moving, Y] += y
         self.rows.frombytes(memoryview(copy).cast("B"))
+
+    # --- apertures under the load transform ------------------------------------------
+
+    def drawing_tool(self) -> int:
+        """The tool code of a draw or flash with the selected aperture now: the aperture
+        itself, or its image under the load transform (made once, at the first use)."""
+        if self.tool is None:
+            self.tool = self._derive(self.aperture, self.load)
+        return self.tool
+
+    def _retool(self) -> None:
+        """The selection, the load transform or a definition changed: derive anew."""
+        plain = self.aperture == NO_TOOL or self.load.is_identity() or self.aperture in self.blocks
+        self.tool = self.aperture if plain else None
+
+    def _derive(self, code: int, load: LoadTransform) -> int:
+        """The key of aperture `code` under `load` (`code` itself if the image is the
+        same, as for a circle only turned). Cached per (aperture, transform); a redefined
+        aperture (%AD again) gets a new one."""
+        source = self.apertures[code]
+        if source.shape == "block" or load.is_identity():
+            return code
+        cache_key = (code, load.key())
+        cached = self.derived.get(cache_key)
+        if cached is not None and cached[0] is source:
+            return cached[1]
+        if self.definitions + self.derived_count >= self.max_definitions:
+            # Each new %LR angle makes new images: a file must not grow them without end.
+            raise self.error(f"more than {self.max_definitions:,} apertures and aperture images "
+                             f"under %LM/%LR/%LS, the limit (set {limits.MAX_APERTURES_ENV}"
+                             "=<count> to raise it)")
+        key = derived_key(self.derived_count + 1, code)
+        try:
+            image = transform_aperture(source, load, key)
+        except ValueError as problem:
+            raise self.error(f"aperture D{source_code(code)} under {load.describe()}: "
+                             f"{problem}") from None
+        if dataclasses.replace(image, code=code) == source:
+            key = code
+        else:
+            self.derived_count += 1
+            self.apertures[key] = image
+            derived = self.metadata.setdefault("derived_apertures", {})
+            before = derived.get(code)  # an image of an image (a block flashed under a transform)
+            derived[key] = (source_code(code), load.describe() if before is None
+                            else f"{before[1]}, then {load.describe()}")
+        self.derived[cache_key] = (source, key)
+        return key
+
+    def _transform_tools(self, rows: np.ndarray) -> None:
+        """A block flashed under a load transform: its flashes and draws use their
+        apertures' images under it too (on top of any transform inside the block)."""
+        drawn = np.isin(rows[:, KIND], (FLASH, LINE, ARC_CW, ARC_CCW)) & (rows[:, TOOL] != NO_TOOL)
+        for code in np.unique(rows[drawn, TOOL]).tolist():
+            rows[drawn & (rows[:, TOOL] == code), TOOL] = self._derive(code, self.load)
 
     # --- word commands ------------------------------------------------------------
 
@@ -482,6 +553,7 @@ class GerberReader:
                                 "(RS-274-D?): using a zero-size round aperture")
             self.apertures[code] = Aperture(code, "circle", (0,))
         self.aperture = code
+        self._retool()
         self.emit(SELECT, self.x, self.y, tool=code)
 
     def _region_begin(self) -> None:
@@ -629,6 +701,7 @@ class GerberReader:
         if code in self.apertures:
             self.warn("redefined-aperture", f"aperture D{code} defined again: the new one wins", block)
         self.apertures[code] = aperture
+        self._retool()
 
     def _count_definition(self, block: str) -> None:
         self.definitions += 1
@@ -717,6 +790,7 @@ class GerberReader:
             self.block_rows += len(rows) - len(self.blocks.get(code, ()))
             self.blocks[code] = rows
             self.apertures[code] = Aperture(code, "block", extent_nm=_rows_extent(rows))
+            self._retool()
             self.rows = outer
             self.pen_down = False
             return
@@ -773,9 +847,7 @@ class GerberReader:
             self.load.apply_command("".join(block.split()))
         except ValueError as problem:
             raise self.error(str(problem), block) from None
-        if not self.load.is_identity():
-            self.warn("LM/LR/LS", "%LM/%LR/%LS transform flashed apertures: aperture blocks are "
-                                  "transformed, standard and macro aperture outlines are not yet", block)
+        self._retool()
 
     def _attribute(self, block: str) -> None:
         key, _, value = block[2:].partition(",")

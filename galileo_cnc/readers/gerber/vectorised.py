@@ -183,11 +183,11 @@ def read_run(reader, words: Words, first: int, stop: int, starts: np.ndarray) ->
             return False
         tool = NO_TOOL
     else:
-        tool = reader.aperture
-        if tool == NO_TOOL and (operations != 2).any():
+        if reader.aperture == NO_TOOL and (operations != 2).any():
             return False
-        if tool in reader.blocks and flashes.any():
+        if reader.aperture in reader.blocks and flashes.any():
             return False
+        tool = reader.tool
 
     x = _modal(present[:, X], _scaled(value[:, X], digits[:, X], fmt_x), reader.x, reader.incremental)
     y = _modal(present[:, Y], _scaled(value[:, Y], digits[:, Y], fmt_y), reader.y, reader.incremental)
@@ -208,6 +208,12 @@ def read_run(reader, words: Words, first: int, stop: int, starts: np.ndarray) ->
     if arcs.any() and reader.quadrant == 74:
         if not _single_quadrant(kinds, i, j, arcs, previous_x, previous_y, x, y):
             return False
+    if tool is None:
+        # The aperture's image under %LM/%LR/%LS, made at the first draw or flash (where
+        # the one-by-one path makes it, so an error names that statement).
+        drawing = operations != 2
+        reader.offset = int(starts[np.argmax(drawing)])
+        tool = reader.drawing_tool() if drawing.any() else NO_TOOL
     rows[main, 0] = kinds
     rows[main, 1] = x
     rows[main, 2] = y
