@@ -99,7 +99,10 @@ class FirmwareLink:
     def send(self, cmd) -> P.Reply:
         line = P.encode_command(cmd, self.seq)
         self.seq = P.next_seq(self.seq)
-        return self.send_raw(line)
+        reply = self.send_raw(line)
+        if reply.kind == "error" and reply.seq is not None:
+            self.seq = reply.seq        # a refused line is not counted: expected again
+        return reply
 
     def stream(self, commands) -> list[P.Reply]:
         """Send every command, keeping the RX buffer full; one reply each, in order."""
@@ -167,13 +170,16 @@ def check_bad_input_replies(link: "FirmwareLink", idle_timeout_s: float) -> None
     r = link.send_raw(b"N1 L " + b"1" * 70 + b"\n")
     assert (r.kind, r.code) == ("error", 2)                      # over-long
     assert link.send_raw(framed(b"N1 ZAP 3")).code == 3          # unknown command
-    assert link.send_raw(framed(b"N2 L 1")).code == 4            # too few arguments
-    link.seq = 3
+    # a refused line is not counted: N1 is expected again, N2 is out of sequence
+    assert link.send_raw(framed(b"N2 L 1")) == P.Reply("rs", 1)
+    assert link.send_raw(framed(b"N1 L 1")).code == 4            # too few arguments
+    link.seq = 1
     r = link.send(LineTo(-5, 0))                                 # past the travel
-    assert (r.kind, r.code, r.seq) == ("error", 5, 3)
+    assert (r.kind, r.code, r.seq) == ("error", 5, 1)
     assert "X would reach -5, below 0" in r.text
+    assert link.status().last_seq == 0                           # the refusal shows
     assert link.send(SetFeed(50_000)).code == 6
     r = link.send(Jog(10, 20, 0))
-    assert r == P.Reply("ok", 5)
+    assert r == P.Reply("ok", 1)
     status = link.wait_idle(idle_timeout_s)
-    assert (status.x_steps, status.y_steps, status.last_seq) == (10, 20, 5)
+    assert (status.x_steps, status.y_steps, status.last_seq) == (10, 20, 1)

@@ -178,8 +178,10 @@ static void handle_line(char *s, uint8_t len)
         reply_resend();
         return;
     }
-    last_seq = (uint16_t)seq;
-    expected_seq = seq >= PROTO_SEQ_MAX ? 1 : (uint16_t)(seq + 1);
+    /* The number counts only once the line is accepted (execute_pending): a refused
+     * line is expected again, so the lines sent behind it draw `rs` and never run, and
+     * status N shows the refusal to a host whose error reply was lost. */
+    uint16_t line_seq = (uint16_t)seq;
     p++;
     char mnemonic[4];
     uint8_t n = 0;
@@ -191,7 +193,7 @@ static void handle_line(char *s, uint8_t len)
         if (n && !strcmp_P(mnemonic, proto_commands[cmd].mnemonic))
             break;
     if (cmd == CMD_COUNT || (*p != ' ' && *p != 0)) {
-        reply_error(ERR_UNKNOWN_COMMAND, 1, last_seq);
+        reply_error(ERR_UNKNOWN_COMMAND, 1, line_seq);
         return;
     }
     uint8_t nargs = 0, max_args = pgm_read_byte(&proto_commands[cmd].max_args);
@@ -209,12 +211,12 @@ static void handle_line(char *s, uint8_t len)
         nargs++;
     }
     if (!p || *p != 0 || nargs < pgm_read_byte(&proto_commands[cmd].min_args)) {
-        reply_error(ERR_BAD_ARGUMENT, 1, last_seq);
+        reply_error(ERR_BAD_ARGUMENT, 1, line_seq);
         return;
     }
     pending.cmd = cmd;
     pending.nargs = nargs;
-    pending.seq = last_seq;
+    pending.seq = line_seq;
     pending.waiting = 1;
 }
 
@@ -245,6 +247,8 @@ static void execute_pending(void)
         reply_error(err, 1, pending.seq);
         return;
     }
+    last_seq = pending.seq;
+    expected_seq = last_seq >= PROTO_SEQ_MAX ? 1 : last_seq + 1;
     serial_print_P(PSTR("ok N"));
     serial_print_int(pending.seq);
     if (cmd == CMD_STATUS) {

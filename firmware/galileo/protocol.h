@@ -7,7 +7,7 @@
 #include <stdint.h>
 #include <avr/pgmspace.h>
 
-#define PROTO_VERSION 2
+#define PROTO_VERSION 3
 #define PROTO_FIRMWARE_VERSION "0.1.0"
 #define PROTO_BANNER_NAME "galileo-cnc"
 #define PROTO_MAX_LINE_BYTES 64 /* including the newline */
@@ -17,10 +17,10 @@
 #define PROTO_CRC8_POLY 0x07
 
 /* Real-time bytes, picked off in the receive interrupt. */
-#define PROTO_RT_STATUS '?'
-#define PROTO_RT_HOLD '!'
-#define PROTO_RT_RESUME '~'
-#define PROTO_RT_ABORT 0x18
+#define PROTO_RT_STATUS 0x83
+#define PROTO_RT_HOLD 0x8C
+#define PROTO_RT_RESUME 0x95
+#define PROTO_RT_ABORT 0x9A
 
 enum proto_arg_kind {
     ARG_COORD,

@@ -13,7 +13,7 @@
 
 enum serial_line { LINE_NONE, LINE_READY, LINE_TOO_LONG };
 
-extern volatile uint8_t serial_status_request; /* '?' received */
+extern volatile uint8_t serial_status_request; /* PROTO_RT_STATUS received */
 extern volatile uint8_t serial_rx_overflows;
 
 void serial_init(void);

@@ -30,7 +30,7 @@ class LineRejected(ProtocolError):
                  seq: int | None = None):
         self.code = code
         self.resend = resend
-        self.seq = seq  # the accepted sequence number, if it got that far
+        self.seq = seq  # the line's sequence number, if it matched
         super().__init__(message)
 
 
@@ -104,8 +104,8 @@ def decode_line(line: bytes, expected_seq: int | None = None) -> DecodedLine:
     compare every reply with the firmware's in simavr).
 
     Raises LineRejected: `resend` for a missing or bad checksum or a sequence
-    mismatch, else an error `code`; `seq` is set once the sequence number was
-    accepted (the firmware counts the line even if its command is then refused).
+    mismatch, else an error `code`; `seq` is set once the sequence number matched
+    (the refusal names it; the number is not counted, so it is expected again).
     """
     line = line.rstrip(b"\n").replace(b"\r", b"")
     if len(line) + 1 > MAX_LINE_BYTES:

@@ -14,7 +14,10 @@ from typing import Optional
 from galileo_cnc.job import (ArcTo, Dwell, EndJob, Flash, Home, Jog, LineTo, Motors, PenDown,
                              PenUp, Rapid, SetFeed, SetOrigin)
 
-PROTOCOL_VERSION = 2          # 2: the banner names the build's config; `C` lists it
+# 2: the banner names the build's config; `C` lists it. 3: real-time bytes that no
+# single-bit error of line text can produce; a refused line is not counted (its number
+# is expected again), so nothing behind it runs and status `N` shows the refusal.
+PROTOCOL_VERSION = 3
 FIRMWARE_VERSION = "0.1.0"
 BANNER_NAME = "galileo-cnc"
 MAX_LINE_BYTES = 64          # including the newline
@@ -23,11 +26,16 @@ QUEUE_BLOCKS = 8             # planned blocks the firmware queues (a Rapid is tw
 SEQ_MAX = 65535              # after SEQ_MAX comes 1; N0 is always accepted and restarts at 1
 CRC8_POLY = 0x07             # CRC-8/SMBUS: x^8 + x^2 + x + 1, init 0, no reflection
 
-# Real-time bytes: acted on in the receive interrupt, never part of a line.
-RT_STATUS = b"?"
-RT_HOLD = b"!"
-RT_RESUME = b"~"
-RT_ABORT = b"\x18"
+# Real-time bytes: acted on in the receive interrupt, never part of a line. Line text is
+# printable ASCII and `\n`; every byte one bit away from it is barred (GRBL's `!` is a
+# space with bit 0 set, 0x18 is `8` without bit 5). Of the bytes left (0x80..0x9F but
+# 0x8A, and 0xFF, which an idle or broken line reads as) these four lie at least three
+# bits apart, so one flipped bit cannot turn one into another either.
+LINE_TEXT_BYTES = frozenset(range(0x20, 0x7F)) | {0x0A}
+RT_STATUS = b"\x83"
+RT_HOLD = b"\x8c"
+RT_RESUME = b"\x95"
+RT_ABORT = b"\x9a"
 REALTIME_BYTES = {"STATUS": RT_STATUS, "HOLD": RT_HOLD, "RESUME": RT_RESUME, "ABORT": RT_ABORT}
 
 STATES = ("idle", "run", "hold", "alarm", "homing")

@@ -3,11 +3,12 @@
 `SimulatedMachine` takes the bytes a host writes and produces the bytes the
 firmware would answer (docs/protocol.md): the banner, exactly one reply per
 line (`ok N<seq>`, `error:CODE ...`, `rs N<expected>`), the real-time bytes
-(`?` status, `!` hold, `~` resume, 0x18 abort) picked off wherever they arrive,
+(P.RT_STATUS, RT_HOLD, RT_RESUME, RT_ABORT) picked off wherever they arrive,
 and `alarm:` lines. Line checks follow the firmware's `handle_line`
 (firmware/galileo/commands.cpp) step by step, so a bad line gets the same reply
-from `sim://` as from the board: the sequence number is consumed before the
-mnemonic and the arguments are checked, exactly as there.
+from `sim://` as from the board: the sequence number is checked before the
+mnemonic and the arguments, and counted only when the line is accepted, exactly
+as there.
 
 Accepted motion is planned at once on a `ReferenceMachine` (soft limits, feeds,
 arcs) and put on a `Timeline`, which gives every step its tick with the
@@ -311,13 +312,11 @@ class SimulatedMachine:
         try:
             seq, command, mnemonic = P.decode_line(s, self._expected_seq)
         except P.LineRejected as rejected:
-            if rejected.seq is not None:
-                self._accept_seq(rejected.seq)
+            # a refused line is not counted (protocol 3): its number is expected again
             if rejected.resend:
                 return self._resend()
             return self._emit(P.format_error(rejected.code, rejected.seq))
-        self._accept_seq(seq)
-        self._pending = (seq, command, mnemonic)
+        self._pending = (seq, command, mnemonic)   # counted once accepted
 
     def _accept_seq(self, seq: int) -> None:
         self._last_seq = seq
@@ -365,6 +364,7 @@ class SimulatedMachine:
         if err:
             self._emit(P.format_error(err, seq, detail))
             return True
+        self._accept_seq(seq)
         payload = ""
         if isinstance(cmd, P.QueryStatus):
             payload = " " + self._status(now).text()

@@ -12,6 +12,16 @@
 - A stall (no reply while the machine stands idle with an empty queue, e.g. a
   line or its reply lost to noise) is settled by the machine's status: lines up to its `N` were
   accepted, the rest are sent again.
+- Replies carry no checksum, so a confirmation is provisional until the status's `N`
+  agrees: before each pen change and at the end the machine stands still and its `N`
+  must be the last line sent; lines after it (a garbled `ok` confirmed them) are sent
+  again. Every line since the last agreement is kept for that (the window).
+- A refused line is not counted by the machine (protocol 3): the lines behind it draw
+  `rs` and never run, and its `error:` comes again when it is resent, so a lost
+  refusal still stops the job.
+- The machine in hold or abort without our asking (noise), or reset (its banner, or an
+  `N` outside the window): the job stops with a message; after a hold or abort it can
+  be resumed (journal `aborted`: the machine ramped down inside a command).
 - Pen changes: before the command where the planner put one, the streamer
   waits until the machine stands still (pen up), then asks (`on_pen_change`).
 - Abort (`abort()`, `q` in the console, Ctrl-C): the machine ramps down and
@@ -39,7 +49,8 @@ from galileo_cnc.machine.timing import JobTiming, job_timing
 from galileo_cnc.program.ops import COL, LINE, Program
 from galileo_cnc.stream.journal import (ABORTED, FAILED, FINISHED, INTERRUPTED, Journal,
                                         JournalEntry, file_digest)
-from galileo_cnc.transport.link import LinkError, MachineLink, PortGone
+from galileo_cnc.transport.link import (LinkError, MachineLink, MachineStopped, PortGone,
+                                        previous_seq)
 
 #: No reply for this long while the machine stands idle with an empty queue: a stall.
 STALL_S = 2.0
@@ -48,8 +59,15 @@ STALL_S = 2.0
 MEASURE_PACE_AFTER_S = 2.0
 
 
+_LOCKED = P.ERROR_BY_NAME["LOCKED"].code
+
+
 class StreamAborted(GalileoError):
     """The user stopped the job (raise it from `on_pen_change` to stop there)."""
+
+
+class MachineReset(LinkError):
+    """The machine's line count no longer matches the job's: it was reset mid-job."""
 
 
 @dataclass
@@ -114,6 +132,7 @@ class JobStreamer:
         self.timing = timing or job_timing(job.commands, link.config)
         self._abort = threading.Event()
         self._rx_bytes = link.banner.rx_buffer_bytes if link.banner else P.RX_BUFFER_BYTES
+        self.stall_s = STALL_S          # a bench against an instant machine shortens it
 
     def abort(self) -> None:
         """Stop the job from any thread; `run` ramps the machine down and returns."""
@@ -129,6 +148,11 @@ class JobStreamer:
         self._next = self.start                         # next command to send
         self._wire: deque[_Transmission] = deque()      # sent, awaiting one reply each
         self._unconfirmed: dict[int, _Transmission] = {}  # by seq, in the order first sent
+        # every line since the machine's `N` last agreed (`_base_seq`), confirmed or not
+        self._window: dict[int, _Transmission] = {}
+        self._base_seq = self.link.seq
+        self._base_confirmed = self.start - 1
+        self._resets = self.link.resets
         self._resend: deque[_Transmission] = deque()
         self._resend_from: int | None = None            # `rs N<e>` being answered
         self._changes = self._pen_changes_from(self.start)
@@ -143,22 +167,11 @@ class JobStreamer:
                                 time.monotonic() - began, reason)
 
         try:
-            while self.confirmed < total - 1:
-                if self._abort.is_set():
-                    raise StreamAborted("stopped by the user")
-                if self._pen_change_due():
-                    self._wait_until_confirmed()
-                    self._wait_standing()
-                    self._asked.add(self._next)
-                    if on_pen_change is not None:
-                        aperture = self._changes[self._next]
-                        label = self.job.pen_labels.get(aperture) or \
-                            f"pen for aperture {describe_aperture(self.program, aperture)}"
-                        on_pen_change(PenChange(aperture, label, self._next))
-                    continue
-                self._fill()
-                self._take_reply(self._await_reply())
-            self._wait_standing()
+            while True:
+                self._stream(total, on_pen_change)
+                self._wait_standing()
+                if self._agrees_with_machine():
+                    break                       # every line accepted: the job is done
             # the job's EndJob locks the planner until `U`: the next job, a jog or a
             # home must find the machine ready, as the user does
             self.link.send_protocol(P.Unlock())
@@ -167,6 +180,11 @@ class JobStreamer:
             self._stop_machine()
             self._journal_end(ABORTED, reason)
             return result(False, reason)
+        except MachineStopped as stopped:
+            # a hold or abort we did not send: drop the queue, unlock, resumable
+            self._stop_machine()
+            self._journal_end(ABORTED, str(stopped))
+            raise
         except PortGone as gone:
             self._journal_end(INTERRUPTED, str(gone))
             raise
@@ -176,6 +194,27 @@ class JobStreamer:
             raise
         self._journal_end(FINISHED)
         return result(True)
+
+    def _stream(self, total: int, on_pen_change) -> None:
+        """Send and confirm the job's lines, stopping at each pen change (the machine
+        stands still and agrees it accepted every line) to ask for the pen."""
+        while self.confirmed < total - 1:
+            if self._abort.is_set():
+                raise StreamAborted("stopped by the user")
+            if self._pen_change_due():
+                self._wait_until_confirmed()
+                self._wait_standing()
+                if not self._agrees_with_machine():
+                    continue                    # lines to send again first
+                self._asked.add(self._next)
+                if on_pen_change is not None:
+                    aperture = self._changes[self._next]
+                    label = self.job.pen_labels.get(aperture) or \
+                        f"pen for aperture {describe_aperture(self.program, aperture)}"
+                    on_pen_change(PenChange(aperture, label, self._next))
+                continue
+            self._fill()
+            self._take_reply(self._await_reply())
 
     def _pen_changes_from(self, start: int) -> dict[int, int]:
         """The job's pen changes; a resumed job first asks for the pen in force where
@@ -211,6 +250,7 @@ class JobStreamer:
             sent = _Transmission(self.start - 1 if leading else self._next, seq, line, command)
             self._wire.append(sent)
             self._unconfirmed[seq] = sent
+            self._window[seq] = sent
             in_flight += len(line)
             if leading:
                 self._lead_in.popleft()
@@ -221,32 +261,80 @@ class JobStreamer:
         """The next reply; on a stall, settle the wire by the machine's status."""
         waited = 0.0
         while not self._abort.is_set():
+            self._check_reset()
             reply = self.link.next_reply(0.2)
             if reply is not None:
                 return reply
             waited += 0.2
-            if waited >= STALL_S and self._unconfirmed:
+            if waited >= self.stall_s and (self._unconfirmed or self._wire):
                 status = self.link.status()
                 if self.link.standing(status):
                     # an empty queue makes room for any line: this is no flow control
                     self._settle_by_status(status.last_seq)
+                    return None
                 waited = 0.0
         return None
 
-    def _settle_by_status(self, last_seq: int) -> None:
+    def _check_reset(self) -> None:
+        if self.link.resets != self._resets:
+            raise MachineReset(f"{self.link.port_name}: the machine was reset during the "
+                               f"job (its banner arrived): its position is lost; home it "
+                               f"and start the job again")
+
+    def _settle_by_status(self, last_seq: int) -> bool:
         """Nothing is in flight: lines up to the machine's `N` were accepted, the
-        rest are sent again; no reply is owed any more."""
+        rest (after it in the window) are sent again; no reply is owed any more.
+        True when nothing had to be sent again."""
         if last_seq in self._unconfirmed:
             self._confirm_through(last_seq)
-        self._resend = deque(self._unconfirmed.values())
-        self._resend_from = None
         self._wire.clear()
+        self._resend_from = None
+        seqs = list(self._window)
+        if last_seq == self._base_seq:
+            after = seqs
+        elif last_seq in self._window:
+            after = seqs[seqs.index(last_seq) + 1:]
+        elif last_seq != 0 and self.link.resets == self._resets:
+            # a late answer to an earlier status query, or a garbled number: look again
+            self._resend = deque(self._unconfirmed.values())
+            return False
+        else:
+            raise MachineReset(f"{self.link.port_name}: the machine's last line is N{last_seq}, "
+                               f"which this job never sent: it was reset; home it and "
+                               f"start the job again")
+        self._rewind(after)
+        return not after
+
+    def _rewind(self, seqs: list[int]) -> None:
+        """Lines `seqs` (the window's tail) were not accepted: unconfirm, send again."""
+        if not seqs:
+            self._resend = deque()
+            return
+        keep = list(self._window)[:len(self._window) - len(seqs)]
+        self.confirmed = self._window[keep[-1]].index if keep else self._base_confirmed
+        self._unconfirmed = {s: self._window[s] for s in seqs}
+        self._resend = deque(self._unconfirmed.values())
+        if self.journal is not None:
+            self.journal.confirm(self.confirmed)
+
+    def _agrees_with_machine(self) -> bool:
+        """The machine stands still: does its `N` say it accepted every line sent?
+        If so the window starts afresh; if not, the lines after `N` go out again."""
+        status = self.link.status()
+        if not self._settle_by_status(status.last_seq):
+            return False
+        self._window.clear()
+        self._base_seq = status.last_seq
+        self._base_confirmed = self.confirmed
+        return True
 
     def _take_reply(self, reply: P.Reply | None) -> None:
         if reply is None:
             return
-        if reply.kind == "ok" and reply.seq not in self._unconfirmed:
-            self._message(f"ignored a stray reply: ok N{reply.seq}")   # not to a job line
+        if reply.kind in ("ok", "error") and reply.seq is not None \
+                and reply.seq not in self._unconfirmed:
+            # not to a line awaiting one: a late or repeated reply, or a garbled number
+            self._message(f"ignored a stray reply: {reply.kind} N{reply.seq}")
             return
         if self._wire:
             self._wire.popleft()                # one reply per transmission: frees its bytes
@@ -257,19 +345,26 @@ class JobStreamer:
         elif reply.kind == "rs":
             if reply.seq == self._resend_from:
                 return                          # a line that was in flight: already resent
-            if reply.seq not in self._unconfirmed:
-                raise LinkError(f"the machine asks for line N{reply.seq}, which this job "
-                                f"never sent: was it reset?", reply)
+            if reply.seq not in self._window:
+                return                          # garbled (a reset shows in the status)
             self._resend_from = reply.seq
-            seqs = list(self._unconfirmed)
-            self._resend = deque(self._unconfirmed[s] for s in seqs[seqs.index(reply.seq):])
+            seqs = list(self._window)
+            self._rewind(seqs[seqs.index(reply.seq):])
+        elif reply.seq is None:
+            # a line refused before its number was read: lines run together when a
+            # newline is lost (too long), or noise the checksum missed; sent again
+            # when the machine asks or stands still
+            self._message(f"a line was garbled on the way: error:{reply.code} {reply.text}")
         else:
-            sent = self._unconfirmed.get(reply.seq)
-            where = self._where(sent.index) if sent and sent.index >= self.start else ""
-            what = (f"{where}the machine refused "
-                    f"{P.command_text(sent.command)!r}: " if sent else
-                    "the machine refused a line: ")
-            raise LinkError(f"{what}error:{reply.code} {reply.text}", reply)
+            sent = self._unconfirmed[reply.seq]
+            self.link.seq = previous_seq(reply.seq)     # not counted: expected again
+            if reply.code == _LOCKED:
+                # the machine stopped in alarm before this line: say why (an abort
+                # nobody sent is resumable), not "refused"
+                self.link.standing(self.link.status())
+            where = self._where(sent.index) if sent.index >= self.start else ""
+            raise LinkError(f"{where}the machine refused {P.command_text(sent.command)!r}: "
+                            f"error:{reply.code} {reply.text}", reply)
 
     def _confirm_through(self, seq: int) -> None:
         """The machine accepts lines only in order: `ok N<seq>` confirms every

@@ -9,6 +9,9 @@ and keeps a reader thread that sorts what arrives: line replies (`ok`, `error`,
 A port that vanishes, or stops answering the real-time status query, raises
 `PortGone` within SILENT_S: a motion line may legitimately wait unanswered while
 the machine's queue is full, so silence is judged by `?`, never by line replies.
+Every wait is bounded: `?` is asked again when its status does not come (a garbled
+status line ends nothing), and a line whose reply is lost is settled by the status's
+`N` (accepted: done; not accepted and nothing queued: sent again), never waited for.
 """
 
 from __future__ import annotations
@@ -34,6 +37,14 @@ POLL_S = 1.0
 SILENT_S = 3.0
 #: The greeting's reply comes after any the machine still owed the last session.
 GREETING_S = 10.0
+#: `?` is sent again when no status came for this long (the reply was garbled or lost).
+STATUS_RETRY_S = 0.5
+#: A line with no reply for this long is settled by the status (see send_protocol).
+REPLY_S = 2.0
+#: Sends of one line (each answered `rs` or settled as lost) before the link gives up.
+MAX_SENDS = 20
+#: Commands whose `ok` carries what the host asked for: resent, not settled by status.
+_PAYLOAD = (P.QueryStatus, P.QueryVersion, P.QueryConfig)
 
 
 class LinkError(GalileoError):
@@ -52,6 +63,11 @@ class MachineAlarm(LinkError):
     """The machine stopped in alarm; its `alarm:` line went to `on_message` already."""
 
 
+class MachineStopped(PortGone):
+    """The machine went into hold or alarm without the host asking (noise on the
+    line): the job stopped where the machine ramped down and can be resumed."""
+
+
 class ConfigMismatch(LinkError):
     """The flashed firmware was built for another machine than the profile plans for."""
 
@@ -67,6 +83,9 @@ def _machine_speed(port: serial.SerialBase) -> float | None:
     if board is not None and not getattr(board, "realtime", True):
         return None
     return 1.0
+
+
+_ABORTED = P.ERROR_BY_NAME["ABORTED"].code
 
 
 class MachineLink:
@@ -98,6 +117,12 @@ class MachineLink:
         self._write_lock = threading.Lock()
         self._closed = False
         self._aborting = False         # our own abort: its alarm:14 is no news to the user
+        self.held = False              # we sent a hold and no resume since
+        self.resets = 0                # banners after the greeting: the board was reset
+        #: seconds before a missing status or line reply is acted on (a test or bench
+        #: against an instant machine may shorten them)
+        self.status_retry_s = STATUS_RETRY_S
+        self.reply_s = REPLY_S
         self._reader = threading.Thread(target=self._read_loop, name=f"link {name}",
                                         daemon=True)
 
@@ -155,14 +180,21 @@ class MachineLink:
         self.seq = -1                       # so that the greeting goes out as N0
         seq, line = self.frame(P.QueryVersion())
         self.write(line)
+        deadline = time.monotonic() + GREETING_S
+        sends = 1
         while True:
-            reply = self.next_reply(GREETING_S)
-            if reply is None:
-                raise PortGone(f"{self.port_name}: no reply to {line.decode().strip()!r}")
-            if reply.kind == "ok" and reply.seq == seq and reply.banner is not None:
+            # replies the machine still owed the last session come first; ours (N0 is
+            # always accepted) is the one with the banner
+            reply = self.next_reply(self.reply_s)
+            if reply is not None and reply.kind == "ok" and reply.seq == seq \
+                    and reply.banner is not None:
                 break
-            if reply.kind == "rs":          # our line was garbled: N0 is always accepted
+            if reply is None or reply.kind == "rs":     # lost or garbled: ask again
+                if time.monotonic() > deadline or sends >= MAX_SENDS:
+                    raise PortGone(f"{self.port_name}: no reply to "
+                                   f"{line.decode().strip()!r}")
                 self.write(line)
+                sends += 1
         self.banner = P.check_banner(reply.banner)
         self._alarm = None
 
@@ -258,6 +290,8 @@ class MachineLink:
                 self._status_count += 1
                 self._status_cond.notify_all()
         elif reply.kind == "banner":
+            if self.banner is not None:
+                self.resets += 1
             self.banner = reply.banner
         else:                                       # alarm:, msg:
             if reply.kind == "alarm":
@@ -318,23 +352,69 @@ class MachineLink:
             return item
 
     def send_protocol(self, command: object, timeout_s: float | None = None) -> P.Reply:
-        """Send one line and wait for its reply (resending on `rs`); LinkError on `error`."""
+        """Send one line and wait for its reply; LinkError on `error` (the machine did
+        not count the line: its number is used again), PortGone after `timeout_s`.
+
+        A reply may be lost or garbled: after `reply_s` without one the status says
+        what became of the line. Its `N` is ours: accepted (a motion line's `ok` was
+        lost; a query is asked again, its answer is in the `ok`). Not ours and the
+        machine stands still with nothing queued: the line never arrived (or its
+        `error` was lost), it is sent again. Otherwise it waits for queue room.
+        """
         seq, line = self.frame(command)
-        for _attempt in range(4):
+        payload = isinstance(command, _PAYLOAD)
+        deadline = None if timeout_s is None else time.monotonic() + timeout_s
+        sends = 0
+
+        def send_again(renumber: bool) -> None:
+            nonlocal seq, line, sends
+            sends += 1
+            if sends >= MAX_SENDS:
+                raise LinkError(f"{self.port_name}: line {line!r} not accepted after "
+                                f"{MAX_SENDS} tries (a very noisy cable?)")
+            if renumber:
+                seq, line = self.frame(command)
             self.write(line)
-            reply = self.next_reply(timeout_s)
+
+        self.write(line)
+        while True:
+            reply = self.next_reply(self.reply_s)
             if reply is None:
-                raise PortGone(f"{self.port_name}: no reply to {line.decode().strip()!r}")
-            if reply.kind == "ok" and reply.seq == seq:
-                return reply
+                if deadline is not None and time.monotonic() > deadline:
+                    raise PortGone(f"{self.port_name}: no reply to {line.decode().strip()!r}")
+                status = self.status()
+                if status.last_seq == seq:
+                    if not payload:
+                        return P.Reply("ok", seq)           # accepted, its `ok` was lost
+                    send_again(renumber=True)
+                elif status.queue_blocks == 0 and status.state != "run":
+                    send_again(renumber=False)              # lost on the way, or refused
+                continue
+            if reply.kind == "ok":
+                if reply.seq == seq:
+                    return reply
+                continue                                    # late, to a line sent before
             if reply.kind == "error":
+                if reply.seq is None:                       # garbled past the checksum
+                    send_again(renumber=False)
+                    continue
+                if reply.seq != seq:
+                    continue                                # late, to a line sent before
+                self.seq = previous_seq(seq)               # expected again
                 raise LinkError(f"the machine refused {P.command_text(command)!r}: "
                                 f"error:{reply.code} {reply.text}", reply)
-            if reply.kind == "rs" and reply.seq != seq:
-                # the firmware expects another number (its count was reset): renumber
-                self.seq = reply.seq - 1 if reply.seq > 0 else -1
-                seq, line = self.frame(command)
-        raise LinkError(f"{self.port_name}: line {line!r} not accepted after 4 tries")
+            if reply.kind == "rs":
+                if reply.seq == seq:
+                    send_again(renumber=False)              # our line was garbled
+                elif reply.seq == P.next_seq(seq):
+                    # a copy of a line the machine had accepted: ours went through
+                    if not payload:
+                        return P.Reply("ok", seq)
+                    send_again(renumber=True)
+                else:
+                    # the firmware expects another number (its count was reset): renumber
+                    self.seq = previous_seq(reply.seq)
+                    send_again(renumber=True)
 
     def send(self, command: Command, timeout_s: float | None = None) -> P.Reply:
         """One machine command (jog, origin, feed, home...): waits for its `ok`."""
@@ -342,23 +422,33 @@ class MachineLink:
 
     # ---- real-time ----------------------------------------------------------------------
     def status(self, timeout_s: float = SILENT_S) -> P.Status:
-        """A fresh status (real-time `?`); PortGone when none comes in `timeout_s`."""
+        """A fresh status (real-time status byte, asked again every `status_retry_s`:
+        a garbled or lost status line ends nothing); PortGone when none comes in
+        `timeout_s`."""
         with self._status_cond:
             count = self._status_count
-        self.write(P.RT_STATUS)
         deadline = time.monotonic() + timeout_s
-        with self._status_cond:
-            while self._status_count == count:
-                if self._failure is not None:
-                    raise self._failure
-                left = deadline - time.monotonic()
-                if left <= 0:
-                    raise PortGone(f"{self.port_name}: no status reply for {timeout_s:g} s")
-                self._status_cond.wait(left)
-            return self._status
+        while True:
+            self.write(P.RT_STATUS)
+            ask_again = time.monotonic() + self.status_retry_s
+            with self._status_cond:
+                while self._status_count == count:
+                    if self._failure is not None:
+                        raise self._failure
+                    now = time.monotonic()
+                    if now >= deadline:
+                        raise PortGone(f"{self.port_name}: no status reply for "
+                                       f"{timeout_s:g} s")
+                    if now >= ask_again:
+                        break
+                    self._status_cond.wait(min(deadline, ask_again) - now)
+                else:
+                    return self._status
 
     def wait_idle(self, timeout_s: float | None = None, poll_s: float = 0.05) -> P.Status:
-        """Poll until the queue is empty and the machine stands still."""
+        """Poll until the queue is empty and the machine stands still. Not endless:
+        a machine in alarm, or held without our asking, raises (`standing`); one that
+        runs gets there (the queue holds at most QUEUE_BLOCKS blocks)."""
         deadline = None if timeout_s is None else time.monotonic() + timeout_s
         while True:
             status = self.status()
@@ -369,17 +459,28 @@ class MachineLink:
             time.sleep(poll_s)
 
     def standing(self, status: P.Status) -> bool:
-        """Idle with an empty queue; LinkError if the machine is in alarm."""
+        """Idle with an empty queue; MachineAlarm if the machine is in alarm,
+        MachineStopped if it stopped on its own (a hold or abort we did not send)."""
         if status.state == "alarm":
             alarm = self.take_alarm()
+            if (alarm is None or alarm.code == _ABORTED) and not self._aborting:
+                said = f"alarm:{alarm.code} {alarm.text}" if alarm else "its alarm line was lost"
+                raise MachineStopped(
+                    f"{self.port_name}: the machine stopped in alarm ({said}) although the "
+                    f"host did not ask: noise on the cable?")
             raise MachineAlarm(f"machine alarm: {alarm.code} {alarm.text}" if alarm
                                else "machine in alarm state (send U)")
+        if status.state == "hold" and not self.held:
+            raise MachineStopped(f"{self.port_name}: the machine went into feed hold "
+                                 f"although the host did not ask: noise on the cable?")
         return status.state == "idle" and status.queue_blocks == 0
 
     def hold(self) -> None:
+        self.held = True
         self.write(P.RT_HOLD)
 
     def resume(self) -> None:
+        self.held = False
         self.write(P.RT_RESUME)
 
     def abort(self, timeout_s: float = 30.0) -> P.Status:
@@ -399,6 +500,7 @@ class MachineLink:
             self.drain_replies()
             self.send_protocol(P.Unlock())
             self.take_alarm()
+            self.held = False
         finally:
             self._aborting = False
         return self.status()
@@ -409,3 +511,8 @@ class MachineLink:
         while (reply := self.next_reply(quiet_s)) is not None:
             replies.append(reply)
         return replies
+
+
+def previous_seq(seq: int) -> int:
+    """The number sent before `seq` (so that `next_seq` gives `seq` again)."""
+    return P.SEQ_MAX if seq == 1 else seq - 1

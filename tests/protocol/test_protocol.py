@@ -158,10 +158,26 @@ def test_error_table_is_consistent():
     assert P.format_error(11) == "alarm:11 end-stop not found"
 
 
-def test_realtime_bytes_never_appear_in_lines():
-    alphabet = set(b"N0123456789 -ABCDEFGHIJKLMNOPQRSTUVWXYZ*\n")
-    for byte in P.REALTIME_BYTES.values():
-        assert byte[0] not in alphabet
+def test_no_single_bit_error_of_line_text_makes_a_realtime_byte():
+    # exhaustive: every byte a line can hold (printable ASCII and `\n`), every bit
+    alphabet = set(range(0x20, 0x7F)) | {0x0A}
+    assert P.LINE_TEXT_BYTES == alphabet
+    realtime = {byte[0] for byte in P.REALTIME_BYTES.values()}
+    assert len(realtime) == 4
+    for text in alphabet:
+        assert text not in realtime
+        for bit in range(8):
+            assert text ^ (1 << bit) not in realtime, (hex(text), bit)
+    # nor does one flipped bit turn one real-time byte into another
+    for a in realtime:
+        for b in realtime - {a}:
+            assert bin(a ^ b).count("1") >= 2
+    # every line the encoder can write stays within that alphabet
+    for spec in P.COMMANDS:
+        kwargs = dict(spec.fixed)
+        kwargs.update({field: kind.lo for field, kind in spec.args})
+        line = P.encode_command(spec.cls(**kwargs), P.SEQ_MAX)
+        assert set(line) <= alphabet, line
 
 
 def test_committed_protocol_header_is_generated():
@@ -190,4 +206,4 @@ def test_sequence_is_checked_before_the_command_as_the_firmware_does():
     assert info.value.resend and info.value.seq is None
     with pytest.raises(P.LineRejected) as info:
         P.decode_line(_framed(b"N5 zap"), expected_seq=5)
-    assert (info.value.code, info.value.seq) == (3, 5)  # counted, then refused
+    assert (info.value.code, info.value.seq) == (3, 5)  # matched, then refused

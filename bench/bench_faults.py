@@ -1,0 +1,331 @@
+"""Streaming over a noisy cable: seeded fault campaigns on sim:// and on the firmware in simavr.
+
+Every session streams one planned job through `NoisyPort`, a pass-through around the
+real port that corrupts (one bit flipped), drops, duplicates or delays bytes in both
+directions at a rate per byte, loses the n-th reply line, or resets the machine after
+the n-th line. Each session ends as one of:
+
+    finished  the job completed and the machine stepped the fault-free trace
+    stopped   it stopped with a message; then resumed over a clean cable to the
+              fault-free drawing (`resumed`), or resuming was refused with a message
+              (`refused`: a reset machine lost its position)
+    hang      no end within the session's time limit
+    wrong     it completed (or resumed) with steps other than the fault-free trace:
+              a silent loss, a repeated move, a move that should not have run
+    crash     an exception that is not a GalileoError (a traceback)
+
+The fault-free trace on sim:// (instant clock) is the reference's to the tick; on the
+firmware, whose timing depends on the pauses faults cause, it is the same steps in the
+same order and the same final position. A resumed job retraces part of a command and
+travels back to it pen up, so it is judged by the points it inked and where it ends.
+
+    python3 bench/bench_faults.py                     # 1,000 on sim://, 1,000 on simavr
+    python3 bench/bench_faults.py --sim 200 --simavr 0 --seed 7
+    python3 bench/bench_faults.py --show sim:1234     # one session, verbosely
+"""
+
+from __future__ import annotations
+
+import argparse
+import random
+import sys
+import threading
+import time
+import traceback
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "tests"))
+
+from galileo_cnc.errors import GalileoError  # noqa: E402
+from galileo_cnc.machine import simulate  # noqa: E402
+from galileo_cnc.plan.offsets import proposed_offset  # noqa: E402
+from galileo_cnc.plan.planner import plan_program  # noqa: E402
+from galileo_cnc.readers import read_file  # noqa: E402
+from galileo_cnc.sim.simulator import forget_named_machines  # noqa: E402
+from galileo_cnc.stream.journal import Journal  # noqa: E402
+from galileo_cnc.stream.resume import resume_job  # noqa: E402
+from galileo_cnc.stream.streamer import JobStreamer  # noqa: E402
+from galileo_cnc.transport.link import MachineLink  # noqa: E402
+from galileo_cnc.transport.port import open_port  # noqa: E402
+
+RATES = (0.001, 0.01, 0.05)
+KINDS = ("corrupt", "drop", "duplicate", "delay")
+OUTCOMES = ("finished", "resumed", "refused", "hang", "wrong", "crash")
+SAMPLE = REPO / "samples" / "led-blinker.gbr"
+
+
+@dataclass(frozen=True)
+class Fault:
+    """What one session does to the cable."""
+
+    kinds: tuple[str, ...] = ()     # per-byte faults, both directions
+    rate: float = 0.0
+    lose_reply: int = 0             # the n-th line reply (ok, error, rs) never arrives
+    reset_after: int = 0            # the machine is reset after the n-th line written
+
+    def label(self) -> str:
+        if self.lose_reply:
+            return "lost reply"
+        if self.reset_after:
+            return "reset mid-job"
+        what = "+".join(self.kinds) if len(self.kinds) == 1 else "mixed"
+        return f"{what} {self.rate * 100:g} %"
+
+
+class NoisyPort:
+    """A pyserial port passed through with `fault`, drawn from a seeded generator."""
+
+    def __init__(self, port, fault: Fault, rng: random.Random, reset=None):
+        self.port, self.fault, self.rng, self._reset = port, fault, rng, reset
+        self.lines_written = self.replies_read = 0
+        self.enabled = False            # after the greeting: the session under test
+
+    def _noise(self, data: bytes) -> bytes:
+        if not self.enabled or not self.fault.rate:
+            return data
+        out = bytearray()
+        for byte in data:
+            if self.rng.random() >= self.fault.rate:
+                out.append(byte)
+                continue
+            kind = self.rng.choice(self.fault.kinds)
+            if kind == "corrupt":
+                out.append(byte ^ (1 << self.rng.randrange(8)))
+            elif kind == "duplicate":
+                out += bytes((byte, byte))
+            elif kind == "delay":
+                time.sleep(self.rng.uniform(0.0, 0.05))
+                out.append(byte)
+            # drop: nothing
+        return bytes(out)
+
+    def write(self, data: bytes) -> int:
+        if self.enabled and data.endswith(b"\n"):
+            self.lines_written += 1
+            if self.lines_written == self.fault.reset_after and self._reset is not None:
+                self._reset()
+        self.port.write(self._noise(data))
+        return len(data)
+
+    def readline(self) -> bytes:
+        line = self.port.readline()
+        if self.enabled and line.endswith(b"\n") and line.startswith((b"ok", b"rs", b"error")):
+            self.replies_read += 1
+            if self.replies_read == self.fault.lose_reply:
+                return b""
+        return self._noise(line)
+
+    def close(self) -> None:
+        self.port.close()
+
+    def __getattr__(self, name):
+        return getattr(self.port, name)
+
+
+# ---- the machines -------------------------------------------------------------------------
+class SimTarget:
+    name = "sim://"
+    hang_s = 60.0
+    timeouts = dict(status_retry_s=0.1, reply_s=0.3, stall_s=0.3)
+
+    def __init__(self):
+        self._n = 0
+
+    def session(self):
+        """(open a port, the fault-free trace of what ran, reset, close) for one session."""
+        self._n += 1
+        url = f"sim://bench{self._n}?speed=0"
+        from galileo_cnc.sim.simulator import named_machine
+
+        def trace():
+            return named_machine(f"bench{self._n}").trace()
+
+        def reset():
+            named_machine(f"bench{self._n}").reset()
+        return url, (lambda: open_port(url, timeout=0.1)), trace, reset, forget_named_machines
+
+    @staticmethod
+    def same(trace, ref) -> bool:
+        return trace.same_steps(ref)
+
+
+class SimavrTarget:
+    name = "simavr"
+    hang_s = 180.0
+    timeouts = dict(status_retry_s=0.3, reply_s=1.0, stall_s=1.0)
+
+    def __init__(self):
+        from firmware_support import ELF, build_firmware, build_harness
+        build_firmware()
+        build_harness()
+        self.elf = ELF
+
+    def session(self):
+        from galileo_cnc.machine.trace import Trace
+        from galileo_cnc.simavr.board import SimulatedBoard, step_trace
+        board = SimulatedBoard(self.elf).start()
+
+        def trace():
+            tick, axis, direction = step_trace(board.trace())
+            moved = [int(direction[axis == a].sum()) for a in range(3)]
+            return Trace(tick, axis, direction, tuple(moved), int(tick[-1]) if len(tick) else 0)
+        return board.port, (lambda: open_port(board.port, timeout=0.1)), trace, None, board.close
+
+    @staticmethod
+    def same(trace, ref) -> bool:
+        import numpy as np
+        return (np.array_equal(trace.axis, ref.axis) and np.array_equal(trace.dir, ref.dir))
+
+
+# ---- one session --------------------------------------------------------------------------
+def _attach(target, port, url):
+    link = MachineLink.attach(port, url)
+    link.status_retry_s = target.timeouts["status_retry_s"]
+    link.reply_s = target.timeouts["reply_s"]
+    return link
+
+
+def _run(target, fn, log):
+    """fn() in a thread, bounded by the target's hang limit; (done, value or exception)."""
+    box = {}
+
+    def body():
+        try:
+            box["value"] = fn()
+        except BaseException as exc:   # noqa: BLE001  classified by the caller
+            box["error"] = exc
+    thread = threading.Thread(target=body, daemon=True)
+    thread.start()
+    thread.join(target.hang_s)
+    if thread.is_alive():
+        return False, None
+    return True, box.get("error", box.get("value"))
+
+
+def session(target, job, program, fault: Fault, seed: int, tmp: Path, log=None) -> str:
+    from inked import inked_points
+    url, opener, trace_of, reset, close = target.session()
+    journal = Journal(tmp / f"journal-{seed}.json")
+    journal.path.unlink(missing_ok=True)
+    try:
+        port = NoisyPort(opener(), fault, random.Random(seed), reset)
+        link = _attach(target, port, url)
+        port.enabled = True
+        streamer = JobStreamer(link, job, program, journal=journal)
+        streamer.stall_s = target.timeouts["stall_s"]
+        messages = []
+        link.on_message = messages.append
+        done, value = _run(target, lambda: streamer.run(), log)
+        if not done:
+            return "hang"
+        link.close()
+        if log:
+            log(f"{fault.label()} seed {seed}: {value!r}; {len(messages)} messages")
+        ref = simulate(job.commands)
+        if isinstance(value, BaseException) and not isinstance(value, GalileoError):
+            if log:
+                log("".join(traceback.format_exception(value)))
+            return "crash"
+        if not isinstance(value, BaseException):
+            if value.completed:
+                return "finished" if target.same(trace_of(), ref) else "wrong"
+            return "crash"                          # nobody asked it to stop
+        # stopped with a message: resume over a clean cable where it is possible
+        if reset is None and fault.reset_after:
+            return "refused"
+        link = _attach(target, opener(), url)
+        done, resumed = _run(target, lambda: resume_job(link, journal), log)
+        link.close()
+        if not done:
+            return "hang"
+        if log:
+            log(f"resume: {resumed!r}")
+        if isinstance(resumed, GalileoError):
+            return "refused" if fault.reset_after else "wrong"   # lost a position it knew
+        if isinstance(resumed, BaseException) or not resumed.completed:
+            return "crash"
+        trace = trace_of()
+        same = (inked_points(trace) == inked_points(ref)
+                and trace.final_position == ref.final_position)
+        return "resumed" if same else "wrong"
+    finally:
+        close()
+
+
+def plan(target_name: str, count: int, seed: int, replies: int) -> list[tuple[Fault, int]]:
+    """`count` seeded sessions: a lost reply at every position, resets mid-job (sim://),
+    the rest byte faults at each rate, one kind or all of them."""
+    rng = random.Random(seed)
+    sessions = [(Fault(lose_reply=k), rng.randrange(1 << 30)) for k in range(1, replies + 1)]
+    if target_name == "sim://":
+        sessions += [(Fault(reset_after=k), rng.randrange(1 << 30))
+                     for k in range(2, replies, max(1, replies // 10))]
+    kinds = [(k,) for k in KINDS] + [KINDS]
+    noisy = [(Fault(kinds[i % len(kinds)], RATES[(i // len(kinds)) % len(RATES)]),
+              rng.randrange(1 << 30)) for i in range(max(count - len(sessions), count))]
+    if count >= len(sessions):          # every position, then byte faults
+        return sessions + noisy[:count - len(sessions)]
+    mixed = sessions + noisy            # a sample: some of each
+    rng.shuffle(mixed)
+    return mixed[:count]
+
+
+def campaign(target, count: int, seed: int, tmp: Path, progress=True) -> Counter:
+    program = read_file(SAMPLE)
+    job = plan_program(program, None, proposed_offset(program))
+    table: Counter = Counter()
+    failures = []
+    began = time.monotonic()
+    for n, (fault, s) in enumerate(plan(target.name, count, seed, len(job) + 2)):
+        outcome = session(target, job, program, fault, s, tmp)
+        table[(fault.label(), outcome)] += 1
+        if outcome in ("hang", "wrong", "crash"):
+            failures.append(f"{target.name} {fault} seed {s}: {outcome}")
+        if progress and (n + 1) % 50 == 0:
+            print(f"  {target.name}: {n + 1}/{count} sessions, "
+                  f"{time.monotonic() - began:.0f} s", file=sys.stderr, flush=True)
+    for line in failures:
+        print(line)
+    return table
+
+
+def print_table(name: str, table: Counter) -> None:
+    labels = sorted({label for label, _ in table})
+    print(f"\n{name}")
+    print(f"| faults | sessions | {' | '.join(OUTCOMES)} |")
+    print("| --- " * (len(OUTCOMES) + 2) + "|")
+    totals = Counter()
+    for label in labels:
+        row = [table[(label, o)] for o in OUTCOMES]
+        totals.update({o: v for o, v in zip(OUTCOMES, row)})
+        print(f"| {label} | {sum(row)} | {' | '.join(map(str, row))} |")
+    print(f"| all | {sum(totals.values())} | "
+          f"{' | '.join(str(totals[o]) for o in OUTCOMES)} |")
+
+
+def main(argv=None) -> int:
+    import tempfile
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--sim", type=int, default=1000, help="sessions on sim://")
+    parser.add_argument("--simavr", type=int, default=1000, help="sessions on simavr")
+    parser.add_argument("--seed", type=int, default=13)
+    args = parser.parse_args(argv)
+    bad = 0
+    with tempfile.TemporaryDirectory() as tmp:
+        for count, make in ((args.sim, SimTarget), (args.simavr, SimavrTarget)):
+            if count <= 0:
+                continue
+            target = make()
+            began = time.monotonic()
+            table = campaign(target, count, args.seed, Path(tmp))
+            print_table(f"{target.name}: {count} sessions, seed {args.seed}, "
+                        f"{time.monotonic() - began:.0f} s", table)
+            bad += sum(v for (_, o), v in table.items() if o in ("hang", "wrong", "crash"))
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
