@@ -97,6 +97,8 @@ class MachineConfig:
             if f.type == "float":
                 if isinstance(value, bool) or not isinstance(value, (int, float)):
                     raise ConfigError(f"config: {f.name} must be a number, got {value!r}")
+                if not math.isfinite(value):
+                    raise ConfigError(f"config: {f.name} must be a finite number, got {value!r}")
                 object.__setattr__(self, f.name, float(value))
         positive = ("steps_per_rev", "pitch_mm", "feed_mm_s", "feed_warn_mm_s",
                     "rapid_feed_mm_s", "z_feed_mm_s", "accel_mm_s2", "ramp_start_factor",
@@ -112,6 +114,7 @@ class MachineConfig:
             if getattr(self, name) not in (-1, 1):
                 raise ConfigError(f"config: {name} must be -1 or 1, got {getattr(self, name)!r}")
         self._check_pens()
+        self._check_pins()
         if self.z_min_steps > self.z_max_steps:
             raise ConfigError("config: z_min_steps must not exceed z_max_steps")
         for name in ("feed_mm_s", "rapid_feed_mm_s", "z_feed_mm_s", "home_feed_mm_s"):
@@ -120,6 +123,22 @@ class MachineConfig:
                 raise ConfigError(
                     f"config: {name} = {getattr(self, name)} mm/s is {sps} steps/s, outside "
                     f"{MIN_FEED_STEPS_PER_S}..{self.max_feed_steps_per_s} steps/s")
+
+    def _check_pins(self) -> None:
+        # D0/D1 are the serial line; the Uno has D2..D13 and A0..A5 (14..19) besides.
+        pins = {f.name: getattr(self, f.name) for f in fields(self) if f.name.endswith("_pin")}
+        for name, pin in pins.items():
+            optional = name.endswith("_home_pin")
+            if not (FIRST_PIN <= pin <= LAST_PIN or (optional and pin == NO_PIN)):
+                raise ConfigError(f"config: {name} = {pin} is not a pin of the board (use "
+                                  f"{FIRST_PIN}..{LAST_PIN}" + (f", or {NO_PIN} for none)"
+                                                               if optional else ")"))
+        fitted = [(pin, name) for name, pin in pins.items() if pin != NO_PIN]
+        seen: dict[int, str] = {}
+        for pin, name in fitted:
+            if pin in seen:
+                raise ConfigError(f"config: {name} and {seen[pin]} are both pin {pin}")
+            seen[pin] = name
 
     def _check_pens(self) -> None:
         widths = self.pen_widths_mm
@@ -300,7 +319,13 @@ class MachineConfig:
         else:  # other tables (serial port, console) belong to other parts of the program
             data = {k: v for k, v in data.items() if not isinstance(v, Mapping)}
         _check_keys(data, source)
-        return cls(**data, **pens)
+        try:
+            return cls(**data, **pens)
+        except ConfigError as problem:  # name the file, not just the key
+            text = str(problem)
+            if source != "config" and text.startswith("config: "):
+                text = f"{source}: {text[len('config: '):]}"
+            raise ConfigError(text) from None
 
     @classmethod
     def from_toml(cls, path: str | Path, **overrides: Any) -> "MachineConfig":
@@ -318,6 +343,8 @@ class MachineConfig:
 
 
 MIN_FEED_STEPS_PER_S = 10
+#: Arduino Uno pins a profile may use: D2..D13 and A0..A5 as 14..19 (D0/D1: serial).
+FIRST_PIN, LAST_PIN = 2, 19
 #: Pens in a set, and the widest pen, that the ink mode takes.
 MAX_PENS, MAX_PEN_MM = 8, 5.0
 _FIELD_NAMES = frozenset(f.name for f in fields(MachineConfig))
@@ -348,6 +375,9 @@ def read_toml(path: str | Path, what: str = "config") -> dict:
         raise ConfigError(f"{path}: cannot read {what}: {exc.strerror}") from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: bad TOML: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: cannot read {what}: not UTF-8 text (byte "
+                          f"0x{exc.object[exc.start]:02x} at offset {exc.start})") from None
 
 
 def load_config(path: str | Path | None = None, **overrides: Any) -> MachineConfig:

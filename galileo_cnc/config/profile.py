@@ -49,8 +49,15 @@ def load_profile(path: str | os.PathLike | None = None, *, port: str | None = No
         raise ConfigError(f"{found}: [serial] has unknown key(s): {', '.join(unknown)} "
                           f"(known: port, baud)")
     config = MachineConfig.from_mapping(data, str(found)) if data else MachineConfig()
-    baud = baud or serial_table.get("baud", DEFAULT_BAUD)
-    if baud not in BAUD_RATES:
-        raise ConfigError(f"baud rate {baud} not supported (use one of "
+    if baud is not None:
+        where = "--baud"
+    else:
+        baud, where = serial_table.get("baud", DEFAULT_BAUD), f"{found}: [serial] baud"
+    if isinstance(baud, bool) or baud not in BAUD_RATES:
+        raise ConfigError(f"{where}: baud rate {baud!r} not supported (use one of "
                           f"{', '.join(map(str, BAUD_RATES))})")
-    return Profile(config, port or serial_table.get("port") or None, baud, found)
+    profile_port = serial_table.get("port")
+    if profile_port is not None and not isinstance(profile_port, str):
+        raise ConfigError(f"{found}: [serial] port must be text (a name, path or URL), "
+                          f"got {profile_port!r}")
+    return Profile(config, port or profile_port or None, baud, found)

@@ -1,0 +1,66 @@
+"""Bad profiles are refused before anything moves, naming the file, the key and what
+was expected; the whole `galileo-cnc` command is run so the user's message is tested."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from galileo_cnc.config.machine import ConfigError, MachineConfig
+from galileo_cnc.config.profile import load_profile
+
+SAMPLE = Path(__file__).resolve().parents[2] / "samples" / "led-blinker.gbr"
+
+
+@pytest.mark.parametrize("text, expected", [
+    (b"[machine]\npitch_mm = nan\n", "pitch_mm must be a finite number, got nan"),
+    (b"[machine]\nfeed_mm_s = inf\n", "feed_mm_s must be a finite number, got inf"),
+    (b"[machine]\naccel_mm_s2 = -inf\n", "accel_mm_s2 must be a finite number"),
+    (b"[machine]\nsteps_per_rev = 2.5\n", "steps_per_rev must be an integer, got 2.5"),
+    (b"[machine]\npitch_mm = \"fine\"\n", "pitch_mm must be a number, got 'fine'"),
+    (b"[machine]\nx_step_pin = 1\n", "x_step_pin = 1 is not a pin of the board"),
+    (b"[machine]\ny_dir_pin = 20\n", "y_dir_pin = 20 is not a pin of the board"),
+    (b"[machine]\nx_step_pin = -1\n", "x_step_pin = -1 is not a pin of the board (use 2..19)"),
+    (b"[machine]\nx_step_pin = 10\n", "x_step_pin and x_dir_pin are both pin 10"),
+    (b"[pens]\nwidths_mm = [nan]\n", "widths_mm must be 1 to 8 widths above 0"),
+    (b"[serial]\nbaud = 0\n", "[serial] baud: baud rate 0 not supported"),
+    (b"[serial]\nbaud = \"fast\"\n", "[serial] baud: baud rate 'fast' not supported"),
+    (b"[serial]\nbaud = true\n", "baud rate True not supported"),
+    (b"[serial]\nport = 3\n", "[serial] port must be text"),
+    (b"\xff\xfe[machine]\n", "not UTF-8 text (byte 0xff at offset 0)"),
+    (b"[machine\n", "bad TOML"),
+])
+def test_bad_profile_names_file_key_and_expectation(tmp_path, text, expected):
+    profile = tmp_path / "profile.toml"
+    profile.write_bytes(text)
+    with pytest.raises(ConfigError) as refused:
+        load_profile(profile)
+    assert str(refused.value).startswith(f"{profile}: ")
+    assert expected in str(refused.value)
+
+
+def test_a_home_switch_may_be_absent_but_a_motor_pin_may_not():
+    assert MachineConfig(x_home_pin=-1).x_home_pin == -1
+    assert MachineConfig(x_home_pin=19, y_home_pin=14).y_home_pin == 14
+    with pytest.raises(ConfigError, match="z_step_pin = -1"):
+        MachineConfig(z_step_pin=-1)
+
+
+def test_explicit_bad_baud_is_refused_not_taken_as_absent(tmp_path):
+    with pytest.raises(ConfigError, match="--baud: baud rate 0 not supported"):
+        load_profile(None, baud=0)
+    assert load_profile(None, baud=9600).baud == 9600
+
+
+@pytest.mark.parametrize("profile_text", [b"[machine]\npitch_mm = nan\n", b"\xff[serial]\n"])
+def test_plot_with_a_bad_profile_stops_with_one_line(tmp_path, profile_text):
+    profile = tmp_path / "p.toml"
+    profile.write_bytes(profile_text)
+    done = subprocess.run([sys.executable, "-m", "galileo_cnc", "plot", "--profile", str(profile),
+                           "--port", "sim://", str(SAMPLE)], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode != 0
+    assert "Traceback" not in done.stderr
+    assert done.stderr.strip().startswith(f"galileo-cnc: {profile}: ")
+    assert "%" not in done.stdout          # no progress bar: nothing was streamed
