@@ -25,6 +25,7 @@ from pathlib import Path
 
 from galileo_cnc import protocol as P
 from galileo_cnc.config.userdirs import data_dir
+from galileo_cnc.errors import GalileoError
 
 JOURNAL_NAME = "journal.json"
 #: Write at most this often while streaming (and always when the job stops).
@@ -78,6 +79,70 @@ class JournalEntry:
         return index if self.first_index <= index < self.total else None
 
 
+class JournalError(GalileoError):
+    """The journal file exists but cannot be read or trusted."""
+
+
+def _no_constant(name: str):
+    raise ValueError(f"{name} is not a number")
+
+
+# What each field must be: (check, description). Tuples are JSON lists.
+def _integer(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _integers(count: int | None):
+    return lambda value: (isinstance(value, list) and (count is None or len(value) == count)
+                          and all(_integer(v) for v in value))
+
+
+_FIELD_CHECKS = {
+    "source": (lambda v: isinstance(v, str), "text"),
+    "digest": (lambda v: isinstance(v, str), "text"),
+    "offset_nm": (_integers(2), "a list of 2 integers"),
+    "profile": (lambda v: isinstance(v, str), "text"),
+    "group": (lambda v: isinstance(v, bool), "true or false"),
+    "total": (_integer, "an integer"),
+    "confirmed": (_integer, "an integer"),
+    "first_index": (_integer, "an integer"),
+    "first_seq": (_integer, "an integer"),
+    "state": (lambda v: v in (RUNNING, INTERRUPTED, FINISHED, ABORTED, FAILED),
+              "one of running, interrupted, finished, aborted, failed"),
+    "reason": (lambda v: isinstance(v, str), "text"),
+    "updated": (lambda v: (_integer(v) or isinstance(v, float)), "a number"),
+    "start_position": (_integers(3), "a list of 3 integers"),
+    "mode": (lambda v: v in ("ink", "centre"), "ink or centre"),
+    "ordered": (lambda v: isinstance(v, bool), "true or false"),
+    "pens_nm": (_integers(None), "a list of integers"),
+    "layers": (lambda v: isinstance(v, list) and all(isinstance(x, str) for x in v),
+               "a list of layer names"),
+    "units": (lambda v: v is None or v in ("mm", "in"), "null, mm or in"),
+}
+_REQUIRED = ("source", "digest", "offset_nm", "profile", "group", "total", "confirmed",
+             "first_index", "first_seq")
+_TUPLES = ("offset_nm", "start_position", "pens_nm", "layers")
+
+
+def _checked_fields(data: dict, damaged) -> dict:
+    """The journal's fields, each of the type JournalEntry needs, or damaged(what)."""
+    missing = [name for name in _REQUIRED if name not in data]
+    if missing:
+        raise damaged(f"missing {', '.join(missing)}")
+    fields = {}
+    for name, value in data.items():
+        check = _FIELD_CHECKS.get(name)
+        if check is None:
+            raise damaged(f"unknown key {name!r}")
+        if not check[0](value):
+            raise damaged(f"{name} must be {check[1]}, got {json.dumps(value)[:40]}")
+        fields[name] = tuple(value) if name in _TUPLES else value
+    if not -1 <= fields["confirmed"] < max(fields["total"], 0) or fields["total"] < 0:
+        raise damaged(f"confirmed command {fields['confirmed']} is outside the job's "
+                      f"{fields['total']} commands")
+    return fields
+
+
 class Journal:
     """Reads and writes the journal file (atomically: write a copy, then rename)."""
 
@@ -97,13 +162,30 @@ class Journal:
         return entry if entry is not None and entry.state != FINISHED else None
 
     def load(self) -> JournalEntry | None:
+        """The entry, None when there is no journal; JournalError naming the file
+        and the key when there is one that cannot be trusted (a resume from a damaged
+        journal could repeat or skip moves)."""
         try:
-            data = json.loads(self.path.read_text())
-            data["offset_nm"] = tuple(data["offset_nm"])
-            data["start_position"] = tuple(data.get("start_position", (0, 0, 0)))
-            return JournalEntry(**data)
-        except (OSError, ValueError, TypeError, KeyError):
+            raw = self.path.read_bytes()
+        except FileNotFoundError:
             return None
+        except OSError as exc:
+            raise JournalError(f"{self.path}: cannot read the job journal: {exc.strerror}") \
+                from None
+        try:
+            data = json.loads(raw.decode("utf-8"), parse_constant=_no_constant)
+        except UnicodeDecodeError as exc:
+            raise self._damaged(f"not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset "
+                                f"{exc.start})") from None
+        except ValueError as exc:
+            raise self._damaged(f"not JSON ({exc})") from None
+        if not isinstance(data, dict):
+            raise self._damaged("expected a JSON object")
+        return JournalEntry(**_checked_fields(data, self._damaged))
+
+    def _damaged(self, what: str) -> "JournalError":
+        return JournalError(f"{self.path}: damaged job journal: {what} (delete it to start "
+                            "afresh; the interrupted job then cannot be resumed)")
 
     def begin(self, entry: JournalEntry) -> None:
         self.entry = entry
