@@ -19,7 +19,7 @@ STAGES = {
     "config": 1, "job": 1, "program": 1,
     "readers": 2, "machine": 2, "protocol": 2,
     "plan": 3, "transport": 3, "simavr": 3,
-    "sim": 4, "stream": 4, "preview": 4, "firmware_headers": 4,
+    "sim": 4, "stream": 4, "preview": 4, "firmware_headers": 4, "grbl": 4,
     "console": 5,
     "cli": 6, "__main__": 7,
 }

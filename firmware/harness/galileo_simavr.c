@@ -21,6 +21,7 @@
 
 #include "pins.h"
 #include "stack.h"
+#include "timer_quirks.h"
 #include "uart_bridge.h"
 
 #define DEFAULT_FREQ 16000000u
@@ -47,6 +48,8 @@ struct options {
 	int no_wait;
 	int keep_simavr_timing;
 	int stack_paint; /* the pattern byte of --stack-paint, or -1 */
+	int ocr1a_at_start; /* --ocr1a-at-start, or -1 */
+	int replay_tcnt0;
 	int verbose;
 	const char *elf;
 };
@@ -85,7 +88,8 @@ static void usage(FILE *out)
 		"usage: galileo-simavr [--freq HZ] [--mcu NAME] [--pty LINK | --stdio]\n"
 		"                      [--trace FILE] [--pins N,N,...] [--endstop AXIS:HOMEPIN:TRIP]...\n"
 		"                      [--max-seconds S] [--realtime | --max-speed F] [--no-wait]\n"
-		"                      [--simavr-uart-timing] [--stack-paint BYTE] [-v] ELF\n"
+		"                      [--simavr-uart-timing] [--stack-paint BYTE]\n"
+		"                      [--axis-pins SPEC] [--ocr1a-at-start N] [--replay-tcnt0] [-v] ELF\n"
 		"\n"
 		"  --pty LINK        UART0 on a new pseudo-terminal, LINK a symlink to it;\n"
 		"                    prints 'pty: <slave path>' on stdout when ready; the AVR\n"
@@ -102,7 +106,12 @@ static void usage(FILE *out)
 		"  --max-speed F     never run more than F times faster than the wall clock\n"
 		"  --simavr-uart-timing  keep simavr's 11-bit 8N1 frames (for comparison)\n"
 		"  --stack-paint BYTE  the firmware fills free SRAM with BYTE at reset: report\n"
-		"                    the stack's high-water mark at exit ('stack:' line)\n");
+		"                    the stack's high-water mark at exit ('stack:' line)\n"
+		"  --axis-pins SPEC  step/dir pins the end-stops count on, e.g. GRBL's\n"
+		"                    X:2:5,Y:3:6,Z:4:7 (default X:11:10,Y:9:8,Z:13:12)\n"
+		"  --ocr1a-at-start N  OCR1A = N at cycle 0 (simavr never fires CTC TOP 0)\n"
+		"  --replay-tcnt0    a TCNT0 preload written while Timer0 is stopped takes\n"
+		"                    effect when it starts (silicon does, simavr drops it)\n");
 }
 
 static int parse_pins(const char *spec, struct options *o)
@@ -140,11 +149,32 @@ static int parse_endstop(const char *spec, pins_t *pins)
 	return 0;
 }
 
+static int parse_axis_pins(const char *spec, pins_t *pins)
+{
+	char *copy = strdup(spec), *save = NULL;
+	const char *axes = "XYZ";
+	int status = 0;
+	for (char *tok = strtok_r(copy, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
+		char axis_name = 0;
+		int step, dir, used = 0;
+		if (sscanf(tok, "%c:%d:%d%n", &axis_name, &step, &dir, &used) != 3 || tok[used] ||
+		    !axis_name || !strchr(axes, axis_name) ||
+		    pins_set_axis(pins, (int)(strchr(axes, axis_name) - axes), step, dir) < 0) {
+			fprintf(stderr, "galileo-simavr: --axis-pins: expected AXIS:STEP:DIR like "
+					"X:2:5, got '%s'\n", tok);
+			status = -1;
+			break;
+		}
+	}
+	free(copy);
+	return status;
+}
+
 static int parse_args(int argc, char **argv, struct options *o, pins_t *pins)
 {
 	enum { OPT_FREQ = 256, OPT_MCU, OPT_PTY, OPT_STDIO, OPT_TRACE, OPT_PINS, OPT_ENDSTOP,
 	       OPT_MAX_SECONDS, OPT_REALTIME, OPT_MAX_SPEED, OPT_NO_WAIT, OPT_SIMAVR_UART,
-	       OPT_STACK_PAINT };
+	       OPT_STACK_PAINT, OPT_AXIS_PINS, OPT_OCR1A, OPT_REPLAY_TCNT0 };
 	static const struct option longs[] = {
 		{"freq", required_argument, 0, OPT_FREQ},
 		{"mcu", required_argument, 0, OPT_MCU},
@@ -159,6 +189,9 @@ static int parse_args(int argc, char **argv, struct options *o, pins_t *pins)
 		{"no-wait", no_argument, 0, OPT_NO_WAIT},
 		{"simavr-uart-timing", no_argument, 0, OPT_SIMAVR_UART},
 		{"stack-paint", required_argument, 0, OPT_STACK_PAINT},
+		{"axis-pins", required_argument, 0, OPT_AXIS_PINS},
+		{"ocr1a-at-start", required_argument, 0, OPT_OCR1A},
+		{"replay-tcnt0", no_argument, 0, OPT_REPLAY_TCNT0},
 		{"verbose", no_argument, 0, 'v'},
 		{"help", no_argument, 0, 'h'},
 		{0, 0, 0, 0},
@@ -166,6 +199,7 @@ static int parse_args(int argc, char **argv, struct options *o, pins_t *pins)
 	o->freq = DEFAULT_FREQ;
 	o->mcu = DEFAULT_MCU;
 	o->stack_paint = -1;
+	o->ocr1a_at_start = -1;
 	memcpy(o->pins, default_pins, sizeof(default_pins));
 	o->npins = (int)sizeof(default_pins);
 	int c;
@@ -217,6 +251,20 @@ static int parse_args(int argc, char **argv, struct options *o, pins_t *pins)
 			o->stack_paint = (int)byte;
 			break;
 		}
+		case OPT_AXIS_PINS:
+			if (parse_axis_pins(optarg, pins) < 0)
+				return -1;
+			break;
+		case OPT_OCR1A: {
+			unsigned long value = strtoul(optarg, &end, 0);
+			if (*end || !*optarg || value > 0xffff) {
+				fprintf(stderr, "galileo-simavr: --ocr1a-at-start: '%s' is not 0..65535\n", optarg);
+				return -1;
+			}
+			o->ocr1a_at_start = (int)value;
+			break;
+		}
+		case OPT_REPLAY_TCNT0: o->replay_tcnt0 = 1; break;
 		case 'v': o->verbose++; break;
 		case 'h': usage(stdout); exit(EXIT_OK);
 		default: usage(stderr); return -1;
@@ -297,6 +345,7 @@ int main(int argc, char **argv)
 	static pins_t pins;
 	static uart_bridge_t uart;
 	static stack_watch_t stack;
+	static timer_quirks_t quirks;
 
 	if (parse_args(argc, argv, &opt, &pins) < 0)
 		return EXIT_USAGE;
@@ -350,6 +399,10 @@ int main(int argc, char **argv)
 	}
 	if (pins_attach(&pins, avr, trace, opt.pins, opt.npins) < 0)
 		return EXIT_SETUP;
+	quirks.ocr1a_at_start = opt.ocr1a_at_start;
+	quirks.replay_tcnt0 = opt.replay_tcnt0;
+	if (timer_quirks_attach(&quirks, avr) < 0)
+		return EXIT_SETUP;
 
 	struct sigaction sa;
 	memset(&sa, 0, sizeof(sa));
@@ -383,6 +436,7 @@ int main(int argc, char **argv)
 	 * faster than the wall clock) has run past --max-seconds. */
 	if (!opt.pty_link && !opt.no_wait && !isatty(STDIN_FILENO))
 		uart_bridge_wait_input(&uart, &stop_signal);
+	timer_quirks_start(&quirks);
 	run.start_ns = run.last_flush_ns = now_ns();
 	if (opt.max_seconds > 0)
 		avr_cycle_timer_register(avr, (avr_cycle_count_t)(opt.max_seconds * opt.freq + 0.5),
@@ -422,6 +476,9 @@ int main(int argc, char **argv)
 		fclose(trace);
 	if (stack.enabled)
 		stack_watch_report(&stack, stderr);
+	if (opt.replay_tcnt0) /* its own line, before the summary, which stays last */
+		fprintf(stderr, "galileo-simavr: quirks: tcnt0_replays=%llu\n",
+			(unsigned long long)quirks.replays);
 	fprintf(stderr,
 		"galileo-simavr: stop: %s; state=%s pc=0x%04x cycle=%llu (%.6f s) "
 		"uart0 rx=%llu tx=%llu frame=%llu cycles overruns=%llu dropped=%llu trace=%llu\n",

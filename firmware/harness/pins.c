@@ -106,6 +106,23 @@ static void pin_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 	}
 }
 
+int pins_set_axis(pins_t *p, int axis, int step_pin, int dir_pin)
+{
+	char port;
+	int bit;
+	if (axis < 0 || axis >= AXES || pins_arduino(step_pin, &port, &bit) < 0 ||
+	    pins_arduino(dir_pin, &port, &bit) < 0)
+		return -1;
+	if (!p->map_set) {
+		for (int a = 0; a < AXES; a++)
+			pins_axis_default(a, &p->map_step[a], &p->map_dir[a]);
+		p->map_set = 1;
+	}
+	p->map_step[axis] = (uint8_t)step_pin;
+	p->map_dir[axis] = (uint8_t)dir_pin;
+	return 0;
+}
+
 int pins_add_endstop(pins_t *p, int axis, int home_pin, int64_t trip_steps)
 {
 	char port;
@@ -150,6 +167,10 @@ int pins_attach(pins_t *p, avr_t *avr, FILE *trace, const uint8_t *traced, int n
 		endstop_t *e = &p->axis[a];
 		if (!e->active)
 			continue;
+		if (p->map_set) { /* --axis-pins may come after --endstop */
+			e->step_pin = p->map_step[a];
+			e->dir_pin = p->map_dir[a];
+		}
 		hook(p, e->step_pin);
 		hook(p, e->dir_pin);
 		hook(p, e->home_pin);

@@ -40,12 +40,17 @@ typedef struct pins_t {
 	pin_state_t pin[PINS_MAX];
 	endstop_t axis[AXES];
 	uint8_t ext_mask[3], ext_value[3]; /* driven inputs of ports B, C, D */
+	uint8_t map_step[AXES], map_dir[AXES]; /* --axis-pins, when map_set */
+	int map_set;
 } pins_t;
 
 /* The AVR port ('B', 'C', 'D') and bit of an Uno pin; -1 if there is none. */
 int pins_arduino(int pin, char *port, int *bit);
 /* Default step/dir pins of an axis (0 = X, 1 = Y, 2 = Z). */
 void pins_axis_default(int axis, uint8_t *step_pin, uint8_t *dir_pin);
+/* Before pins_attach(): the step/dir pins an end-stop counts on (GRBL's map
+ * differs from the seed's). */
+int pins_set_axis(pins_t *p, int axis, int step_pin, int dir_pin);
 /* Before pins_attach(): drive `home_pin` from the axis' step count. */
 int pins_add_endstop(pins_t *p, int axis, int home_pin, int64_t trip_steps);
 /* Hooks the traced pins and the end-stop axes' pins; drives the home pins. */

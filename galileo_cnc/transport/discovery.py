@@ -5,11 +5,17 @@ VID:PID (Arduino, CH340, FTDI, CP210x and Intel Galileo bridges), then for any
 other USB serial port that answers with our banner (plain UARTs such as ttyS0
 are never probed: name them with --port), and fall back to the built-in simulated
 machine `sim://`, saying so on the connection line.
+
+`identify_board` also recognises a stock GRBL 1.1 board by its banner
+(`Grbl 1.1h ['$' for help]`), or, when it stayed silent, by its `error:N`
+reply to our version request and its `[VER:...]` reply to `$I`; `find_board`
+says which backend a port needs (docs/grbl.md).
 """
 
 from __future__ import annotations
 
 import os
+import re
 import time
 from dataclasses import dataclass
 
@@ -32,6 +38,20 @@ KNOWN_BOARDS = {
     (0x10C4, 0xEA60): "CP210x USB-serial",
     (0x8086, 0xBABE): "Intel Galileo",
 }
+
+#: What `identify_board` finds on a port.
+GALILEO = "galileo"
+GRBL = "grbl"
+
+#: Stock GRBL's start-up banner (grbl.h GRBL_VERSION, report.c); galileo_cnc.grbl
+#: reads it from here, so the transport stage never imports the GRBL backend.
+GRBL_BANNER = re.compile(r"^Grbl (?P<version>\d+\.\d+[a-z]?) \['\$' for help\]$")
+
+
+def grbl_banner_version(line: str) -> str | None:
+    """'1.1h' for GRBL's start-up banner, else None."""
+    match = GRBL_BANNER.match(line.strip())
+    return match["version"] if match else None
 
 #: Set to skip probing real ports (tests, machines with unrelated serial devices).
 NO_PROBE_ENV = "GALILEO_CNC_NO_PROBE"
@@ -73,6 +93,52 @@ def answers_with_banner(device: str, baud: int, wait_s: float = BANNER_WAIT_S) -
     except (serial.SerialException, OSError, ValueError):
         return False
     return False
+
+
+def identify_board(device: str, baud: int, wait_s: float = BANNER_WAIT_S) -> str | None:
+    """GALILEO for our firmware, GRBL for stock GRBL 1.1, None for anything else."""
+    try:
+        with open_port(device, baud, timeout=0.2) as port:
+            return _identify(port, wait_s)
+    except (serial.SerialException, OSError, ValueError):
+        return None
+
+
+def _identify(port, wait_s: float) -> str | None:
+    deadline = time.monotonic() + wait_s
+    asked = False
+    while time.monotonic() < deadline:
+        line = port.readline()
+        if line.endswith(b"\n"):
+            if _carries_banner(line):
+                return GALILEO
+            text = line.decode("ascii", errors="replace").strip()
+            if grbl_banner_version(text):
+                return GRBL
+            # GRBL answers our framed `V` with error:N; `$I` then says who it is
+            if asked and text.startswith("error:") and text[6:].isdigit():
+                port.write(b"$I\n")
+            if text.startswith("[VER:1.1"):
+                return GRBL
+        elif not line and not asked and time.monotonic() > deadline - wait_s / 2:
+            port.write(P.frame_line(0, "V"))
+            asked = True
+    return None
+
+
+def find_board(baud: int = DEFAULT_BAUD) -> tuple[str, str]:
+    """(port, GALILEO or GRBL): a known board, else a USB port that answers, else
+    (`sim://`, GALILEO)."""
+    if os.environ.get(NO_PROBE_ENV):
+        return SIM_URL, GALILEO
+    ports = list_ports()
+    candidates = [p for p in ports if p.known_board] + \
+        [p for p in ports if p.usb and not p.known_board]
+    for port in candidates:
+        kind = identify_board(port.device, baud)
+        if kind is not None:
+            return port.device, kind
+    return SIM_URL, GALILEO
 
 
 def _carries_banner(line: bytes) -> bool:
