@@ -12,7 +12,6 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
-import pytest
 import serial
 
 from galileo_cnc.config.machine import MachineConfig
