@@ -2,10 +2,15 @@
 
     python3 bench/bench_ink_plan.py                       # the biggest corpus layers
     python3 bench/bench_ink_plan.py FILE [FILE ...] --pens 0.3,0.8
+    python3 bench/bench_ink_plan.py --stages              # and where the time goes
 
-Prints, per file: read and ink seconds, rows of the ink program, the share of the
-copper inked (exact geometry, not the steps: bench_ink.py measures the steps), narrow
-features and bridges avoided. Numbers are printed, never asserted.
+Prints, per file: read seconds, ink seconds (wall clock, and the CPU seconds of this
+process: other work on the machine inflates the first, not the second), rows of the
+ink program, the share of the copper inked (exact geometry, not the steps:
+bench_ink.py measures the steps), pen lifts, narrow features and bridges avoided.
+`--stages` adds the CPU seconds of each stage (the planner's functions are wrapped
+with timers for the run; nested stages are also counted in the stage around them).
+Numbers are printed, never asserted.
 """
 
 from __future__ import annotations
@@ -14,6 +19,7 @@ import argparse
 import time
 from pathlib import Path
 
+from galileo_cnc.plan.ink import clip, fill, inking
 from galileo_cnc.plan.ink.inking import ink_program
 from galileo_cnc.readers import read_file
 
@@ -22,23 +28,68 @@ BIGGEST = ["geda-pcb/hellboard/hellboard.group1.gbr", "altium/limesdr-qpcie/Lime
            "allegro/minnowmax-reva1/MinnowMax_lyr1_GAF.art", "eagle/pcb-tools-example/copper.GTL",
            "allegro/tracespace-371/l1_primary.art"]
 
+#: (label, module, function name): the stages `--stages` times, outermost first.
+STAGES = [
+    ("copper (dark_geometry)", inking, "dark_geometry"),
+    ("fill (fill_region)", inking, "fill_region"),
+    ("  fill: rings (_concentric)", fill, "_concentric"),
+    ("  fill: gaps (_gaps)", fill, "_gaps"),
+    ("  fill: joins and walks (_tours)", fill, "_tours"),
+    ("narrow features (find_narrow)", inking, "find_narrow"),
+    ("bridges (keep_islands_apart)", inking, "keep_islands_apart"),
+    ("rows (_rows)", inking, "_rows"),
+    ("  rows: arcs (fit_arcs)", inking, "fit_arcs"),
+    ("  rows: arcs (fit_paths)", inking, "fit_paths"),
+    ("all clip.offset", clip, "offset"),
+    ("all clip.boolean", clip, "boolean"),
+]
+
+
+def timed_stages() -> dict[str, float]:
+    """Wrap every function in STAGES with a CPU timer; the dict fills as they run."""
+    spent: dict[str, float] = {}
+    for label, module, name in STAGES:
+        original = getattr(module, name, None)
+        if original is None:
+            continue
+
+        def wrapper(*args, _original=original, _label=label, **kwargs):
+            began = time.process_time()
+            try:
+                return _original(*args, **kwargs)
+            finally:
+                spent[_label] = spent.get(_label, 0.0) + time.process_time() - began
+
+        setattr(module, name, wrapper)
+    return spent
+
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("files", nargs="*", help="Gerber files (default: the biggest layers)")
     parser.add_argument("--pens", default="0.3", help="pen widths in mm, e.g. 0.3,0.8")
+    parser.add_argument("--stages", action="store_true", help="CPU seconds per stage")
     args = parser.parse_args()
     pens = tuple(round(float(w) * 1_000_000) for w in args.pens.split(","))
     files = [Path(f) for f in args.files] or [CORPUS / f for f in BIGGEST]
+    spent = timed_stages() if args.stages else {}
     for path in files:
         began = time.perf_counter()
         program = read_file(path)
         read_s = time.perf_counter() - began
+        spent.clear()
+        cpu = time.process_time()
         plan = ink_program(program, pens)
+        cpu = time.process_time() - cpu
         share = 100 * plan.inked_nm2 / plan.copper_nm2 if plan.copper_nm2 else 100.0
-        print(f"{path.name}: read {read_s:.1f} s, ink {plan.seconds:.1f} s, "
-              f"{len(plan.program)} rows, {share:.2f} % inked, {len(plan.narrow)} narrow, "
+        print(f"{path.name}: read {read_s:.1f} s, ink {plan.seconds:.1f} s "
+              f"({cpu:.1f} s CPU), {len(plan.program)} rows, {share:.2f} % inked, "
+              f"{plan.pen_lifts} pen lifts, {len(plan.narrow)} narrow, "
               f"{len(plan.bridges)} bridges avoided", flush=True)
+        for label, _module, _name in STAGES:
+            if label in spent:
+                print(f"    {label:34s} {spent[label]:6.2f} s CPU "
+                      f"{100 * spent[label] / cpu if cpu else 0:5.1f} %", flush=True)
 
 
 if __name__ == "__main__":

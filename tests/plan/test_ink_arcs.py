@@ -15,7 +15,7 @@ import numpy as np
 import pyclipper
 import pytest
 
-from galileo_cnc.plan.ink.arcs import fit_arcs
+from galileo_cnc.plan.ink.arcs import fit_arcs, fit_paths
 from galileo_cnc.plan.ink.shapes import (
     capsules,
     chord_step,
@@ -277,3 +277,48 @@ def test_points_as_lists_and_reversed_views_work():
 def test_bad_input_is_refused(points, closed, kwargs):
     with pytest.raises(ValueError):
         fit_arcs(points, closed=closed, **kwargs)
+
+
+def test_fit_paths_answers_as_fit_arcs_does_path_by_path():
+    # pen paths as the fill makes them: closed rings (rounded squares, circles), open
+    # polylines with an ellipse's vertices, two-point strokes, dots, a spiral: all
+    # laid end to end in one array, no arc may run from one path into the next
+    rng = random.Random(11)
+    paths = []
+    for k in range(40):
+        centre = np.array([rng.randrange(-50, 50), rng.randrange(-50, 50)]) * MM
+        ring = circle_template(rng.randrange(200_000, 3 * MM), TOL) + centre
+        if k % 4 == 0:
+            paths.append(np.vstack([ring, ring[:1]]))                  # closed
+        elif k % 4 == 1:
+            t = np.linspace(0, 2.5, 60)
+            paths.append(np.rint(np.stack([3 * MM * np.cos(t), MM * np.sin(t)], 1)).astype(np.int64)
+                         + centre)                                      # ellipse, open
+        elif k % 4 == 2:
+            paths.append(centre[None, :] + np.array([[0, 0], [MM, 0]]))  # a stroke
+            paths.append(centre[None, :])                               # a dot
+        else:
+            t = np.linspace(0, 12, 400)
+            r = MM + 100_000 * t
+            paths.append(np.rint(np.stack([r * np.cos(t), r * np.sin(t)], 1)).astype(np.int64)
+                         + centre)                                      # spiral
+    together = fit_paths(paths)
+    assert len(together) == len(paths)
+    arcs = 0
+    for path, got in zip(paths, together):
+        if len(path) == 1:
+            assert got is None
+            continue
+        closed = len(path) > 3 and np.array_equal(path[0], path[-1])
+        points = path[:-1] if closed else path
+        assert got == fit_arcs(points, closed=closed)
+        arcs += len(walk(points, got, closed=closed))
+    assert arcs > 40                     # the circles became arcs
+
+
+def test_fit_paths_rejects_what_fit_arcs_rejects():
+    with pytest.raises(ValueError, match="tolerance"):
+        fit_paths([np.array([[0, 0], [1, 0]])], tolerance_nm=0)
+    with pytest.raises(ValueError, match="shape"):
+        fit_paths([np.array([0, 1, 2])])
+    assert fit_paths([]) == []

@@ -8,15 +8,20 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
+from corpus import CORPUS
 from inked import ink_of_trace
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.job import PenDown
 from galileo_cnc.machine.planner import simulate
 from galileo_cnc.plan.ink import clip
-from galileo_cnc.plan.ink.fill import fill_region, island_batches
+from galileo_cnc.plan.ink.edges import EdgeIndex, point_to_edges
+from galileo_cnc.plan.ink.fill import fill_region, inked_area_nm2, island_batches
+from galileo_cnc.plan.ink.geometry import dark_geometry
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
+from galileo_cnc.readers import read_file
 
 MM = 1_000_000
 HEADER = "%FSLAX46Y46*%\n%MOMM*%\nG75*\n"
@@ -153,3 +158,47 @@ def test_islands_filled_in_batches_ink_the_same_as_all_at_once():
     both = clip.area_nm2(clip.intersection(apart.ink, together.ink))
     assert both == pytest.approx(clip.area_nm2(together.ink), rel=1e-9)
     assert both == pytest.approx(clip.area_nm2(apart.ink), rel=1e-9)
+
+
+def test_nearest_many_finds_the_nearest_edge_as_a_full_search_does():
+    # rings of many sizes, points near, inside and far from them: every answer is
+    # the nearest edge of all (the lowest index among equally near ones)
+    rng = np.random.default_rng(5)
+    rings = []
+    for _ in range(30):
+        centre = rng.integers(-20 * MM, 20 * MM, 2)
+        angles = np.sort(rng.uniform(0, 2 * np.pi, rng.integers(3, 40)))
+        radius = rng.integers(100_000, 3 * MM)
+        rings.append(np.rint(centre + radius * np.stack([np.cos(angles), np.sin(angles)], 1))
+                     .astype(np.int64))
+    rings.append(np.array(square(0, 0, MM, MM)))          # equally near edges: ties
+    index = EdgeIndex(rings, cell_nm=240_000)
+    points = np.concatenate([rng.integers(-25 * MM, 25 * MM, (400, 2)),
+                             rng.integers(-MM, 2 * MM, (100, 2)),
+                             [[500_000, 500_000], [10 ** 9, -10 ** 9]]])
+    edge, t, distance = index.nearest_many(points, 240_000)
+    for p, k, tk, d in zip(points, edge.tolist(), t.tolist(), distance.tolist()):
+        tt, dd = point_to_edges(p.astype(np.float64), index.a, index.b)
+        best = int(np.argmin(dd))
+        assert (k, tk, d) == (best, float(tt[best]), float(dd[best]))
+        assert index.nearest((int(p[0]), int(p[1])), 240_000) == (k, tk, d)
+
+
+def test_inked_area_batch_by_batch_is_the_area_over_the_whole_board():
+    # a real layer with hundreds of islands: the fill's ink, plus strokes of another
+    # pen that cross islands and stick out of the copper
+    layer = CORPUS / "allegro" / "tracespace-371" / "l1_primary.art"
+    region = dark_geometry(read_file(layer), 1_000).native
+    fill = fill_region(region, 300_000, 1_000, edge_margin_nm=2_000)
+    assert len(fill.parts) > 3
+    low = np.min([np.min(r, axis=0) for r in region], axis=0)
+    high = np.max([np.max(r, axis=0) for r in region], axis=0)
+    lines = [np.array([low, high]), np.array([[low[0], high[1]], [high[0], low[1]]])]
+    extra = clip.stroke(lines, 400_000, 1_000)
+    for more in ([], extra):
+        whole = clip.area_nm2(clip.intersection(clip.union(fill.ink, more), region))
+        assert inked_area_nm2([fill], more, region) == pytest.approx(whole, rel=1e-9)
+    second = fill_region(extra, 200_000, 1_000)
+    whole = clip.area_nm2(clip.intersection(clip.union(fill.ink, second.ink), region))
+    assert inked_area_nm2([fill, second], [], region) == pytest.approx(whole, rel=1e-9)
+    assert inked_area_nm2([fill], extra, region) > inked_area_nm2([fill], [], region)

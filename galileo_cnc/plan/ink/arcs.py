@@ -39,6 +39,9 @@ Everything else is a LINE to the next vertex; collinear lines are not merged. A
 closed path is drawn from points[0] and back, so an arc through points[0] is cut
 there (a remainder shorter than `min_edges` stays lines).
 
+`fit_paths` does the same for all pen paths of a fill in one pass (same answers):
+the paths lie end to end in one array and each numpy step runs once for all.
+
 Floats are used only to decide (coordinates are exact in them below 2^53 nm);
 every returned coordinate is an input vertex and every centre an integer offset
 from its arc's start.
@@ -46,6 +49,7 @@ from its arc's start.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -73,37 +77,88 @@ def fit_arcs(points: np.ndarray, tolerance_nm: int = 1000, closed: bool = False,
     """Segments (kind, x, y, i, j) drawn from points[0] that replace each run of at
     least `min_edges` edges on a common circle by an arc (see the module docstring
     for the guarantees); a closed path ends back at points[0]."""
+    _check_options(tolerance_nm, min_edges)
+    return _fit_many([_open_path(points, closed)], tolerance_nm, min_edges)[0]
+
+
+def fit_paths(paths: list[np.ndarray], tolerance_nm: int = 1000,
+              min_edges: int = 4) -> list[list[Segment] | None]:
+    """`fit_arcs` for many pen paths at once, with the same answers: a path of one
+    point is a dot (None), one of more than 3 points that ends where it starts is
+    closed. All paths go through each numpy step together (a fill's thousands of
+    short paths would otherwise cost a few dozen numpy calls each)."""
+    _check_options(tolerance_nm, min_edges)
+    found: list[list[Segment] | None] = [None] * len(paths)
+    drawn = [k for k, path in enumerate(paths) if len(path) != 1]
+    opened = []
+    for k in drawn:
+        path = np.asarray(paths[k], dtype=np.int64)
+        closed = len(path) > 3 and np.array_equal(path[0], path[-1])
+        opened.append(_open_path(path[:-1] if closed else path, closed))
+    for k, segments in zip(drawn, _fit_many(opened, tolerance_nm, min_edges)):
+        found[k] = segments
+    return found
+
+
+def _check_options(tolerance_nm: int, min_edges: int) -> None:
+    if tolerance_nm <= 0:
+        raise ValueError(f"tolerance must be positive, got {tolerance_nm} nm")
+    if min_edges < 2:
+        raise ValueError(f"an arc needs at least 2 edges, got min_edges={min_edges}")
+
+
+def _open_path(points: np.ndarray, closed: bool) -> np.ndarray:
+    """The points as an int64 path drawn open (a closed one with points[0] again at the end)."""
     path = np.asarray(points, dtype=np.int64)
     if path.ndim != 2 or path.shape[1] != 2:
         raise ValueError(f"points must be an (n, 2) array, got shape {path.shape}")
     if len(path) < (3 if closed else 2):
         raise ValueError(f"a {'closed' if closed else 'open'} path needs more than "
                          f"{len(path)} points")
-    if tolerance_nm <= 0:
-        raise ValueError(f"tolerance must be positive, got {tolerance_nm} nm")
-    if min_edges < 2:
-        raise ValueError(f"an arc needs at least 2 edges, got min_edges={min_edges}")
-    if closed:
-        # an arc cannot run through points[0], where the path starts and ends
-        path = np.concatenate([path, path[:1]])
-    # complex coordinates: exact (integers below 2^53), and the geometry reads short
-    z = np.ascontiguousarray(path, dtype=np.float64).view(np.complex128).ravel()
-    return _segments(path, _arcs(z, tolerance_nm, min_edges))
+    # an arc cannot run through points[0] of a closed path, where it starts and ends
+    return np.concatenate([path, path[:1]]) if closed else path
 
 
-def _arcs(z: np.ndarray, tol: int, min_edges: int) -> list[Arc]:
-    """The arcs of an open path (complex points), in order."""
-    starts, ends = _pieces(z, tol, min_edges)
+def _fit_many(paths: list[np.ndarray], tol: int, min_edges: int) -> list[list[Segment]]:
+    """The segments of each open path. The paths are laid end to end in one array of
+    complex points (exact: integers below 2^53), a NaN between neighbours: no triple
+    through a NaN is usable, so no chain crosses from one path into the next."""
+    if not paths:
+        return []
+    sizes = np.array([len(path) for path in paths], dtype=np.int64)
+    offsets = np.cumsum(sizes + 1) - (sizes + 1)
+    z = np.full(int(sizes.sum() + len(paths) - 1), np.nan + 0j)
+    for path, at in zip(paths, offsets.tolist()):
+        z[at:at + len(path)] = np.ascontiguousarray(path, dtype=np.float64).view(
+            np.complex128).ravel()
+    arcs = _arcs(z, tol, min_edges, offsets, sizes)
+    # each path's arcs, in its own vertex numbers
+    owner = np.searchsorted(offsets, [arc[0] for arc in arcs], "right") - 1
+    mine: list[list[Arc]] = [[] for _ in paths]
+    for (s, e, kind, i, j), k in zip(arcs, owner.tolist()):
+        at = int(offsets[k])
+        mine[k].append((s - at, e - at, kind, i, j))
+    return [_segments(path, found) for path, found in zip(paths, mine)]
+
+
+def _arcs(z: np.ndarray, tol: int, min_edges: int, offsets: np.ndarray,
+          sizes: np.ndarray) -> list[Arc]:
+    """The arcs of the paths laid out in z (see `_fit_many`), in order."""
+    starts, ends = _pieces(z, tol, min_edges, offsets, sizes)
     if not len(starts):
         return []
     fits, curved, ccw, ij = _check(z, starts, ends, tol)
+    good = fits & curved
+    failed = np.flatnonzero(~good)
+    regrown = _regrow(z, starts[failed], ends[failed], tol, min_edges) if len(failed) else []
     arcs: list[Arc] = []
-    for s, e, good, left, (i, j) in zip(starts.tolist(), ends.tolist(),
-                                        (fits & curved).tolist(), ccw.tolist(), ij.tolist()):
-        if good:
+    again = iter(regrown)
+    for s, e, ok, left, (i, j) in zip(starts.tolist(), ends.tolist(), good.tolist(),
+                                      ccw.tolist(), ij.tolist()):
+        if ok:
             arcs.append((s, e, _CCW if left else _CW, i, j))
         else:
-            arcs.extend(_regrow(z, s, e, tol, min_edges))
+            arcs.extend(next(again))
     return arcs
 
 
@@ -114,7 +169,8 @@ def _circumcentre(a: np.ndarray, b: np.ndarray) -> np.ndarray:
             2j * (a.conj() * b).imag)
 
 
-def _pieces(z: np.ndarray, tol: int, min_edges: int) -> tuple[np.ndarray, np.ndarray]:
+def _pieces(z: np.ndarray, tol: int, min_edges: int, offsets: np.ndarray,
+            sizes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(start, end) point indices of the candidate arcs: chains of triples on one
     circle, cut into pieces of at most about `_PIECE_SWEEP`."""
     none = np.zeros(0, np.int64)
@@ -151,7 +207,11 @@ def _pieces(z: np.ndarray, tol: int, min_edges: int) -> tuple[np.ndarray, np.nda
         return none, none
     # estimated sweep: the turning angles, plus half an edge's at either end
     turn = np.abs(np.angle(-ab))
-    total = np.concatenate([[0.0], np.cumsum(turn)])
+    # summed along each path by itself (the triples of the path at o are o .. o + n - 3)
+    total = np.zeros(len(turn) + 1)
+    for at, n in zip(offsets.tolist(), sizes.tolist()):
+        if n >= 3:
+            total[at + 1:at + n - 1] = np.cumsum(turn[at:at + n - 2])
     sweep = total[stop] - total[start] + 0.5 * (turn[start] + turn[stop - 1])
     edges = stop + 1 - start
     count = np.minimum(np.ceil(sweep / _PIECE_SWEEP), edges // min_edges)
@@ -199,51 +259,110 @@ def _check(z: np.ndarray, start: np.ndarray, end: np.ndarray,
     return fits, sagitta > tol, ccw, ij
 
 
-def _regrow(z: np.ndarray, s0: int, e0: int, tol: int, min_edges: int) -> list[Arc]:
-    """Arcs within a piece that failed the check, greedily: from each start whose
-    `min_edges` fit a circle, the longest run that fits (`_BATCH` end points tried
-    per call), an arc if it is curved enough, then on from its end; edges no arc
-    starts from stay lines."""
-    # which starts fit at least the shortest run: one call for the whole piece
-    firsts = np.arange(s0, e0 - min_edges + 1)
-    if not len(firsts):
-        return []
+def _regrow(z: np.ndarray, s0: np.ndarray, e0: np.ndarray, tol: int,
+            min_edges: int) -> list[list[Arc]]:
+    """Arcs within each piece s0[k] .. e0[k] that failed the check, greedily: from
+    each start whose `min_edges` fit a circle, the longest run that fits (`_BATCH`
+    end points tried per step), an arc if it is curved enough, then on from its
+    end; edges no arc starts from stay lines.
+
+    The pieces are grown side by side, each step one `_check` call for all of them
+    (state in arrays, one entry per piece), not one call per piece and step."""
+    arcs: list[list[Arc]] = [[] for _ in range(len(s0))]
+    # a piece of min_edges edges has one start, the piece itself, which failed
+    longer = np.flatnonzero(e0 - s0 > min_edges)
+    if not len(longer):
+        return arcs
+    s0, e0 = s0[longer], e0[longer]
+    # which starts fit at least the shortest run: one call for every piece
+    counts = e0 - min_edges + 1 - s0
+    piece = np.repeat(np.arange(len(s0)), counts)
+    firsts = np.arange(len(piece)) - np.repeat(np.cumsum(counts) - counts, counts) + s0[piece]
     fits, curved, ccw, ij = _check(z, firsts, firsts + min_edges, tol)
-    arcs: list[Arc] = []
-    here = s0
-    for k in np.flatnonzero(fits).tolist():
-        s = int(firsts[k])
-        if s < here:
-            continue                                   # inside the last arc
-        lo, hi = s + min_edges, e0 + 1                 # lo fits, hi is out of reach
-        best = (bool(curved[k]), bool(ccw[k]), ij[k].tolist())
-        while hi - lo > 1:
-            # up to _BATCH end points spread over (lo, reach): at most 4 times as far
-            # as the arc reaches so far, so the work stays in proportion to the arc
-            reach = min(hi, s + 4 * (lo - s) + 1)
-            ends = np.unique(np.rint(np.linspace(lo + 1, reach - 1, min(_BATCH, reach - lo - 1)))
-                             .astype(np.int64))
-            passed, bent, left, centres = _check(z, np.full(len(ends), s), ends, tol)
-            if not passed.any():
-                hi = int(ends[0])
-                continue
-            b = int(np.flatnonzero(passed)[-1])
-            lo, best = int(ends[b]), (bool(bent[b]), bool(left[b]), centres[b].tolist())
-            hi = int(ends[b + 1]) if b + 1 < len(ends) else hi
-        if best[0]:
-            arcs.append((s, lo, _CCW if best[1] else _CW, *best[2]))
-            here = lo
+    keep = np.flatnonzero(fits)
+    # fitting starts, in path order; piece p owns F[bound[p]:bound[p + 1]]
+    start_at, start_bent, start_left, start_ij = firsts[keep], curved[keep], ccw[keep], ij[keep]
+    bound = np.searchsorted(piece[keep], np.arange(len(s0) + 1))
+    n = len(s0)
+    here = s0.copy()                          # no arc starts before here
+    cursor = bound[:-1].copy()                # the next fitting start to try
+    s = np.full(n, -1, np.int64)              # the start being grown (-1: none)
+    lo = np.zeros(n, np.int64)                # s .. lo fits
+    hi = np.zeros(n, np.int64)                # s .. hi is out of reach
+    best_bent = np.zeros(n, bool)
+    best_left = np.zeros(n, bool)
+    best_ij = np.zeros((n, 2), np.int64)
+    found = []                                # (piece, s, e, ccw, i, j) arrays, in time order
+    while True:
+        # finish runs that cannot grow, take the next start where none is grown
+        for _ in range(3):
+            ended = (s >= 0) & (hi - lo <= 1)
+            kept = ended & best_bent
+            if kept.any():
+                w = np.flatnonzero(kept)
+                found.append((w, s[w], lo[w], best_left[w], best_ij[w]))
+                here[w] = lo[w]
+            s[ended] = -1
+            idle = np.flatnonzero(s < 0)
+            if not len(idle):
+                break
+            # skip the starts inside the last arc
+            at = np.maximum(cursor[idle], np.searchsorted(start_at, here[idle], "left"))
+            live = at < bound[idle + 1]
+            cursor[idle] = np.minimum(at, bound[idle + 1])
+            w, at = idle[live], at[live]
+            if not len(w):
+                break
+            s[w], lo[w], hi[w] = start_at[at], start_at[at] + min_edges, e0[w] + 1
+            best_bent[w], best_left[w], best_ij[w] = start_bent[at], start_left[at], start_ij[at]
+            cursor[w] = at + 1
+        grow = np.flatnonzero((s >= 0) & (hi - lo > 1))
+        if not len(grow):
+            break
+        # up to _BATCH end points spread over (lo, reach): at most 4 times as far as the
+        # arc reaches so far, so the work stays in proportion to the arc (np.linspace's
+        # arithmetic, then np.unique's, for all pieces at once)
+        gs, glo, ghi = s[grow], lo[grow], hi[grow]
+        reach = np.minimum(ghi, gs + 4 * (glo - gs) + 1)
+        a, b = glo + 1, reach - 1
+        num = np.minimum(_BATCH, reach - glo - 1)
+        owner = np.repeat(np.arange(len(grow)), num)
+        k = np.arange(len(owner)) - np.repeat(np.cumsum(num) - num, num)
+        div = (num - 1)[owner]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = np.where(div > 0, (b - a)[owner] / np.maximum(div, 1), 0.0)
+        value = k * step + a[owner]
+        value = np.where(k == div, b[owner], value)
+        ends = np.rint(value).astype(np.int64)
+        distinct = np.ones(len(ends), bool)
+        distinct[1:] = (ends[1:] != ends[:-1]) | (owner[1:] != owner[:-1])
+        ends, owner = ends[distinct], owner[distinct]
+        passed, bent, left, centres = _check(z, gs[owner], ends, tol)
+        groups = np.searchsorted(owner, np.arange(len(grow) + 1))
+        index = np.arange(len(ends))
+        last = np.maximum.reduceat(np.where(passed, index, -1), groups[:-1])
+        none = last < 0
+        hi[grow[none]] = ends[groups[:-1][none]]
+        w, b_ = grow[~none], last[~none]
+        lo[w], best_bent[w], best_left[w], best_ij[w] = ends[b_], bent[b_], left[b_], centres[b_]
+        more = b_ + 1 < groups[1:][~none]
+        hi[w[more]] = ends[b_[more] + 1]
+    for w, ss, ee, left_, centre in found:
+        for p, a_, e_, l_, (i, j) in zip(longer[w].tolist(), ss.tolist(), ee.tolist(),
+                                         left_.tolist(), centre.tolist()):
+            arcs[p].append((a_, e_, _CCW if l_ else _CW, i, j))
     return arcs
 
 
 def _segments(path: np.ndarray, arcs: list[Arc]) -> list[Segment]:
     """The segments from path[0]: a LINE to each vertex that no arc replaces."""
-    points = path.tolist()
+    xs, ys = path[:, 0].tolist(), path[:, 1].tolist()    # columns: no list per point
+    line, zero = itertools.repeat(_LINE), itertools.repeat(0)
     out: list[Segment] = []
     here = 0
     for s, e, kind, i, j in arcs:
-        out.extend((_LINE, x, y, 0, 0) for x, y in points[here + 1:s + 1])
-        out.append((kind, points[e][0], points[e][1], i, j))
+        out.extend(zip(line, xs[here + 1:s + 1], ys[here + 1:s + 1], zero, zero))
+        out.append((kind, xs[e], ys[e], i, j))
         here = e
-    out.extend((_LINE, x, y, 0, 0) for x, y in points[here + 1:])
+    out.extend(zip(line, xs[here + 1:], ys[here + 1:], zero, zero))
     return out

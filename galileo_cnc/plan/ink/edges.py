@@ -46,8 +46,18 @@ class EdgeIndex:
         t = (np.arange(len(owner)) - first[owner]) / (samples[owner] - 1)
         points = a[owner] + (b[owner] - a[owner]) * t[:, None]
         keys = self._key(np.floor(points / self.cell).astype(np.int64))
-        pairs = np.unique(np.stack([keys, owner], axis=1), axis=0)
-        self._keys, self._members = pairs[:, 0], pairs[:, 1]
+        # distinct (key, edge) pairs sorted by key, then edge: neighbouring samples of
+        # one edge mostly share a cell, so drop those repeats before the sort
+        keep = np.ones(len(keys), dtype=bool)
+        keep[1:] = (keys[1:] != keys[:-1]) | (owner[1:] != owner[:-1])
+        keys, owner = keys[keep], owner[keep]
+        order = np.lexsort((owner, keys))
+        keys, owner = keys[order], owner[order]
+        keep = np.ones(len(keys), dtype=bool)
+        keep[1:] = (keys[1:] != keys[:-1]) | (owner[1:] != owner[:-1])
+        self._keys, self._members = keys[keep], owner[keep]
+        cells = np.floor(np.concatenate([a, b]) / self.cell).astype(np.int64)
+        self._cells_lo, self._cells_hi = cells.min(axis=0), cells.max(axis=0)
 
     @staticmethod
     def _key(cells: np.ndarray) -> np.ndarray:
@@ -61,8 +71,12 @@ class EdgeIndex:
         if not len(self.a):
             return np.zeros(0, dtype=np.int64)
         c = self.cell
-        cx = np.arange(math.floor(x0 / c) - 1, math.floor(x1 / c) + 2)
-        cy = np.arange(math.floor(y0 / c) - 1, math.floor(y1 / c) + 2)
+        # cells outside the grid's bounds hold no edge
+        (gx0, gy0), (gx1, gy1) = self._cells_lo.tolist(), self._cells_hi.tolist()
+        cx = np.arange(max(math.floor(x0 / c) - 1, gx0), min(math.floor(x1 / c) + 2, gx1 + 1))
+        cy = np.arange(max(math.floor(y0 / c) - 1, gy0), min(math.floor(y1 / c) + 2, gy1 + 1))
+        if not len(cx) or not len(cy):
+            return np.zeros(0, dtype=np.int64)
         keys = self._key(np.stack(np.meshgrid(cx, cy, indexing="ij"), axis=-1).reshape(-1, 2))
         lo = np.searchsorted(self._keys, keys, "left")
         hi = np.searchsorted(self._keys, keys, "right")
@@ -88,6 +102,89 @@ class EdgeIndex:
             if radius > (1 << 40):
                 return None
             radius *= 2
+
+
+    def nearest_many(self, points: np.ndarray, search_nm: int
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """`nearest` for every point of `points` (k, 2) at once: edge indices, t and
+        distances, (k,) arrays; the same answers (the nearest edge, the lowest index
+        among equally near ones), without a Python loop per point."""
+        count = len(points)
+        edge = np.full(count, -1, dtype=np.int64)
+        t = np.zeros(count)
+        distance = np.full(count, np.inf)
+        if not len(self.a) or not count:
+            return edge, t, distance
+        p = np.asarray(points, dtype=np.int64)
+        todo = np.arange(count)
+        radius = max(int(search_nm), self.cell)
+        while len(todo):
+            # chunks bound the (point, edge) pairs held at once
+            step = max(1, 4096 // (1 + (2 * radius // self.cell)) ** 2 * 16)
+            left = []
+            for lo in range(0, len(todo), step):
+                part = todo[lo:lo + step]
+                done, k, tt, d = self._nearest_within(p[part], radius)
+                edge[part[done]], t[part[done]], distance[part[done]] = k, tt, d
+                left.append(part[~done])
+            todo = np.concatenate(left)
+            radius *= 2
+        return edge, t, distance
+
+    def _nearest_within(self, p: np.ndarray, radius: int):
+        """For points p (k, 2): which are answered by the edges in their box of
+        `radius` (the nearest is within it, or the box holds every edge), and for
+        those the nearest edge, t and distance (ties: the lowest edge index)."""
+        c = self.cell
+        lo = np.floor_divide(p - radius, c) - 1
+        hi = np.floor_divide(p + radius, c) + 1
+        everything = np.all((lo <= self._cells_lo) & (hi >= self._cells_hi), axis=1)
+        # no edge lies in a cell outside the grid's bounds: a far point looks at few cells
+        lo, hi = np.maximum(lo, self._cells_lo), np.minimum(hi, self._cells_hi)
+        span = max(int((hi - lo).max()) + 1, 1)
+        offsets = np.arange(span)
+        cx = lo[:, 0:1] + offsets                      # (k, span) columns, rows
+        cy = lo[:, 1:2] + offsets
+        inside = (cx[:, :, None] <= hi[:, 0, None, None]) & (cy[:, None, :] <= hi[:, 1, None, None])
+        keys = self._key(np.stack(np.broadcast_arrays(cx[:, :, None], cy[:, None, :]), axis=-1))
+        first = np.searchsorted(self._keys, keys, "left")
+        last = np.searchsorted(self._keys, keys, "right")
+        sizes = np.where(inside, last - first, 0).reshape(len(p), -1)
+        first = first.reshape(len(p), -1)
+        # every (point, edge) pair found, grouped by point (an edge may repeat)
+        per_point = sizes.sum(axis=1)
+        flat = sizes.ravel()
+        pair_first = np.repeat(first.ravel(), flat)
+        pair_rank = np.arange(len(pair_first)) - np.repeat(np.cumsum(flat) - flat, flat)
+        member = self._members[pair_first + pair_rank]
+        owner = np.repeat(np.arange(len(p)), per_point)
+        tt, d = _pairs_to_edges(p[owner].astype(np.float64), self.a[member], self.b[member])
+        has = per_point > 0
+        starts = (np.cumsum(per_point) - per_point)[has]
+        best_d = np.full(len(p), np.inf)
+        best_d[has] = np.minimum.reduceat(d, starts)
+        tie = np.where(d == best_d[owner], member, np.iinfo(np.int64).max)
+        best_k = np.full(len(p), -1, dtype=np.int64)
+        best_k[has] = np.minimum.reduceat(tie, starts)
+        done = has & ((best_d <= radius) | everything)
+        # t of the chosen pair: the first pair of the point with that edge
+        chosen = (member == best_k[owner]) & done[owner]
+        pick = np.flatnonzero(chosen)
+        pick = pick[np.concatenate([[True], owner[pick][1:] != owner[pick][:-1]])] \
+            if len(pick) else pick
+        done_points = np.flatnonzero(done)
+        return done, best_k[done_points], tt[pick], best_d[done_points]
+
+
+def _pairs_to_edges(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """point_to_edges for pairs: point p[k] and segment a[k]-b[k], same arithmetic."""
+    a = a.astype(np.float64)
+    d = b.astype(np.float64) - a
+    length2 = np.einsum("ij,ij->i", d, d)
+    t = np.einsum("ij,ij->i", p - a, d) / np.where(length2 > 0, length2, 1.0)
+    t = np.clip(t, 0.0, 1.0)
+    closest = a + d * t[:, None]
+    return t, np.hypot(*(closest - p).T)
 
 
 def point_to_edges(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -53,6 +53,7 @@ class PenFill:
     rings: int = 0
     gap_strokes: int = 0
     ink: list = field(default_factory=list)                 # polygon set the pen covers
+    parts: list = field(default_factory=list)   # (batch of the region, its ink), see inked_area_nm2
 
 
 def fill_region(region: list, width_nm: int, tolerance_nm: int, *,
@@ -70,26 +71,42 @@ def fill_region(region: list, width_nm: int, tolerance_nm: int, *,
         fill.rings += part.rings
         fill.gap_strokes += part.gap_strokes
         fill.ink.extend(part.ink)       # disjoint: each batch's ink stays in its islands
+        fill.parts.append((batch, part.ink))
     return fill
+
+
+def inked_area_nm2(fills: list[PenFill], extra: list, region: list) -> float:
+    """area_nm2(intersection(union(every fill's ink, extra), region)), where fills[0]
+    filled `region` itself, batch by batch: a batch's ink stays inside its islands
+    (the pen's centre keeps r + margin from the edge), so it meets no other batch;
+    the other pens' ink and `extra` (few rings) go to the batches whose box they
+    meet (a ring that misses a batch's box cannot wind around a point in it).
+    Clipper's sweep then crosses one strip of islands at a time, not the board."""
+    if not fills or not fills[0].parts:
+        rest = [ring for f in fills for ring in f.ink] + list(extra)
+        return clip.area_nm2(clip.intersection(clip.union(rest), region)) if rest else 0.0
+    others = [np.asarray(ring, dtype=np.int64) for f in fills[1:] for ring in f.ink]
+    others += [np.asarray(ring, dtype=np.int64) for ring in extra]
+    others = [ring for ring in others if len(ring) >= 3]
+    boxes = np.array([[*ring.min(axis=0), *ring.max(axis=0)] for ring in others]) \
+        if others else np.zeros((0, 4), dtype=np.int64)
+    total = 0.0
+    for batch, ink in fills[0].parts:
+        low = np.min([ring.min(axis=0) for ring in batch], axis=0)
+        high = np.max([ring.max(axis=0) for ring in batch], axis=0)
+        near = np.flatnonzero((boxes[:, 0] <= high[0]) & (boxes[:, 2] >= low[0])
+                              & (boxes[:, 1] <= high[1]) & (boxes[:, 3] >= low[1]))
+        subject = list(ink) + [others[k] for k in near.tolist()]
+        if subject:
+            total += clip.area_nm2(clip.intersection(subject, batch))
+    return total
 
 
 def island_batches(region: list, most_vertices: int = BATCH_VERTICES) -> list[list]:
     """The region's islands (outer ring and holes) as polygon sets of neighbours: sorted
     by left edge and cut into runs of at most `most_vertices` (an island bigger than
     that is a batch of its own), so a batch is a narrow vertical strip of the board."""
-    pieces = clip.components(region)
-    pieces.sort(key=lambda piece: (int(piece[0][:, 0].min()), int(piece[0][:, 1].min())))
-    batches, batch, count = [], [], 0
-    for outer, holes in pieces:
-        size = len(outer) + sum(len(h) for h in holes)
-        if batch and count + size > most_vertices:
-            batches.append(batch)
-            batch, count = [], 0
-        batch.extend([outer, *holes])
-        count += size
-    if batch:
-        batches.append(batch)
-    return batches
+    return clip.strips(region, most_vertices)
 
 
 def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
@@ -104,7 +121,7 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     depths = [clip.rings_as_arrays(area) for area in areas]
     fill.rings = sum(len(rings) for rings in depths)
     gaps = _gaps(areas, radius, tolerance_nm)
-    reach = clip.offset(centre_area, radius, tolerance_nm)
+    reach = clip.offset(centre_area, radius, tolerance_nm, cleaned=True)
     fill.ink = clip.difference(reach, gaps)
     gaps = clip.opening(gaps, GAP_NM, tolerance_nm)
     strokes = _gap_strokes(gaps, centre_area, radius) if gaps else []
@@ -121,7 +138,7 @@ def _concentric(centre_area: list, spacing: int, tolerance_nm: int) -> list[list
     area = centre_area
     while area and clip.rings_as_arrays(area):
         areas.append(area)
-        area = clip.offset(area, -spacing, tolerance_nm)
+        area = clip.offset(area, -spacing, tolerance_nm, cleaned=True)
     return areas
 
 
@@ -151,28 +168,15 @@ def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray],
     joins = []          # (length, node a, stop on a, node b, stop on b)
     if strokes and rings:
         every_ring = EdgeIndex(rings, cell_nm=spacing)
-        for number, path in enumerate(strokes):
-            q = (int(path[0][0]), int(path[0][1]))
-            k, t, distance = every_ring.nearest(q, spacing)
+        heads = np.array([path[0] for path in strokes], dtype=np.int64)
+        found = every_ring.nearest_many(heads, spacing)
+        for number, (k, t, distance) in enumerate(zip(*(f.tolist() for f in found))):
+            q = (int(heads[number][0]), int(heads[number][1]))
             joins.append((distance, len(rings) + number, (0, 0.0, q), int(every_ring.ring[k]),
                           (int(every_ring.edge[k]), t, _point_on(every_ring, k, t))))
     for depth in range(1, len(depths)):
-        outer = EdgeIndex(depths[depth - 1], cell_nm=spacing)
-        for number, ring in enumerate(depths[depth]):
-            node = int(first_node[depth]) + number
-            best: dict[int, tuple] = {}       # outer ring -> the shortest join to it
-            for vertex in _samples(ring, spacing):
-                q = (int(ring[vertex][0]), int(ring[vertex][1]))
-                found = outer.nearest(q, spacing)
-                if found is None:
-                    continue
-                k, t, distance = found
-                target = int(first_node[depth - 1]) + int(outer.ring[k])
-                if target not in best or distance < best[target][0]:
-                    best[target] = (distance, (vertex, 0.0, q),
-                                    (int(outer.edge[k]), t, _point_on(outer, k, t)))
-            for target, (distance, here, there) in best.items():
-                joins.append((distance, node, here, target, there))
+        joins.extend(_joins_out(depths[depth], depths[depth - 1], int(first_node[depth]),
+                                int(first_node[depth - 1]), spacing))
     stops: list[list[_Stop]] = [[] for _ in nodes]
     parent = list(range(len(nodes)))
 
@@ -199,6 +203,34 @@ def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray],
     return tours
 
 
+def _joins_out(inner: list[np.ndarray], outer: list[np.ndarray], first_inner: int,
+               first_outer: int, spacing: int) -> list[tuple]:
+    """For each ring of one depth, its shortest join to each ring of the depth outside
+    it that one of its sampled vertices is nearest to (all samples queried at once;
+    of equally short joins the earliest sample's)."""
+    index = EdgeIndex(outer, cell_nm=spacing)
+    picked = [np.asarray(_samples(ring, spacing), dtype=np.int64) for ring in inner]
+    if not picked or not len(index):
+        return []
+    node = np.repeat(np.arange(len(inner)), [len(v) for v in picked])
+    vertex = np.concatenate(picked)
+    points = np.concatenate([ring[v] for ring, v in zip(inner, picked)])
+    edge, t, distance = index.nearest_many(points, spacing)
+    target = index.ring[edge]
+    # per (ring, outer ring): the shortest, then the earliest sample
+    order = np.lexsort((np.arange(len(node)), distance, target, node))
+    first = np.ones(len(order), dtype=bool)
+    first[1:] = (node[order][1:] != node[order][:-1]) | (target[order][1:] != target[order][:-1])
+    joins = []
+    for s in order[first].tolist():
+        k, tt = int(edge[s]), float(t[s])
+        q = (int(points[s][0]), int(points[s][1]))
+        joins.append((float(distance[s]), first_inner + int(node[s]), (int(vertex[s]), 0.0, q),
+                      first_outer + int(target[s]),
+                      (int(index.edge[k]), tt, _point_on(index, k, tt))))
+    return joins
+
+
 def _point_on(index: EdgeIndex, k: int, t: float) -> tuple[int, int]:
     a, b = index.a[k], index.b[k]
     return (int(round(a[0] + (b[0] - a[0]) * t)), int(round(a[1] + (b[1] - a[1]) * t)))
@@ -220,8 +252,8 @@ def _samples(ring: np.ndarray, spacing: int) -> list[int]:
 def _walk_tree(start: int, nodes: list[np.ndarray], stops: list[list[_Stop]],
                done: list[bool]) -> np.ndarray:
     """The tree of rings holding `start`, drawn as one closed walk from its vertex 0."""
-    points: list[tuple[int, int]] = []
-    stack = [_walk_ring(start, None, nodes[start], stops[start])]
+    pieces: list[np.ndarray] = []
+    stack = [_walk_ring(None, nodes[start], stops[start])]
     done[start] = True
     while stack:
         item = next(stack[-1], None)
@@ -230,38 +262,50 @@ def _walk_tree(start: int, nodes: list[np.ndarray], stops: list[list[_Stop]],
         elif isinstance(item, _Stop):       # cross the join, walk the ring behind it
             done[item.other] = True
             back = next(s for s in stops[item.other] if s.join == item.join)
-            stack.append(_walk_ring(item.other, back, nodes[item.other], stops[item.other]))
+            stack.append(_walk_ring(back, nodes[item.other], stops[item.other]))
         else:
-            points.append(item)
-    path = np.array(points, dtype=np.int64)
+            pieces.append(item)
+    path = np.concatenate(pieces).astype(np.int64, copy=False)
     keep = np.ones(len(path), dtype=bool)
     keep[1:] = np.any(path[1:] != path[:-1], axis=1)
     return path[keep]
 
 
-def _walk_ring(node: int, entry: _Stop | None, ring: np.ndarray, stops: list[_Stop]):
-    """Yield the ring's points once round from `entry` back to it, and at every other
-    stop: the stop's point, the stop (to cross), and its point again (come back)."""
+def _walk_ring(entry: _Stop | None, ring: np.ndarray, stops: list[_Stop]):
+    """Yield the ring's points (as arrays) once round from `entry` back to it, and at
+    every other stop: the stop's point, the stop (to cross), and its point again.
+    Vertex k sits at (k, 0) along the ring, a stop at (edge, t), a stop after a vertex
+    at the same place; stops at one place keep their order."""
     count = len(ring)
-    events = [((k, 0.0, 0), (int(ring[k][0]), int(ring[k][1]))) for k in range(count)]
-    for stop in stops:
-        edge, t = stop.edge, stop.t
-        if t >= 1.0:
-            edge, t = (edge + 1) % count, 0.0
-        events.append(((edge, t, 1), stop))
-    events.sort(key=lambda e: e[0])
-    begin = 0 if entry is None else next(k for k, e in enumerate(events) if e[1] is entry)
-    ordered = events[begin:] + events[:begin]
-    first = ordered[0][1]
-    first_point = first.point if isinstance(first, _Stop) else first
+    edge = np.array([s.edge for s in stops], dtype=np.int64)
+    t = np.array([s.t for s in stops], dtype=np.float64)
+    wrap = t >= 1.0
+    edge = np.where(wrap, (edge + 1) % count, edge)
+    t = np.where(wrap, 0.0, t)
+    kind = np.concatenate([np.zeros(count, np.int8), np.ones(len(stops), np.int8)])
+    order = np.lexsort((kind, np.concatenate([np.zeros(count), t]),
+                        np.concatenate([np.arange(count), edge])))
+    begin = 0 if entry is None else int(np.flatnonzero(
+        order == count + next(k for k, s in enumerate(stops) if s is entry))[0])
+    ordered = np.concatenate([order[begin:], order[:begin]])
+
+    def point(event: int) -> np.ndarray:
+        return ring[event:event + 1] if event < count else \
+            np.array([stops[event - count].point], dtype=np.int64)
+
+    first_point = point(int(ordered[0]))
     yield first_point
-    for _key, what in ordered[1:]:
-        if isinstance(what, _Stop):
-            yield what.point
-            yield what
-            yield what.point
-        else:
-            yield what
+    here = 1
+    for at in (np.flatnonzero(ordered[1:] >= count) + 1).tolist():
+        if at > here:
+            yield ring[ordered[here:at]]
+        stop = stops[int(ordered[at]) - count]
+        yield point(int(ordered[at]))
+        yield stop
+        yield point(int(ordered[at]))
+        here = at + 1
+    if here < len(ordered):
+        yield ring[ordered[here:]]
     yield first_point
 
 
@@ -272,11 +316,11 @@ def _gaps(areas: list[list], radius: int, tolerance_nm: int) -> list:
     E(k+1) (rings outside E(k) are farther still, rings inside E(k+1) too)."""
     gaps = []
     for depth, area in enumerate(areas):
-        deep = clip.offset(area, -radius, tolerance_nm)
+        deep = clip.offset(area, -radius, tolerance_nm, cleaned=True)
         if not deep:
             continue
         inner = areas[depth + 1] if depth + 1 < len(areas) else []
-        gaps.extend(clip.difference(deep, clip.offset(inner, radius, tolerance_nm)))
+        gaps.extend(clip.difference(deep, clip.offset(inner, radius, tolerance_nm, cleaned=True)))
     return clip.union(gaps)
 
 
