@@ -9,6 +9,11 @@ lines arrived and were planned. The board runs paced to the wall clock
 
     python3 bench/bench_grbl.py                 # 600 lines, both ways
     python3 bench/bench_grbl.py --lines 300 --feed 6000
+    python3 bench/bench_grbl.py --estimate-only # the time estimate on a corpus board
+
+The time estimate (grbl/estimate.py, a model of GRBL's planner) is compared with
+GRBL in simavr, first step to last step from the pins, on a corpus board
+streamed as the tests stream it (tests/grbl: 160 steps/mm, $12=0.0005).
 
 The wire limit is 115200 baud 8N1: 11 765 bytes/s (docs/harness.md), divided by
 the mean bytes of a line (its text and "\\n"). GRBL's own ceiling is what character
@@ -28,6 +33,7 @@ import serial
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from galileo_cnc.grbl import firmware  # noqa: E402
+from galileo_cnc.grbl.estimate import Machine, estimate  # noqa: E402
 from galileo_cnc.grbl.gcode import GcodeLine  # noqa: E402
 from galileo_cnc.grbl.link import GrblLink  # noqa: E402
 from galileo_cnc.grbl.stream import stream  # noqa: E402
@@ -72,11 +78,42 @@ def run(lines: list[GcodeLine], character_counting: bool, speed: float = 1.0) ->
             "overruns": board.summary.get("overruns")}
 
 
+def estimate_vs_simavr(board_path: str) -> None:
+    """Estimate against GRBL in simavr on one corpus board (centre mode)."""
+    sys.path[:0] = [str(Path(__file__).resolve().parents[1] / "tests" / d) for d in ("", "grbl")]
+    from corpus import CORPUS
+    from grbl_support import CONFIG, SCALE, grbl_machine
+
+    from galileo_cnc.grbl.gcode import job_to_gcode, pen_from_config
+    from galileo_cnc.plan.pipeline import PlanOptions, plan_file
+    planned = plan_file(CORPUS / board_path, CONFIG, options=PlanOptions(mode="centre"))
+    lines = job_to_gcode(planned.job, SCALE, pen_from_config(CONFIG),
+                         feed_steps_per_s=CONFIG.feed_steps_per_s,
+                         flash_dwell_ms=CONFIG.flash_dwell_ms)
+    with grbl_machine() as (board, link):
+        model = estimate(lines, Machine.from_settings(link.settings, link.build.planner_blocks))
+        result = stream(link, lines)
+        board.stop()
+    assert not result.errors
+    cycle, pin, level = board.trace()
+    steps = cycle[(level == 1) & (pin <= 4)]
+    sim = (int(steps[-1]) - int(steps[0])) / F_CPU
+    print(f"{board_path}: {len(lines)} lines, {model.blocks} blocks, {model.stops} stops; "
+          f"estimate {model.motion_span_s:.3f} s, simavr {sim:.3f} s, "
+          f"ratio {model.motion_span_s / sim:.3f}")
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--lines", type=int, default=600)
     parser.add_argument("--feed", type=int, default=9000, help="mm/min")
+    parser.add_argument("--board", default="kicad/flashpads-nox2noap/Flashpads-B_Cu.gbr",
+                        help="corpus board for the time estimate")
+    parser.add_argument("--estimate-only", action="store_true")
     args = parser.parse_args()
+    if args.estimate_only:
+        estimate_vs_simavr(args.board)
+        return 0
     lines = job_lines(args.lines, args.feed)
     mean_bytes = sum(len(line.text) + 1 for line in lines) / len(lines)
     wire = WIRE_BYTES_PER_S / mean_bytes
@@ -95,6 +132,7 @@ def main() -> int:
               f"the wire limit  ({r['sim_s']:.3f} s simulated, overruns={r['overruns']})")
     print(f"character counting / send-response: {counted['lines_per_s'] / plain['lines_per_s']:.2f}x;"
           f" / GRBL's ceiling: {counted['lines_per_s'] / ceiling['lines_per_s']:.1%}")
+    estimate_vs_simavr(args.board)
     return 0
 
 

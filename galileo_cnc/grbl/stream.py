@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from galileo_cnc.grbl.gcode import GcodeLine
 from galileo_cnc.grbl.link import STATUS_QUERY, GrblLink, Reply
 from galileo_cnc.grbl.reports import GrblError, error_text
+from galileo_cnc.grbl.travel import applies, check_travel
 
 
 @dataclass(frozen=True, slots=True)
@@ -54,10 +55,15 @@ def stream(link: GrblLink, lines: Sequence[GcodeLine], *,
            where: Callable[[int], str] = lambda command: "",
            stop_on_error: bool = True, status_every_s: float | None = None,
            on_ack: Callable[[int, Reply], None] | None = None,
-           wait_idle: bool = True) -> StreamResult:
+           wait_idle: bool = True, travel_check: bool = True) -> StreamResult:
     """Sends `lines` with character counting; returns once every line is answered
     (and, with `wait_idle`, the machine has stopped). `where(command)` names the
-    source file line of a job command for error messages."""
+    source file line of a job command for error messages. With `travel_check`,
+    on a homed machine ($20 or $22) a job leaving the travel is refused
+    (TravelError) before its first byte, from the position GRBL reports now."""
+    if travel_check and link.settings is not None and applies(link.settings):
+        now = link.status()
+        check_travel(lines, link.settings, link.tracker.wco_nm, now.mpos_nm, where=where)
     budget = link.rx_buffer_bytes - 1
     in_flight: deque[tuple[int, int]] = deque()      # (line index, bytes)
     used = 0
