@@ -45,7 +45,9 @@ machine starts (Z = 0 is pen-down) is not a dot.
   pen's disc, plus one pixel; (b) the rest;
 - bridges: components (8-connected) of ink | copper that hold 2 or more copper
   islands (components of the reference copper); "merged" adds up islands - 1; the
-  report says where (boxes round the ink outside the copper that touches 2+ islands);
+  report says where (boxes round the ink outside the copper that touches 2+ islands,
+  and in the --json records `bridge_touches_mm`: per box, one point of that ink next
+  to each island it touches, to look the islands up in the planner's geometry);
 - pen-down length (along the chords), lifts (pen-down stretches), pen changes,
   planning time. Totals add areas in mm2 (files differ in resolution).
 
@@ -269,18 +271,22 @@ def measure_ink(copper, disputed, copper_runs, copper_labels, ink, allowance,
         outside &= ~disputed
     out_a = int(np.count_nonzero(outside & allowance)) if allowance is not None else 0
     bridged, merged = R.bridges(copper_runs, copper_labels, ink | copper)
-    places = []
+    places, touches = [], []
     if bridged and grid is not None:
-        for r0, c0, r1, c1 in R.bridge_places(copper_runs, copper_labels, outside):
+        for (r0, c0, r1, c1), points in R.bridge_touches(copper_runs, copper_labels, outside):
             places.append(((grid.left_nm + c0 * grid.pitch_nm) / NM_PER_MM,
                            (grid.top_nm - (r1 + 1) * grid.pitch_nm) / NM_PER_MM,
                            (grid.left_nm + (c1 + 1) * grid.pitch_nm) / NM_PER_MM,
                            (grid.top_nm - r0 * grid.pitch_nm) / NM_PER_MM))
+            touches.append([((grid.left_nm + (c + 0.5) * grid.pitch_nm) / NM_PER_MM,
+                             (grid.top_nm - (r + 0.5) * grid.pitch_nm) / NM_PER_MM)
+                            for r, c in points])
     return {"ink_px": int(np.count_nonzero(ink)),
             "inked_px": int(np.count_nonzero(ink & copper)),
             "out_a_px": out_a, "out_b_px": int(np.count_nonzero(outside)) - out_a,
             "ink_disputed_px": int(np.count_nonzero(ink & disputed)) if disputed is not None else 0,
-            "bridges": bridged, "merged": merged, "bridges_at_mm": places}
+            "bridges": bridged, "merged": merged, "bridges_at_mm": places,
+            "bridge_touches_mm": touches}
 
 
 def save_overlay(out: Path, copper, ink, allowance) -> None:

@@ -399,19 +399,34 @@ def bridge_places(copper_runs: Runs, copper_labels: np.ndarray, outside: np.ndar
                   limit: int = 5) -> list[tuple[int, int, int, int]]:
     """Where the bridges are: (row0, col0, row1, col1) of the components of the ink
     outside the copper that touch 2+ copper islands, largest first."""
+    return [box for box, _ in bridge_touches(copper_runs, copper_labels, outside, limit)]
+
+
+def bridge_touches(copper_runs: Runs, copper_labels: np.ndarray, outside: np.ndarray,
+                   limit: int = 5) -> list[tuple[tuple[int, int, int, int], list]]:
+    """bridge_places with, per component, one (row, col) of outside ink next to each
+    island it touches (at most 4): the places a planner's diagnostics can look up."""
     runs = mask_runs(outside)
     if not len(runs) or not len(copper_runs):
         return []
     labels = label_runs(runs)
     a, b = _touching(runs, copper_runs)
-    pairs = np.unique(np.stack([labels[a], copper_labels[b]]), axis=1)
+    pairs, first = np.unique(np.stack([labels[a], copper_labels[b]]), axis=1,
+                             return_index=True)
     components, per = np.unique(pairs[0], return_counts=True)
     out = []
     for component in components[per >= 2]:
         mine = labels == component
-        out.append((int(runs.row[mine].min()), int(runs.start[mine].min()),
-                    int(runs.row[mine].max()), int(runs.end[mine].max())))
-    out.sort(key=lambda box: -(box[2] - box[0] + 1) * (box[3] - box[1] + 1))
+        box = (int(runs.row[mine].min()), int(runs.start[mine].min()),
+               int(runs.row[mine].max()), int(runs.end[mine].max()))
+        touches = []
+        for k in np.flatnonzero(pairs[0] == component)[:4]:
+            ink_run, cu_run = a[first[k]], b[first[k]]
+            # the ink run's column nearest to the copper run it touches
+            col = int(np.clip(copper_runs.start[cu_run], runs.start[ink_run], runs.end[ink_run]))
+            touches.append((int(runs.row[ink_run]), col))
+        out.append((box, touches))
+    out.sort(key=lambda item: -(item[0][2] - item[0][0] + 1) * (item[0][3] - item[0][1] + 1))
     return out[:limit]
 
 

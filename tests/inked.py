@@ -38,3 +38,33 @@ def ink_of_trace(trace, config: MachineConfig, offset_nm: tuple[int, int],
     paths = [[[x * step + offset_nm[0], y * step + offset_nm[1]] for x, y in run]
              for run in runs]
     return clip.stroke(paths, min(widths_nm) // 2, 1000)
+
+
+def joined_islands(ink: list, copper: list, gap_nm: int) -> list[list[int]]:
+    """Groups of copper islands that the ink joins or brings within `gap_nm` of each
+    other although the copper alone keeps them that far apart: both sets grown by
+    gap / 2, the islands (numbered as clip.components(copper) gives them) grouped by
+    the piece of grown copper | ink they fall in. Empty when the ink bridges nothing."""
+    import shapely
+
+    from galileo_cnc.plan.ink import clip
+
+    islands = [shapely.Polygon(outer, holes) for outer, holes in clip.components(copper)]
+    points = [island.representative_point() for island in islands]
+
+    def group(polygons):
+        pieces = [shapely.Polygon(o, h) for o, h in
+                  clip.components(clip.offset(polygons, gap_nm // 2, 1000))]
+        tree = shapely.STRtree(pieces)
+        where, which = tree.query(points, predicate="intersects")
+        label = [-1] * len(points)
+        for k, piece in zip(where.tolist(), which.tolist()):
+            label[k] = piece
+        return label
+
+    alone, inked = group(copper), group(clip.union(copper, ink) if ink else copper)
+    groups: dict[int, set[int]] = {}
+    for k, piece in enumerate(inked):
+        groups.setdefault(piece, set()).add(alone[k])
+    return [sorted(k for k, piece in enumerate(inked) if piece == p)
+            for p, apart in groups.items() if len(apart) > 1]

@@ -160,24 +160,35 @@ def _emit_feature(out: ProgramBuilder, feature: NarrowFeature, key: int) -> None
 
 
 def _warnings(program: Program, plan: InkPlan) -> list[ReaderWarning]:
-    """One warning per aperture drawn as centre lines, one per bridge avoided."""
+    """One warning per aperture drawn as centre lines (and one per aperture whose
+    flashes' walls are drawn as loops), one per bridge avoided."""
     found: list[ReaderWarning] = []
-    by_aperture: dict[int, list[NarrowFeature]] = {}
+    by_aperture: dict[tuple[int, bool], list[NarrowFeature]] = {}
     for feature in plan.narrow:
-        by_aperture.setdefault(int(feature.row[TOOL]), []).append(feature)
+        key = (int(feature.row[TOOL]), feature.inside_nm is not None)
+        by_aperture.setdefault(key, []).append(feature)
     pen = mm_text(plan.pens_nm[-1])
-    for code, features in sorted(by_aperture.items(), key=lambda kv: kv[1][0].op_index):
+    for (code, _loop), features in sorted(by_aperture.items(),
+                                          key=lambda kv: kv[1][0].op_index):
         first = features[0]
         count = len(features)
         what = f"{count} object{'s' * (count != 1)} of D{code}" if code != NO_TOOL else \
             f"{count} object{'s' * (count != 1)}"
+        where = f" (first here, last at line {features[-1].pos.line})" if count > 1 else ""
+        if first.inside_nm is not None:     # flashes whose hole leaves a thin wall
+            found.append(ReaderWarning(first.pos, (
+                f"{what} leave a wall {mm_text(first.width_nm)} mm wide round the hole, too "
+                f"thin to fill with the {pen} mm pen: drawn as a loop a pen radius inside "
+                f"the outer edge, the ink spilling into the hole{where}")))
+            continue
         found.append(ReaderWarning(first.pos, (
             f"{what} ({mm_text(first.width_nm)} mm wide) too narrow to fill with the {pen} mm pen: "
-            f"drawn as centre lines, {mm_text(first.overdraw_nm)} mm overdraw per side"
-            + (f" (first here, last at line {features[-1].pos.line})" if count > 1 else ""))))
+            f"drawn as centre lines, {mm_text(first.overdraw_nm)} mm overdraw per side{where}")))
     for bridge in plan.bridges:
+        other = "another copper island" if bridge.other is None else \
+            f"the ink of line {bridge.other.pos.line} (another copper island)"
         found.append(ReaderWarning(bridge.feature.pos, (
-            f"the centre line would join another copper island at "
+            f"the centre line would join {other} at "
             f"{_xy(bridge.other_nm)}: left out for {mm_text(bridge.left_out_nm)} mm "
             f"from {_xy(bridge.at_nm)}")))
     if plan.zero_size:

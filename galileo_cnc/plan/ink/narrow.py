@@ -5,14 +5,24 @@ margin) cannot be filled: no pen centre fits inside it. It is drawn along its
 centre line with the smallest pen, which overdraws (pen - width) / 2 on each side.
 A flash that narrow is a dot (round or square-ish apertures) or a stroke along its
 long axis, ends pulled in by the pen's radius (rectangles, obrounds, macros by
-their box).
+their box). A flash whose aperture has a hole leaving a wall thinner than that is
+a loop just inside its outer edge (a circle for a round aperture): the ink covers
+the wall and spills into the hole, which the drill takes away.
 
-Overdraw must never join two copper islands the artwork keeps apart. A centre
-line of island A keeps its centre at least R = pen radius + the largest overdraw
-of any narrow feature (so its ink stays clear of B's copper and of B's own
-overdraw) + CLEARANCE_NM from every other island's outline. The parts that come
-closer are cut out (samples every SAMPLE_NM along the line); each cut is reported
-with both places.
+Ink must never join two copper islands the artwork keeps apart, and a gap of a few
+um between two inks is no gap on a real pen (ink bleeds; the stepped path strays up
+to 4.4 um). So the ink of different islands keeps CLEARANCE_NM apart:
+
+- a centre line keeps its centre pen radius + CLEARANCE_NM from every other
+  island's copper (the copper's own fill ink stays inside it);
+- two centre lines of different islands keep a pen width + CLEARANCE_NM apart.
+  Features are taken largest first (length x width), each cut against the other
+  islands' lines already kept, so of two traces too close for both one is drawn
+  whole rather than both cut.
+
+The parts that come closer are cut out (samples every SAMPLE_NM along the line);
+each cut is reported with both places: where the line stops and the nearest point
+of the other island's copper, or of the other line (with its source line).
 """
 
 from __future__ import annotations
@@ -29,9 +39,10 @@ from galileo_cnc.program.extents import dark_mask, region_mask, start_points
 from galileo_cnc.program.ops import (COL, I, J, KIND, LINE, NO_TOOL, TOOL, X, Y,
                                      Aperture, OpKind, Program)
 
-#: Extra distance kept between a centre line's ink and other copper: the stepped
-#: path strays up to ~0.7 step (4.4 um) from the planned one.
-CLEARANCE_NM = 5_000
+#: Gap kept between the ink of different islands: ink bleeds, the stepped path strays
+#: up to ~0.7 step (4.4 um) from the planned one, and two inks a few um apart are one
+#: line on the board (bench_ink's 25 um raster cannot part them below ~36 um either).
+CLEARANCE_NM = 50_000
 #: Spacing of the samples along a centre line where it comes near other copper.
 SAMPLE_NM = 5_000
 
@@ -51,6 +62,8 @@ class NarrowFeature:
     start_nm: tuple[int, int]
     pieces: list[np.ndarray]  # what is drawn: polylines (a single point is a dot)
     cut: bool = False
+    inside_nm: tuple[int, int] | None = None  # a point of its copper (None: mid-line)
+    island: int = -1          # its copper island (keep_islands_apart)
 
     @property
     def overdraw_nm(self) -> int:
@@ -64,8 +77,9 @@ class Bridge:
 
     feature: NarrowFeature
     at_nm: tuple[int, int]       # the first left-out point of the centre line
-    other_nm: tuple[int, int]    # the nearest point of the other island
+    other_nm: tuple[int, int]    # the nearest point of the other island's copper or line
     left_out_nm: int             # length not drawn
+    other: NarrowFeature | None = None   # the other island's centre line, when it was that
 
 
 def aperture_width(aperture: Aperture) -> int:
@@ -101,13 +115,67 @@ def find_narrow(program: Program, limit_nm: int, pen_nm: int,
         if width <= 0:
             zero += 1
             continue
-        if width >= limit_nm:
-            continue
+        aperture = program.apertures[code]
         start = (int(starts[op][0]), int(starts[op][1]))
-        path = _centre_line(row, start, program.apertures[code], pen_nm, tolerance_nm)
-        features.append(NarrowFeature(op, SourcePos(program.source, row[LINE], row[COL]),
-                                      width, pen_nm, row, start, [path]))
+        pos = SourcePos(program.source, row[LINE], row[COL])
+        if width >= limit_nm:
+            wall = wall_width(aperture) if row[KIND] == _FLASH else width
+            if wall >= limit_nm:
+                continue
+            path, inside = _wall_loop(row[X], row[Y], aperture, pen_nm, tolerance_nm)
+            features.append(NarrowFeature(op, pos, wall, pen_nm, row, start, [path],
+                                          inside_nm=inside))
+            continue
+        path = _centre_line(row, start, aperture, pen_nm, tolerance_nm)
+        features.append(NarrowFeature(op, pos, width, pen_nm, row, start, [path]))
     return features, zero
+
+
+def wall_width(aperture: Aperture) -> int:
+    """The copper left between a flashed aperture's hole and its outer edge (nm): the
+    aperture's width when it has no hole (the hole of a draw is ignored)."""
+    width = aperture_width(aperture)
+    if not aperture.hole_nm or aperture.shape not in ("circle", "rectangle", "obround",
+                                                      "polygon"):
+        return width
+    return max(0, (width - max(aperture.hole_nm)) // 2)
+
+
+def _wall_loop(x: int, y: int, aperture: Aperture, pen_nm: int, tolerance_nm: int
+               ) -> tuple[np.ndarray, tuple[int, int]]:
+    """A closed loop a pen radius inside the outer edge of a flash with a hole whose
+    wall is too thin to fill, and a point of the wall (its island)."""
+    radius = pen_nm // 2
+    p = aperture.params_nm
+    hole = max(aperture.hole_nm) // 2
+    if aperture.shape in ("circle", "polygon"):
+        outer = p[0] // 2 if aperture.shape == "circle" else \
+            int(p[0] / 2 * math.cos(math.pi / max(aperture.vertices, 3)))
+        inside = (x + (outer + hole) // 2, y)
+        loop = outer - radius
+        if loop <= tolerance_nm:
+            return np.array([(x, y)], dtype=np.int64), inside
+        return shapes.arc_points(x + loop, y, x + loop, y, -loop, 0, False, tolerance_nm), inside
+    half_w, half_h = p[0] // 2 - radius, p[1] // 2 - radius
+    inside = (x + (p[0] // 2 + hole) // 2, y)
+    if min(half_w, half_h) <= 0:
+        ends = [(x - max(half_w, 0), y), (x + max(half_w, 0), y)] if half_w > 0 else \
+            [(x, y - max(half_h, 0)), (x, y + max(half_h, 0))]
+        return np.array(ends, dtype=np.int64), inside
+    if aperture.shape == "obround":      # a stadium: two half circles and their sides
+        bend = min(half_w, half_h)
+        ax, ay = half_w - bend, half_h - bend
+        # a quarter circle per corner, chords within 0.2 % of the bend (inside it)
+        angles = np.linspace(0, 2 * np.pi, 65)
+        cx = np.where(np.cos(angles) >= 0, ax, -ax)
+        cy = np.where(np.sin(angles) >= 0, ay, -ay)
+        points = np.stack([x + cx + bend * np.cos(angles), y + cy + bend * np.sin(angles)], 1)
+        points = np.rint(points).astype(np.int64)
+        points[-1] = points[0]
+        return points, inside
+    corners = [(x - half_w, y - half_h), (x + half_w, y - half_h), (x + half_w, y + half_h),
+               (x - half_w, y + half_h), (x - half_w, y - half_h)]
+    return np.array(corners, dtype=np.int64), inside
 
 
 def _centre_line(row: list[int], start: tuple[int, int], aperture: Aperture, pen_nm: int,
@@ -137,7 +205,8 @@ def _centre_line(row: list[int], start: tuple[int, int], aperture: Aperture, pen
 
 def keep_islands_apart(features: list[NarrowFeature], copper: list,
                        pen_nm: int) -> list[Bridge]:
-    """Cut every centre line where its ink would come near another island (module doc)."""
+    """Cut every centre line where its ink would come near another island's copper or
+    another island's centre-line ink (module doc); the cuts, each with both places."""
     if not features:
         return []
     islands = clip.components(copper)
@@ -149,50 +218,163 @@ def keep_islands_apart(features: list[NarrowFeature], copper: list,
     if not rings:
         return []
     owner_of_ring = np.array(owner, dtype=np.int64)
-    reach = pen_nm // 2 + max(f.overdraw_nm for f in features) + CLEARANCE_NM
-    index = EdgeIndex(rings, cell_nm=max(reach, 100_000))
-    bridges = []
-    for feature in features:
+    radius = pen_nm // 2
+    # samples lie SAMPLE_NM apart: the line between two kept ones may pass half a
+    # sample spacing nearer than either
+    near_copper = radius + CLEARANCE_NM + SAMPLE_NM // 2
+    near_ink = 2 * radius + CLEARANCE_NM + SAMPLE_NM // 2
+    copper_index = EdgeIndex(rings, cell_nm=max(near_copper, 100_000))
+    # each feature's island: the one whose outline is nearest to a point inside its
+    # copper (its own outline is nearer than any other island's: the point is inside)
+    inside = np.array([_inside(f) for f in features], dtype=np.int64)
+    edge, _t, _d = copper_index.nearest_many(inside, near_copper)
+    for feature, k in zip(features, edge.tolist()):
+        feature.island = int(owner_of_ring[copper_index.ring[k]]) if k >= 0 else -1
+    lines = _LineIndex(features, cell_nm=max(near_ink, 250_000))
+    bridges: list[Bridge] = []
+    for number in sorted(range(len(features)), key=lambda k: -_size(features[k])):
+        feature = features[number]
         path = feature.pieces[0]
         lo, hi = path.min(axis=0), path.max(axis=0)
-        near = index.in_box(int(lo[0]) - reach, int(lo[1]) - reach,
-                            int(hi[0]) + reach, int(hi[1]) + reach)
-        if not len(near):
+        near = copper_index.in_box(int(lo[0]) - near_copper, int(lo[1]) - near_copper,
+                                   int(hi[0]) + near_copper, int(hi[1]) + near_copper)
+        others = near[owner_of_ring[copper_index.ring[near]] != feature.island]
+        if len(others) and _segments_apart(path, copper_index.a[others],
+                                           copper_index.b[others], near_copper):
+            others = others[:0]
+        a, b, whose = lines.near(path, near_ink, feature.island)
+        if len(a) and _segments_apart(path, a, b, near_ink):
+            a = a[:0]
+        if not len(others) and not len(a):
+            lines.keep(number, path)
             continue
-        island_of_edge = owner_of_ring[index.ring[near]]
-        points = _samples(path)
-        # its own island: the one whose outline is nearest to the middle of the line
-        middle = points[len(points) // 2].astype(np.float64)
-        _t, to_middle = point_to_edges(middle, index.a[near], index.b[near])
-        own = island_of_edge[int(np.argmin(to_middle))]
-        others = near[island_of_edge != own]
-        if not len(others) or _segments_apart(path, index.a[others], index.b[others], reach):
-            continue
-        distance = _distances(points, index.a[others], index.b[others])
-        close = distance < reach
+        points, vertex = _samples_and_vertices(path)
+        to_copper = _distances(points, copper_index.a[others], copper_index.b[others]) \
+            if len(others) else np.full(len(points), np.inf)
+        to_ink = _distances(points, a, b) if len(a) else np.full(len(points), np.inf)
+        by_copper, by_ink = to_copper < near_copper, to_ink < near_ink
+        close = by_copper | by_ink
         if not close.any():
+            lines.keep(number, path)
             continue
         feature.cut = True
-        feature.pieces = [points[run] for run in _runs(~close)]
+        feature.pieces = [_piece(points, vertex, run) for run in _runs(~close)]
+        for piece in feature.pieces:
+            lines.keep(number, piece)
         for run in _runs(close):
             first = points[run[0]]
-            other = _nearest_point(first, index.a[others], index.b[others])
-            length = float(np.hypot(*np.diff(points[run], axis=0).T).sum()) if len(run) > 1 else 0.0
+            length = float(np.hypot(*np.diff(points[run], axis=0).T).sum())
+            copper_first = np.flatnonzero(by_copper[run])
+            if len(copper_first):
+                at = points[run[copper_first[0]]]
+                other = _nearest_point(at, copper_index.a[others], copper_index.b[others])
+                other_feature = None
+            else:
+                t, distance = point_to_edges(first.astype(np.float64), a, b)
+                best = int(np.argmin(distance))
+                point = a[best] + (b[best] - a[best]) * t[best]
+                other = (round(float(point[0])), round(float(point[1])))
+                other_feature = features[int(whose[best])]
             bridges.append(Bridge(feature, (int(first[0]), int(first[1])), other,
-                                  int(round(length))))
+                                  round(length), other_feature))
     return bridges
+
+
+def _size(feature: NarrowFeature) -> int:
+    """The copper a feature stands for, to take the largest first: length x width."""
+    path = feature.pieces[0]
+    length = float(np.hypot(*np.diff(path, axis=0).T).sum()) if len(path) > 1 else 0.0
+    return int(length + feature.width_nm) * feature.width_nm
+
+
+def _inside(feature: NarrowFeature) -> tuple[int, int]:
+    """A point of the feature's copper: the middle of its centre line, or the one given."""
+    if feature.inside_nm is not None:
+        return feature.inside_nm
+    points = _samples(feature.pieces[0])
+    middle = points[len(points) // 2]
+    return int(middle[0]), int(middle[1])
+
+
+class _LineIndex:
+    """The centre-line segments kept so far, on a grid: which of other islands' lie
+    near a path. A dot is a segment from a point to itself."""
+
+    def __init__(self, features: list[NarrowFeature], cell_nm: int):
+        self.features = features
+        self.cell = cell_nm
+        self.cells: dict[tuple[int, int], list[int]] = {}
+        self.a: list[np.ndarray] = []
+        self.b: list[np.ndarray] = []
+        self.whose: list[int] = []
+
+    def keep(self, number: int, piece: np.ndarray) -> None:
+        """Enter a drawn piece: each segment in the cells of samples half a cell apart
+        along it (so a query grown by one cell finds it), not its whole box."""
+        a, b = (piece, piece) if len(piece) == 1 else (piece[:-1], piece[1:])
+        first = len(self.a)
+        self.a.extend(a.tolist())
+        self.b.extend(b.tolist())
+        self.whose.extend([number] * len(a))
+        length = np.hypot(*(b - a).T.astype(np.float64))
+        count = np.ceil(length / (self.cell / 2)).astype(np.int64) + 1
+        owner = np.repeat(np.arange(len(a)), count)
+        t = (np.arange(len(owner)) - np.repeat(np.cumsum(count) - count, count)) / \
+            np.maximum(np.repeat(count, count) - 1, 1)
+        cells = np.floor((a[owner] + (b[owner] - a[owner]) * t[:, None]) / self.cell)
+        for slot, cx, cy in set(zip((owner + first).tolist(), *cells.astype(np.int64).T.tolist())):
+            self.cells.setdefault((cx, cy), []).append(slot)
+
+    def near(self, path: np.ndarray, reach: int, island: int):
+        """(a, b, owning feature) of the kept segments of other islands that may come
+        within `reach` of the path."""
+        lo = (path.min(axis=0) - reach) // self.cell - 1
+        hi = (path.max(axis=0) + reach) // self.cell + 1
+        slots: set[int] = set()
+        if (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) <= 4 * len(self.cells) + 16:
+            for cx in range(int(lo[0]), int(hi[0]) + 1):
+                for cy in range(int(lo[1]), int(hi[1]) + 1):
+                    slots.update(self.cells.get((cx, cy), ()))
+        else:                       # a box wider than the kept lines: look at them all
+            for (cx, cy), members in self.cells.items():
+                if lo[0] <= cx <= hi[0] and lo[1] <= cy <= hi[1]:
+                    slots.update(members)
+        slots_list = [s for s in sorted(slots)
+                      if self.features[self.whose[s]].island != island]
+        if not slots_list:
+            empty = np.zeros((0, 2), dtype=np.int64)
+            return empty, empty, np.zeros(0, dtype=np.int64)
+        return (np.array([self.a[s] for s in slots_list], dtype=np.int64).reshape(-1, 2),
+                np.array([self.b[s] for s in slots_list], dtype=np.int64).reshape(-1, 2),
+                np.array([self.whose[s] for s in slots_list], dtype=np.int64))
 
 
 def _samples(path: np.ndarray) -> np.ndarray:
     """Points along the polyline at most SAMPLE_NM apart, its vertices included."""
+    return _samples_and_vertices(path)[0]
+
+
+def _samples_and_vertices(path: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """_samples, and which of them are the polyline's own vertices."""
     if len(path) == 1:
-        return path.copy()
-    out = [path[:1]]
+        return path.copy(), np.ones(1, dtype=bool)
+    out, vertex = [path[:1]], [np.ones(1, dtype=bool)]
     for a, b in zip(path[:-1], path[1:]):
         count = max(1, math.ceil(math.hypot(*(b - a)) / SAMPLE_NM))
         t = np.arange(1, count + 1) / count
         out.append(np.rint(a + (b - a) * t[:, None]).astype(np.int64))
-    return np.concatenate(out)
+        flags = np.zeros(count, dtype=bool)
+        flags[-1] = True
+        vertex.append(flags)
+    return np.concatenate(out), np.concatenate(vertex)
+
+
+def _piece(points: np.ndarray, vertex: np.ndarray, run: np.ndarray) -> np.ndarray:
+    """The samples of a run as a polyline: its ends and the path's vertices between
+    (the samples between lie on the path's segments)."""
+    keep = vertex[run].copy()
+    keep[0] = keep[-1] = True
+    return points[run[keep]]
 
 
 def _segments_apart(path: np.ndarray, a: np.ndarray, b: np.ndarray, reach: int) -> bool:
