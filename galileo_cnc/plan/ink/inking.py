@@ -22,8 +22,9 @@ import numpy as np
 
 from galileo_cnc.errors import ReaderWarning, SourcePos
 from galileo_cnc.plan.ink import clip
-from galileo_cnc.plan.ink.arcs import fit_arcs
-from galileo_cnc.plan.ink.fill import DEFAULT_OVERLAP, GAP_NM, PenFill, fill_region
+from galileo_cnc.plan.ink.arcs import fit_arcs, fit_paths
+from galileo_cnc.plan.ink.fill import (DEFAULT_OVERLAP, GAP_NM, PenFill, fill_region,
+                                      inked_area_nm2)
 from galileo_cnc.plan.ink.geometry import DarkImage, dark_geometry
 from galileo_cnc.plan.ink.narrow import (Bridge, NarrowFeature, find_narrow,
                                         keep_islands_apart)
@@ -94,7 +95,7 @@ def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
                            edge_margin_nm=edge_margin_nm) if target else PenFill(width)
         fills.append(fill)
         inked = clip.union(inked, fill.ink) if inked else list(fill.ink)
-    filled = clip.area_nm2(clip.intersection(inked, region))
+    filled = inked_area_nm2(fills, [], region)     # strip by strip, not one board-wide sweep
 
     smallest = pens[-1]
     limit = smallest + 2 * edge_margin_nm + 4 * tolerance_nm
@@ -102,10 +103,9 @@ def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
     bridges = keep_islands_apart(narrow, region, smallest)
     narrow_ink = clip.stroke([piece for f in narrow for piece in f.pieces], smallest // 2,
                              tolerance_nm)
-    covered = clip.union(inked, narrow_ink) if narrow_ink else inked
     plan = InkPlan(_rows(program, pens, fills, narrow), pens, copper, fills, narrow, bridges,
                    zero_size, clip.area_nm2(region), filled,
-                   clip.area_nm2(clip.intersection(covered, region)))
+                   inked_area_nm2(fills, narrow_ink, region) if narrow_ink else filled)
     plan.warnings = _warnings(program, plan)
     plan.program.warnings = list(program.warnings) + plan.warnings
     plan.seconds = time.perf_counter() - began
@@ -121,8 +121,8 @@ def _rows(program: Program, pens: tuple[int, ...], fills: list[PenFill],
         if not fill.paths and not drawn:
             continue
         out.emit(_SELECT, tool=key)
-        for path in fill.paths:
-            _emit_path(out, path, key, 0, 0)
+        for path, segments in zip(fill.paths, fit_paths(fill.paths)):   # all paths at once
+            _emit_path(out, path, key, 0, 0, segments)
         for feature in drawn:
             _emit_feature(out, feature, key)
     apertures = {k + 1: Aperture(k + 1, "circle", (w,), extent_nm=(-(w // 2), -(w // 2),
@@ -134,15 +134,17 @@ def _rows(program: Program, pens: tuple[int, ...], fills: list[PenFill],
                      line_count=program.line_count)
 
 
-def _emit_path(out: ProgramBuilder, path: np.ndarray, key: int, line: int, col: int) -> None:
+def _emit_path(out: ProgramBuilder, path: np.ndarray, key: int, line: int, col: int,
+               segments: list | None = None) -> None:
     x, y = int(path[0][0]), int(path[0][1])
     if len(path) == 1:
         out.emit(_FLASH, x, y, tool=key, line=line, col=col)
         return
     out.emit(_MOVE, x, y, tool=key, line=line, col=col)
-    closed = len(path) > 3 and np.array_equal(path[0], path[-1])
-    points = path[:-1] if closed else path
-    for kind, ex, ey, i, j in fit_arcs(points, closed=closed):
+    if segments is None:
+        closed = len(path) > 3 and np.array_equal(path[0], path[-1])
+        segments = fit_arcs(path[:-1] if closed else path, closed=closed)
+    for kind, ex, ey, i, j in segments:
         out.emit(kind, ex, ey, i, j, tool=key, line=line, col=col)
 
 
