@@ -12,6 +12,7 @@ from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.plan.measure import job_lengths
 from galileo_cnc.plan.pipeline import Artwork, PlanOptions, plan_file
 from galileo_cnc.program.extents import extents, region_mask
+from galileo_cnc.readers.gerber.transformed import aperture_label
 from galileo_cnc.program.ops import KIND, NM_PER_MM, TOOL, OpKind, Program
 
 
@@ -55,7 +56,8 @@ def summarize(artwork: Artwork) -> dict:
         "line_count": program.line_count,
         "operations": len(program),
         "apertures": [
-            {"code": code, "shape": ap.shape, "description": ap.describe(),
+            {"code": code, "label": aperture_label(program, code), "shape": ap.shape,
+             "description": ap.describe(),
              "size_mm": [_mm(v) for v in ap.params_nm], "hole_mm": [_mm(v) for v in ap.hole_nm],
              "macro": ap.macro, **per_aperture.get(code, {"draws": 0, "arcs": 0, "flashes": 0})}
             for code, ap in sorted(program.apertures.items())],
@@ -121,7 +123,7 @@ def format_summary(summary: dict) -> str:
     if summary["apertures"]:
         lines.append("apertures")
         for ap in summary["apertures"]:
-            lines.append(f"  D{ap['code']:<4} {ap['description']:<32} {ap['draws']:>6} draws "
+            lines.append(f"  {ap['label']:<5} {ap['description']:<32} {ap['draws']:>6} draws "
                          f"{ap['arcs']:>6} arcs {ap['flashes']:>6} flashes")
     box, full = summary["bbox_mm"], summary["bbox_with_apertures_mm"]
     if box:

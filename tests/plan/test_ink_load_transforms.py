@@ -76,3 +76,27 @@ def test_a_circle_drawn_under_ls_makes_a_trace_of_the_scaled_width():
     image = dark_geometry(read_gerber("trace.gbr", text))
     x0, y0, x1, y1 = image.bounds()
     assert (y0, y1) == (-MM // 4, MM // 4) and (x0, x1) == (-MM // 4, 10 * MM + MM // 4)
+
+
+@pytest.mark.parametrize("degrees", [0, 30, 45, 90])
+def test_a_thin_bar_macro_turned_any_angle_is_narrow_and_drawn_along_its_axis(degrees):
+    # 4 x 0.2 mm: thinner than the 0.3 mm pen whatever the turn, so it is one centre
+    # line along the bar (its bounding box at 30 degrees is 3.6 x 2.2 mm: not narrow
+    # by the box, so this fails if the width is taken from the box).
+    text = ("%FSLAX46Y46*%%MOMM*%%AMTHIN*21,1,4,0.2,2,0,0*%%ADD10THIN*%"
+            f"%LR{degrees}*%D10*X0Y0D03*M02*")
+    plan = ink_program(read_gerber("thin.gbr", text), (PEN_NM,))
+    (feature,) = plan.narrow
+    assert abs(feature.width_nm - 200_000) <= 2       # corners rounded to the nm once
+    (piece,) = plan.narrow[0].pieces
+    c, s = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
+    # from 0.15 mm to 3.85 mm along the turned bar: its ends a pen radius inside
+    expected = [(round(0.15 * MM * c), round(0.15 * MM * s)),
+                (round(3.85 * MM * c), round(3.85 * MM * s))]
+    ends = sorted(map(tuple, piece.tolist()))
+    assert all(abs(a - b) <= 2 for got, want in zip(ends, sorted(expected))
+               for a, b in zip(got, want))
+    bar = Polygon([(x * c - y * s, x * s + y * c) for x, y in
+                   [(0, -0.1 * MM), (4 * MM, -0.1 * MM), (4 * MM, 0.1 * MM), (0, 0.1 * MM)]])
+    ink = LineString(piece.tolist()).buffer(PEN_NM / 2)
+    assert ink.intersection(bar).area >= 0.99 * bar.area

@@ -31,6 +31,7 @@ from galileo_cnc.plan.ink.narrow import (Bridge, NarrowFeature, find_narrow,
 from galileo_cnc.plan.ink.shapes import DEFAULT_TOLERANCE_NM
 from galileo_cnc.program.ops import (COL, KIND, LINE, NM_PER_MM, NO_TOOL, TOOL, Aperture,
                                      OpKind, Program, ProgramBuilder)
+from galileo_cnc.readers.gerber.transformed import aperture_label
 
 #: Default pen margin from the copper's edge: the stepped path strays up to ~0.7 step
 #: from the planned one, half of that is the usual error (docs/ink.md, "Edge margin").
@@ -174,7 +175,8 @@ def _warnings(program: Program, plan: InkPlan) -> list[ReaderWarning]:
                                           key=lambda kv: kv[1][0].op_index):
         first = features[0]
         count = len(features)
-        what = f"{count} object{'s' * (count != 1)} of D{code}" if code != NO_TOOL else \
+        what = f"{count} object{'s' * (count != 1)} of {aperture_label(program, code)}" \
+            if code != NO_TOOL else \
             f"{count} object{'s' * (count != 1)}"
         where = f" (first here, last at line {features[-1].pos.line})" if count > 1 else ""
         if first.inside_nm is not None:     # flashes whose hole leaves a thin wall
