@@ -29,9 +29,11 @@ origin), each group starting where the same method's previous group ended:
 
   file   the file's order (one pen per aperture, the file's order within it): what the
          planner draws without `optimize`
-  ours   `paths.optimise(rows, here, join_nm)` per group, as `plan_program(...,
-         optimize=True)` calls it through `order.optimised_order`; its output re-cut
-         with `cut_pieces` (a chain is one piece)
+  ours   `paths.optimise(rows, here, join_nm, goal=order.group_goal(next group))` per
+         group, as `plan_program(..., optimize=True)` calls it through
+         `order.optimise_groups`; its output re-cut with `cut_pieces` (a chain is one
+         piece). Repeats it leaves out (plan/repeats.py) are not drawn, so its pieces
+         can be fewer than the file's
   vpype  vpype (bench/order_peers.py) in its own venv: the same pieces as polylines
          (arcs flattened with `ink.shapes.arc_points` to 5 um, flashes as zero-length
          two-point lines), `LineCollection.merge(tolerance=6250, flip=True)` (= linemerge)
@@ -261,7 +263,7 @@ def child_order(names: list[str], out: Path, join_nm: int, synthetic: int,
     `limit_s` for the file) and add the ends of ours."""
     import numpy as np
 
-    from galileo_cnc.plan.order import pure_geometry
+    from galileo_cnc.plan.order import group_goal, pure_geometry
     from galileo_cnc.plan.paths import cut_pieces, optimise
     from galileo_cnc.plan.pipeline import load_artwork
 
@@ -299,7 +301,8 @@ def child_order(names: list[str], out: Path, join_nm: int, synthetic: int,
                                         + GROUP_LIMIT_PER_PATH_S * sizes[group])
                 time_limit(max(record["limit_s"], 0.001))
                 t0 = time.perf_counter()
-                drawn, end = optimise(rows, here, join_nm)
+                goal = group_goal(groups[group + 1]) if group + 1 < len(groups) else None
+                drawn, end = optimise(rows, here, join_nm, goal=goal)
                 seconds += time.perf_counter() - t0
                 order_npz[f"ours{group}"] = piece_ends(cut_pieces(drawn, here))
                 here = end

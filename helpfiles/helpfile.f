@@ -19,13 +19,16 @@ help [COMMAND]
     Print this help, or only the part about COMMAND (help getg).
 
 [getg]
-getg [--mode ink|centre] [--pens MM,MM] [--layers A,B] [--units mm|in] [FILE]
+getg [--mode ink|centre] [--pens MM,MM] [--layers A,B] [--units mm|in] [--optimize] [FILE]
     Plot a Gerber (RS-274X), G-code or DXF file. Gerber copper is inked with
     your pens (the profile's, or --pens 0.3,0.8); --mode centre draws each
     object's centre line with one pen per aperture. --layers picks a DXF
-    drawing's layers, --units mm|in its units. Without FILE it asks for one
-    (Tab completes paths, ~ included). A job larger than the machine's travel
-    is refused at once, with both sizes. It shows the smallest X and Y the
+    drawing's layers, --units mm|in its units. Gerber and DXF paths are drawn
+    in an order that cuts pen-up travel; G-code keeps its own order unless
+    --optimize is given (refused, naming the line, for a file that does more
+    than draw with a pen: spindle speeds, depths, dwells, tool changes).
+    Without FILE it asks for one (Tab completes paths, ~ included). A job
+    larger than the machine's travel is refused at once, with both sizes. It shows the smallest X and Y the
     artwork uses and proposes offsets that move the whole job (travel moves
     too) to the origin plus a 1 mm margin: answer Enter or y to use them, n to
     type your own "X,Y" in mm (or nothing to keep the file's coordinates). It

@@ -22,6 +22,8 @@ def _run_info(args: argparse.Namespace) -> int:
                            layers=_layers(args), units=args.units)
     summary = summarize(artwork)
     options = _plan_options(args)
+    if options.optimize and artwork.program.format == "gcode":
+        _check_reorder(artwork.program)
     if options.mode_for(artwork.program) == "ink":
         from galileo_cnc.cli.info import ink_summary
         summary["ink"] = ink_summary(artwork, _profile(args).config, options)
@@ -30,6 +32,16 @@ def _run_info(args: argparse.Namespace) -> int:
     else:
         print(format_summary(summary))
     return 0
+
+
+def _check_reorder(program) -> None:
+    """info --optimize: the refusal plot and convert would give, without planning."""
+    from galileo_cnc.plan.gcode_order import refusal
+    from galileo_cnc.plan.planner import PlanError
+
+    problem = refusal(program)
+    if problem is not None:
+        raise PlanError(f"--optimize: cannot reorder this G-code: {problem[1]}", problem[0])
 
 
 def _profile(args: argparse.Namespace):
@@ -46,7 +58,7 @@ def _profile(args: argparse.Namespace):
 def _plan_options(args: argparse.Namespace):
     from galileo_cnc.plan.pipeline import PlanOptions
     return PlanOptions(mode=args.mode, file_order=getattr(args, "file_order", False),
-                       layers=_layers(args), units=args.units)
+                       layers=_layers(args), units=args.units, optimize=args.optimize)
 
 
 def _layers(args: argparse.Namespace) -> tuple[str, ...]:
@@ -56,11 +68,19 @@ def _layers(args: argparse.Namespace) -> tuple[str, ...]:
 def _run_plot(args: argparse.Namespace) -> int:
     from galileo_cnc.cli.plot import PlotOptions, run_plot
 
+    _plan_options(args)                    # contradictory options refused before connecting
+    extra = {}
+    if args.optimize:
+        # cli/plot.py's PlotOptions takes `optimize` once it hands it to PlanOptions
+        if "optimize" not in {f.name for f in dataclasses.fields(PlotOptions)}:
+            raise GalileoError("plot --optimize is not available yet (preview, convert and "
+                               "the console's getg take it)")
+        extra["optimize"] = True
     options = PlotOptions(args.file, _profile(args), offset=args.offset,
                           margin_nm=round(args.margin * NM_PER_MM), yes=args.yes,
                           preview=args.preview, trace=args.trace, resume=args.resume,
                           group=not args.file_order, mode=args.mode,
-                          layers=_layers(args), units=args.units)
+                          layers=_layers(args), units=args.units, **extra)
     return run_plot(options)
 
 
@@ -146,8 +166,16 @@ def _add_job_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--file-order", action="store_true",
                         help="keep the file's order (default: Gerber and DXF paths chained "
                         "and ordered per pen to cut pen-up travel)")
+    _add_optimize_option(parser)
     _add_ink_options(parser)
     _add_drawing_options(parser)
+
+
+def _add_optimize_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--optimize", action="store_true",
+                        help="G-code: chain and order its paths too (refused, naming the "
+                        "line, if the file does more than draw with a pen: spindle speeds, "
+                        "depths, dwells, tool changes...); Gerber and DXF are ordered anyway")
 
 
 def _add_drawing_options(parser: argparse.ArgumentParser) -> None:
@@ -179,6 +207,7 @@ def build_parser() -> argparse.ArgumentParser:
     info.add_argument("--margin", type=float, default=1.0, metavar="MM",
                       help="margin kept from the origin by the proposed offset (default 1 mm)")
     info.add_argument("--profile", metavar="TOML", help="machine profile (its pens)")
+    _add_optimize_option(info)
     _add_ink_options(info)
     _add_drawing_options(info)
     info.set_defaults(run=_run_info, port=None, baud=None)

@@ -60,14 +60,19 @@ def run(console, arguments: list[str]) -> None:
 
 
 def _options(console, arguments: list[str]) -> tuple[PlanOptions, object, list[str]]:
-    """`--mode ink|centre`, `--pens 0.3,0.8` (the profile's pens otherwise), and a DXF
-    drawing's `--layers A,B` and `--units mm|in`, before the file name; GalileoError
-    for anything else that starts with --."""
+    """`--mode ink|centre`, `--pens 0.3,0.8` (the profile's pens otherwise), a DXF
+    drawing's `--layers A,B` and `--units mm|in`, and `--optimize` (order G-code's
+    paths too), before the file name; GalileoError for anything else that starts
+    with --."""
     mode, config, rest = "auto", console.config, list(arguments)
     layers: tuple[str, ...] = ()
     units = None
+    optimize = False
     while rest and rest[0].startswith("--"):
         flag = rest.pop(0)
+        if flag == "--optimize":                  # the one option without a value
+            optimize = True
+            continue
         value = rest.pop(0) if rest else ""
         if flag == "--mode" and value in ("ink", "centre"):
             mode = value
@@ -80,8 +85,8 @@ def _options(console, arguments: list[str]) -> tuple[PlanOptions, object, list[s
         else:
             raise GalileoError(f"getg: unknown option {flag} {value}".rstrip()
                                + " (getg [--mode ink|centre] [--pens MM,MM] [--layers A,B] "
-                               "[--units mm|in] [FILE])")
-    return PlanOptions(mode=mode, layers=layers, units=units), config, rest
+                               "[--units mm|in] [--optimize] [FILE])")
+    return PlanOptions(mode=mode, layers=layers, units=units, optimize=optimize), config, rest
 
 
 def choose_offset(console, artwork: Artwork) -> tuple[int, int] | None:

@@ -99,13 +99,14 @@ def converted_gcode(planned: PlannedFile, config: MachineConfig) -> Iterator[str
             yield "M3"
             yield "M5"
             at = point
+        elif kind == OpKind.PEN_DOWN:
+            yield from lower()           # as the planner: lowered here, a dot if no draw follows
         elif kind == OpKind.PEN_UP:
             yield from lift()
         elif kind == OpKind.FEED and row[VALUE] > 0:
             yield f"F{mm(row[VALUE] * 60)}"
         elif kind == OpKind.DWELL and row[VALUE] >= 0:
             yield f"G4 P{row[VALUE]}"
-        # PEN_DOWN (a draw follows and lowers the pen), regions, polarity and markers
-        # draw nothing by themselves
+        # regions, polarity and markers draw nothing by themselves
     yield from lift()
     yield "M2"

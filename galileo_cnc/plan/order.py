@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from galileo_cnc.plan.paths import optimise
+from galileo_cnc.plan.paths import cut_pieces, optimise
 from galileo_cnc.program.ops import KIND, NO_TOOL, TOOL, X, Y, OpKind, Program
 
 DRAWING_KINDS = (int(OpKind.LINE), int(OpKind.ARC_CW), int(OpKind.ARC_CCW), int(OpKind.FLASH))
@@ -115,13 +115,33 @@ def optimised_order(program: Program, start: tuple[int, int], join_nm: int,
         if not groups:
             groups.append((None, []))
         groups[-1][1].append((index, row))
-    ordered, here = [], start
+    ordered = []
     if not by_aperture:                     # one pen: keep the aperture it is selected as
         selects = [(i, r) for i, r in rows if r[KIND] == OpKind.SELECT]
         ordered.extend(selects[:1])
-    for select, group_rows in groups:
+    drawn_groups = optimise_groups([group_rows for _select, group_rows in groups], start,
+                                   join_nm)
+    for (select, group_rows), drawn in zip(groups, drawn_groups):
         if select is not None:
             ordered.append((group_rows[0][0] if group_rows else 0, select))
-        drawn, here = optimise(group_rows, here, join_nm)
         ordered.extend(drawn)
     return ordered
+
+
+def optimise_groups(groups: list[list[tuple[int, list[int]]]], start: tuple[int, int],
+                    join_nm: int) -> list[list[tuple[int, list[int]]]]:
+    """Each pen's rows chained and ordered (paths.optimise), pen after pen from
+    `start`, each pen's work ending near the ends of the next pen's pieces (where
+    that pen may start) rather than wherever its own travel was shortest."""
+    out, here = [], start
+    for g, rows in enumerate(groups):
+        goal = group_goal(groups[g + 1]) if g + 1 < len(groups) else None
+        drawn, here = optimise(rows, here, join_nm, goal=goal)
+        out.append(drawn)
+    return out
+
+
+def group_goal(rows: list[tuple[int, list[int]]]) -> list[tuple[int, int]]:
+    """Where a pen's work may start: both ends of each of its pieces (every piece
+    group_by_aperture makes starts with a MOVE, so no head position is needed)."""
+    return [p for piece in cut_pieces(rows, (0, 0)) for p in (piece.start, piece.end)]

@@ -25,7 +25,8 @@ from galileo_cnc.readers import read_file
 
 Box = tuple[int, int, int, int]
 #: formats whose paths are chained and ordered unless the user asks for file order
-#: (G-code from elsewhere keeps its order: milling files carry state a reorder breaks)
+#: (G-code from elsewhere keeps its order unless --optimize: milling files carry state a
+#: reorder breaks)
 ORDERED_FORMATS = ("gerber", "dxf")
 #: files with fewer ops plan in well under a second: front ends show no progress for them
 PLANNING_NOTICE_OPS = 5000
@@ -72,17 +73,22 @@ class PlanOptions:
     each object's centre line with one pen per aperture (the seed's way), "auto" is
     ink for Gerber and centre for everything else. `pens_nm` overrides the
     profile's pens. `file_order` keeps the file's order: no grouping by pen, no
-    path order. `layers` and `units` choose what of a DXF drawing is read (read_dxf)."""
+    path order. `optimize` orders G-code's paths too (Gerber and DXF are ordered
+    anyway), if it only draws with a pen. `layers` and `units` choose what of a DXF
+    drawing is read (read_dxf)."""
 
     mode: str = "auto"
     pens_nm: tuple[int, ...] = ()
     file_order: bool = False
     layers: tuple[str, ...] = ()
     units: str | None = None
+    optimize: bool = False
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
             raise PlanError(f"--mode: expected ink or centre, got {self.mode!r}")
+        if self.optimize and self.file_order:
+            raise PlanError("--optimize and --file-order ask for opposite orders: give one")
 
     def mode_for(self, program: Program) -> str:
         if self.mode == "auto":
@@ -175,7 +181,7 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
                                        artwork.margin_nm)
     file_order = options.file_order or not group
     if optimize is None:
-        optimize = not file_order and plotted.format in ORDERED_FORMATS
+        optimize = not file_order and (plotted.format in ORDERED_FORMATS or options.optimize)
     job = plan_program(plotted, config, offset_nm, group=not file_order,
                        on_progress=on_progress, optimize=optimize)
     job.mode = mode

@@ -39,8 +39,10 @@ from galileo_cnc.machine.arcs import MAX_ARC_COORD
 from galileo_cnc.plan.ink.inking import mm_text
 from galileo_cnc.plan.ink.narrow import aperture_width
 from galileo_cnc.plan.ink.shapes import arc_points
+from galileo_cnc.plan import gcode_order
 from galileo_cnc.plan.order import (DRAWING_KINDS, drawing_apertures, group_by_aperture,
                                    optimised_order, pure_geometry)
+from galileo_cnc.plan.paths import optimise
 from galileo_cnc.program.ops import (I, J, KIND, LINE, COL, NO_TOOL, TOOL, VALUE, X, Y,
                                      OpKind, Program)
 
@@ -74,6 +76,15 @@ def plotting_order(program: Program, config: MachineConfig, offset_nm: tuple[int
     """The (op index, row) pairs in the order they are plotted, and whether they were
     grouped by aperture and ordered for travel (see plan_program)."""
     several_pens = len(drawing_apertures(program)) > 1
+    if optimize and program.format == "gcode":
+        # asked for (--optimize): pen drawings only, refused with the line otherwise
+        problem = gcode_order.refusal(program)
+        if problem is not None:
+            raise PlanError(f"--optimize: cannot reorder this G-code: {problem[1]} "
+                            f"(without --optimize it is drawn in its own order)", problem[0])
+        lead, rows = gcode_order.pen_rows(program)
+        start = (int(offset_nm[0]), int(offset_nm[1]))
+        return lead + optimise(rows, start, config.nm_per_step)[0], False, True
     if optimize and group and program.format in ("gerber", "dxf") and pure_geometry(program):
         # one pen per aperture, each pen's paths chained and ordered (plan/paths.py);
         # the program point at the work origin is where the head starts
@@ -91,8 +102,10 @@ def plan_program(program: Program, config: MachineConfig | None = None,
     """Plan `program` for the machine `config` with `offset_nm` subtracted (see module
     doc); `group=False` keeps a Gerber file's own order. `on_progress(done, total)`
     hears about every PROGRESS_OPS ops, so a front end can show a long plan moving.
-    `optimize` chains and orders each pen's paths (plan/paths.py; Gerber and DXF, pure
-    geometry only; plan_file asks for it unless the user wants file order)."""
+    `optimize` chains and orders each pen's paths (plan/paths.py; Gerber and DXF of
+    pure geometry; G-code only if it draws with a pen and nothing else, else PlanError:
+    plan/gcode_order.py; plan_file asks for it for Gerber and DXF unless the user wants
+    file order, for G-code when the user gives --optimize)."""
     config = config or MachineConfig()
     steps = config.nm_to_steps
     ox, oy = offset_nm
