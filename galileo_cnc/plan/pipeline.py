@@ -22,6 +22,7 @@ from galileo_cnc.plan.planner import PlanError, plan_program
 from galileo_cnc.program.extents import extents
 from galileo_cnc.program.ops import NM_PER_MM, Program
 from galileo_cnc.readers import read_file
+from galileo_cnc.readers.gerber.transformed import with_source_apertures
 
 Box = tuple[int, int, int, int]
 #: formats whose paths are chained and ordered unless the user asks for file order
@@ -169,7 +170,8 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
     offset_nm = resolve_offset(artwork, offset)
     mode = options.mode_for(artwork.program)
     ink = None
-    plotted = artwork.program
+    # centre lines and dots are the same under %LM/%LR/%LS: one pen per D code of the file
+    plotted = with_source_apertures(artwork.program)
     if mode == "ink":
         ink = ink_program(artwork.program, options.pens_nm or config.pen_widths_nm)
         plotted = ink.program

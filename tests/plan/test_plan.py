@@ -206,3 +206,15 @@ def test_an_arc_beyond_the_machines_arc_range_is_drawn_as_chords_within_half_a_s
         assert abs(distance - radius_mm * config.steps_per_mm) <= 1.0
     end = (config.nm_to_steps(112_606_043), config.nm_to_steps(23_092_214))
     assert (chords[-1].x_steps, chords[-1].y_steps) == end
+
+
+def test_centre_mode_keeps_one_pen_per_d_code_under_load_transforms(tmp_path):
+    # D10 flashed plain, turned by %LR30 and plain again: three dots, one pen (a dot is
+    # a dot at any angle); the reader's derived aperture must not ask for a second pen.
+    from galileo_cnc.plan.pipeline import PlanOptions, plan_file
+    path = tmp_path / "turned.gbr"
+    path.write_text("%FSLAX26Y26*%\n%MOMM*%\n%ADD10R,1X0.5*%\nD10*\nX0Y0D03*\n%LR30*%\n"
+                    "X5000000Y0D03*\n%LR0*%\nX9000000Y0D03*\nM02*\n")
+    planned = plan_file(path, MachineConfig(), options=PlanOptions(mode="centre"))
+    assert list(planned.job.pen_labels) == [10]
+    assert sum(isinstance(c, Flash) for c in planned.job.commands) == 3
