@@ -14,6 +14,36 @@ from galileo_cnc.errors import GalileoError
 from galileo_cnc.program.ops import NM_PER_MM
 
 
+#: The largest --margin: a margin is a few mm; a metre is already a typing error.
+MAX_MARGIN_MM = 1000.0
+
+
+def margin_mm(text: str) -> float:
+    """--margin: a finite length in mm, 0 to MAX_MARGIN_MM (argparse names the option)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0 <= value <= MAX_MARGIN_MM:        # also false for NaN
+        raise argparse.ArgumentTypeError(f"expected a length in mm from 0 to "
+                                         f"{MAX_MARGIN_MM:g}, got {text!r}")
+    return value
+
+
+def check_output(path: str | None, option: str) -> None:
+    """Refuse, before any work, an output file that could not be written afterwards."""
+    if path is None:
+        return
+    target = os.path.abspath(path)
+    folder = os.path.dirname(target)
+    if os.path.isdir(target):
+        raise GalileoError(f"{option} {path}: is a folder, expected a file name")
+    if not os.path.isdir(folder):
+        raise GalileoError(f"{option} {path}: the folder {folder} does not exist")
+    if not os.access(folder, os.W_OK) or (os.path.exists(target) and not os.access(target, os.W_OK)):
+        raise GalileoError(f"{option} {path}: cannot write there (permission denied)")
+
+
 def _run_info(args: argparse.Namespace) -> int:
     from galileo_cnc.cli.info import format_summary, summarize
     from galileo_cnc.plan.pipeline import load_artwork
@@ -69,6 +99,8 @@ def _run_plot(args: argparse.Namespace) -> int:
     from galileo_cnc.cli.plot import PlotOptions, run_plot
 
     _plan_options(args)                    # contradictory options refused before connecting
+    check_output(args.preview, "--preview")
+    check_output(args.trace, "--trace")
     extra = {}
     if args.optimize:
         # cli/plot.py's PlotOptions takes `optimize` once it hands it to PlanOptions
@@ -89,13 +121,17 @@ def _run_preview(args: argparse.Namespace) -> int:
     from galileo_cnc.plan.pipeline import plan_file
     from galileo_cnc.preview.render import render_preview
 
+    check_output(args.output, "--output")
     config = _profile(args).config
     planned = plan_file(args.file, config, args.offset, margin_nm=round(args.margin * NM_PER_MM),
                         options=_plan_options(args))
     # stepped piece by piece as the preview reads it: no whole trace in memory
     steps = JobSteps(planned.job.commands, config)
-    info = render_preview(planned.program, steps, config, planned.offset_nm, args.output,
-                          job=planned.job, copper=planned.copper)
+    try:
+        info = render_preview(planned.program, steps, config, planned.offset_nm, args.output,
+                              job=planned.job, copper=planned.copper)
+    except OSError as problem:
+        raise GalileoError(f"--output {args.output}: cannot write: {problem.strerror}") from None
     print(f"{args.output}: {info.summary()}")
     return 0
 
@@ -105,14 +141,18 @@ def _run_convert(args: argparse.Namespace) -> int:
     from galileo_cnc.plan.measure import job_lengths
     from galileo_cnc.plan.pipeline import plan_file
 
+    check_output(args.output, "--output")
     config = _profile(args).config
     planned = plan_file(args.file, config, args.offset, margin_nm=round(args.margin * NM_PER_MM),
                         options=_plan_options(args))
     lines = 0
-    with open(args.output, "w", encoding="ascii", newline="\n") as out:
-        for line in converted_gcode(planned, config):
-            out.write(line + "\n")
-            lines += 1
+    try:
+        with open(args.output, "w", encoding="ascii", newline="\n") as out:
+            for line in converted_gcode(planned, config):
+                out.write(line + "\n")
+                lines += 1
+    except OSError as problem:
+        raise GalileoError(f"--output {args.output}: cannot write: {problem.strerror}") from None
     lengths = job_lengths(planned.job)
     metres = config.steps_per_mm * 1000
     print(f"{args.output}: {lines} lines, {lengths.drawn_steps / metres:.2f} m drawn, "
@@ -161,7 +201,7 @@ def _add_job_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--offset", default="auto", metavar="auto|none|X,Y",
                         help="subtracted from every coordinate: auto = the minimum minus the "
                         "margin (default), none, or X,Y in mm")
-    parser.add_argument("--margin", type=float, default=1.0, metavar="MM",
+    parser.add_argument("--margin", type=margin_mm, default=1.0, metavar="MM",
                         help="margin kept from the origin by --offset auto (default 1 mm)")
     parser.add_argument("--file-order", action="store_true",
                         help="keep the file's order (default: Gerber and DXF paths chained "
@@ -204,7 +244,7 @@ def build_parser() -> argparse.ArgumentParser:
     info = commands.add_parser("info", help="describe a Gerber or G-code file")
     info.add_argument("file", help="Gerber (RS-274X), G-code or DXF file")
     info.add_argument("--json", action="store_true", help="print machine-readable JSON")
-    info.add_argument("--margin", type=float, default=1.0, metavar="MM",
+    info.add_argument("--margin", type=margin_mm, default=1.0, metavar="MM",
                       help="margin kept from the origin by the proposed offset (default 1 mm)")
     info.add_argument("--profile", metavar="TOML", help="machine profile (its pens)")
     _add_optimize_option(info)

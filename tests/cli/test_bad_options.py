@@ -1,0 +1,52 @@
+"""Bad options are refused before anything is read, planned or moved: NaN and
+infinite margins, and output files that could not be written after a long job."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+SAMPLE = str(ROOT / "samples" / "led-blinker.gbr")
+
+
+def galileo(*args: str, home: Path) -> subprocess.CompletedProcess:
+    env = {"PATH": "/usr/bin:/bin", "GALILEO_CNC_HOME": str(home), "GALILEO_CNC_NO_PROBE": "1",
+           "PYTHONPATH": str(ROOT)}
+    return subprocess.run([sys.executable, "-m", "galileo_cnc", *args], cwd=ROOT, env=env,
+                          capture_output=True, text=True, timeout=300)
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf", "-1", "1e9", "one"])
+@pytest.mark.parametrize("command", ["info", "preview", "plot"])
+def test_margins_that_are_not_a_length_are_refused(tmp_path, command, value):
+    extra = ["-o", str(tmp_path / "p.png")] if command == "preview" else []
+    extra += ["--port", "sim://?speed=0", "--yes"] if command == "plot" else []
+    done = galileo(command, SAMPLE, f"--margin={value}", *extra, home=tmp_path)
+    assert done.returncode == 2
+    assert f"argument --margin: expected a length in mm from 0 to 1000, got '{value}'" \
+        in done.stderr
+    assert "Traceback" not in done.stderr
+
+
+@pytest.mark.parametrize("option, path, expected", [
+    ("--preview", "missing/dir/p.png", "the folder {tmp}/missing/dir does not exist"),
+    ("--trace", ".", "is a folder, expected a file name"),
+])
+def test_plot_outputs_are_checked_before_the_job_starts(tmp_path, option, path, expected):
+    target = str(tmp_path / path) if path != "." else str(tmp_path)
+    done = galileo("plot", SAMPLE, "--port", "sim://?speed=0", "--yes", option, target,
+                   home=tmp_path)
+    assert done.returncode == 1
+    assert expected.format(tmp=tmp_path) in done.stderr
+    assert "lines" not in done.stdout          # no progress bar: nothing was sent
+    assert not (tmp_path / "journal.json").exists()    # no job was begun
+
+
+@pytest.mark.parametrize("command", ["preview", "convert"])
+def test_outputs_that_cannot_be_written_are_named(tmp_path, command):
+    done = galileo(command, SAMPLE, "-o", str(tmp_path / "no" / "out"), home=tmp_path)
+    assert done.returncode == 1
+    assert done.stderr.strip() == \
+        f"galileo-cnc: --output {tmp_path}/no/out: the folder {tmp_path}/no does not exist"
