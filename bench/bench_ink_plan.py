@@ -10,12 +10,15 @@ ink program, the share of the copper inked (exact geometry, not the steps:
 bench_ink.py measures the steps), pen lifts, narrow features and bridges avoided.
 `--stages` adds the CPU seconds of each stage (the planner's functions are wrapped
 with timers for the run; nested stages are also counted in the stage around them).
+`--digest` adds a hash of the ink program's rows: equal hashes before and after a
+speed change mean the planner's output did not change, row for row.
 Numbers are printed, never asserted.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import time
 from pathlib import Path
 
@@ -69,6 +72,7 @@ def main() -> None:
     parser.add_argument("files", nargs="*", help="Gerber files (default: the biggest layers)")
     parser.add_argument("--pens", default="0.3", help="pen widths in mm, e.g. 0.3,0.8")
     parser.add_argument("--stages", action="store_true", help="CPU seconds per stage")
+    parser.add_argument("--digest", action="store_true", help="hash of the ink program's rows")
     args = parser.parse_args()
     pens = tuple(round(float(w) * 1_000_000) for w in args.pens.split(","))
     files = [Path(f) for f in args.files] or [CORPUS / f for f in BIGGEST]
@@ -86,6 +90,9 @@ def main() -> None:
               f"({cpu:.1f} s CPU), {len(plan.program)} rows, {share:.2f} % inked, "
               f"{plan.pen_lifts} pen lifts, {len(plan.narrow)} narrow, "
               f"{len(plan.bridges)} bridges avoided", flush=True)
+        if args.digest:
+            rows = plan.program.table.astype("<i8", copy=False).tobytes()
+            print(f"    rows sha1 {hashlib.sha1(rows).hexdigest()}", flush=True)
         for label, _module, _name in STAGES:
             if label in spent:
                 print(f"    {label:34s} {spent[label]:6.2f} s CPU "

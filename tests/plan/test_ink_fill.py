@@ -202,3 +202,15 @@ def test_inked_area_batch_by_batch_is_the_area_over_the_whole_board():
     whole = clip.area_nm2(clip.intersection(clip.union(fill.ink, second.ink), region))
     assert inked_area_nm2([fill, second], [], region) == pytest.approx(whole, rel=1e-9)
     assert inked_area_nm2([fill], extra, region) > inked_area_nm2([fill], [], region)
+
+
+def test_the_rings_stop_where_the_shrunk_area_has_no_ring_of_three_points():
+    # a 2 mm square with spacing 0.4 mm: depths at 0, 0.4, 0.8 mm in (2, 1.2, 0.4 mm
+    # squares); the next offset leaves nothing. A set of only degenerate rings (two
+    # points) is no area at all: no depth, not a depth with no ring.
+    from galileo_cnc.plan.ink.fill import _concentric
+    square = [[[0, 0], [2 * MM, 0], [2 * MM, 2 * MM], [0, 2 * MM]]]
+    areas = _concentric(square, 400_000, 1_000)
+    sides = [int(np.ptp(np.asarray(a[0])[:, 0])) for a in areas]
+    assert sides == [2 * MM, 1_200_000, 400_000]
+    assert _concentric([[[0, 0], [MM, 0]]], 400_000, 1_000) == []

@@ -136,7 +136,8 @@ def _concentric(centre_area: list, spacing: int, tolerance_nm: int) -> list[list
     """E0, E1, ... (polygon sets), until nothing is left."""
     areas = []
     area = centre_area
-    while area and clip.rings_as_arrays(area):
+    # the emptiness test only: the rings are made into arrays once, by the caller
+    while any(len(ring) >= 3 for ring in area):
         areas.append(area)
         area = clip.offset(area, -spacing, tolerance_nm, cleaned=True)
     return areas
