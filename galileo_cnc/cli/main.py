@@ -98,9 +98,17 @@ def _layers(args: argparse.Namespace) -> tuple[str, ...]:
 def _run_plot(args: argparse.Namespace) -> int:
     from galileo_cnc.cli.plot import PlotOptions, run_plot
 
-    _plan_options(args)                    # contradictory options refused before connecting
+    plan = _plan_options(args)             # contradictory options refused before connecting
     check_output(args.preview, "--preview")
     check_output(args.trace, "--trace")
+    profile = _profile(args)
+    grbl_port, profile = _grbl_port(profile)
+    if grbl_port is not None:
+        return _run_grbl_plot(args, profile, grbl_port, plan)
+    if args.check:
+        raise GalileoError(f"plot --check runs GRBL's check mode ($C): it needs a GRBL board, "
+                           f"and {profile.port or 'sim://'} runs galileo-cnc firmware "
+                           f"(info and preview check a file without a machine)")
     extra = {}
     if args.optimize:
         # cli/plot.py's PlotOptions takes `optimize` once it hands it to PlanOptions
@@ -108,12 +116,51 @@ def _run_plot(args: argparse.Namespace) -> int:
             raise GalileoError("plot --optimize is not available yet (preview, convert and "
                                "the console's getg take it)")
         extra["optimize"] = True
-    options = PlotOptions(args.file, _profile(args), offset=args.offset,
+    options = PlotOptions(args.file, profile, offset=args.offset,
                           margin_nm=round(args.margin * NM_PER_MM), yes=args.yes,
                           preview=args.preview, trace=args.trace, resume=args.resume,
                           group=not args.file_order, mode=args.mode,
                           layers=_layers(args), units=args.units, **extra)
     return run_plot(options)
+
+
+def _grbl_port(profile):
+    """(port, profile) when the plot goes to a GRBL board, else (None, profile).
+    With no port given, find_board's probe picks the board; a galileo-cnc board
+    it found is handed on, so it is not probed twice. sim:// and simavr:// are
+    never probed: simavr://?firmware=grbl is GRBL, the rest our firmware."""
+    from galileo_cnc.transport.discovery import GALILEO, GRBL, find_board, identify_board
+    from galileo_cnc.transport.port import SIM_URL, SIMAVR_URL
+
+    if profile.port is None:
+        found, kind = find_board(profile.baud)
+        if kind == GRBL:
+            return found, profile
+        if kind == GALILEO and found != SIM_URL:
+            return None, dataclasses.replace(profile, port=found)
+        return None, profile
+    if profile.port.startswith(SIMAVR_URL) and "firmware=grbl" in profile.port:
+        return profile.port, profile
+    if profile.port.startswith((SIM_URL, SIMAVR_URL)):
+        return None, profile
+    return (profile.port if identify_board(profile.port, profile.baud) == GRBL else None), \
+        profile
+
+
+def _run_grbl_plot(args: argparse.Namespace, profile, port: str, plan) -> int:
+    from galileo_cnc.cli.plot_grbl import GrblPlotOptions, run_grbl_plot
+
+    # refused before connecting: these need what only our firmware reports or keeps
+    if args.resume:
+        raise GalileoError("plot --resume is not available on a GRBL board yet "
+                           "(docs/grbl.md, \"Not done yet\")")
+    if args.trace:
+        raise GalileoError("plot --trace: a GRBL board cannot report its steps "
+                           "(--preview draws the plan)")
+    return run_grbl_plot(GrblPlotOptions(
+        args.file, profile, port, plan, offset=args.offset,
+        margin_nm=round(args.margin * NM_PER_MM), yes=args.yes, check=args.check,
+        preview=args.preview))
 
 
 def _run_preview(args: argparse.Namespace) -> int:
@@ -162,21 +209,41 @@ def _run_convert(args: argparse.Namespace) -> int:
 
 
 def _run_ports(args: argparse.Namespace) -> int:
-    from galileo_cnc.transport.discovery import answers_with_banner, list_ports
+    from galileo_cnc.transport.discovery import list_ports
 
     found = list_ports()
     for port in found:
         mark = "known board" if port.known_board else ""
         line = f"{port.device:<20} {port.description} {mark}".rstrip()
         if args.probe:
-            line += "  [galileo-cnc firmware]" if answers_with_banner(port.device, args.baud) \
-                else "  [no banner]"
+            line += f"  [{_probe(port.device, args.baud)}]"
         print(line)
     print(f"{'sim://':<20} built-in simulated machine (always there)")
     print(f"{'simavr://':<20} the firmware running in simavr (build both with make -C "
           f"firmware and make -C firmware/harness in a checkout; installed elsewhere, set "
           f"GALILEO_FIRMWARE and GALILEO_SIMAVR)")
     return 0
+
+
+def _probe(device: str, baud: int) -> str:
+    """What answers on `device`: our firmware, GRBL with its version, or nothing."""
+    from galileo_cnc.transport.discovery import GALILEO, GRBL, identify_board
+
+    kind = identify_board(device, baud)
+    if kind == GALILEO:
+        return "galileo-cnc firmware"
+    if kind != GRBL:
+        return "no banner"
+    # identify_board tells GRBL from the rest; its banner on connect names the version
+    from galileo_cnc.grbl.link import GrblLink
+    from galileo_cnc.grbl.reports import GrblError
+    from galileo_cnc.transport.port import open_port
+    try:
+        with open_port(device, baud, timeout=0.2) as port:
+            link = GrblLink(port)
+            return f"GRBL {link.wait_banner()}"
+    except (GrblError, OSError):
+        return "GRBL"
 
 
 def _run_console(args: argparse.Namespace) -> int:
@@ -261,6 +328,9 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument("--trace", metavar="NPZ", help="write the step trace (tick, axis, dir)")
     plot.add_argument("--resume", action="store_true",
                       help="continue the interrupted job of FILE after its last confirmed line")
+    plot.add_argument("--check", action="store_true",
+                      help="GRBL only: run the job through GRBL's check mode ($C), moving "
+                      "nothing, and list every line GRBL rejects (exit 1 if any)")
     plot.set_defaults(run=_run_plot)
 
     preview = commands.add_parser("preview", help="draw what the machine will plot, as PNG")
@@ -278,7 +348,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     ports = commands.add_parser("ports", help="list serial ports (and sim://)")
     ports.add_argument("--probe", action="store_true",
-                       help="open each port and look for the galileo-cnc banner")
+                       help="open each port and say what answers: galileo-cnc firmware "
+                       "or GRBL (with its version)")
     ports.add_argument("--baud", type=int, default=DEFAULT_BAUD)
     ports.set_defaults(run=_run_ports)
 
