@@ -21,7 +21,12 @@ travels back to it pen up, so it is judged by the points it inked and where it e
 
     python3 bench/bench_faults.py                     # 1,000 on sim://, 1,000 on simavr
     python3 bench/bench_faults.py --sim 200 --simavr 0 --seed 7
-    python3 bench/bench_faults.py --show sim:1234     # one session, verbosely
+
+Reproducible for a seed: the sessions (kind, rate, which reply is lost, when the reset
+comes) and each direction's fault draws. Not reproducible: which bytes the host sends
+depends on its timeouts (how many status queries, when a stall is declared) and so on
+the machine's load, so two runs of one seed can differ in the bytes faults hit; the
+outcome counts vary a little between runs, not the targets.
 """
 
 from __future__ import annotations
@@ -76,28 +81,31 @@ class Fault:
 
 
 class NoisyPort:
-    """A pyserial port passed through with `fault`, drawn from a seeded generator."""
+    """A pyserial port passed through with `fault`, drawn from seeded generators: one
+    per direction, so that the n-th byte each way meets the same fault whatever the
+    threads' interleaving (which bytes go out still depends on timeouts: see main)."""
 
-    def __init__(self, port, fault: Fault, rng: random.Random, reset=None):
-        self.port, self.fault, self.rng, self._reset = port, fault, rng, reset
+    def __init__(self, port, fault: Fault, seed: int, reset=None):
+        self.port, self.fault, self._reset = port, fault, reset
+        self.rng_out, self.rng_in = random.Random(seed), random.Random(seed ^ 0x5A5A5A5A)
         self.lines_written = self.replies_read = 0
         self.enabled = False            # after the greeting: the session under test
 
-    def _noise(self, data: bytes) -> bytes:
+    def _noise(self, data: bytes, rng: random.Random) -> bytes:
         if not self.enabled or not self.fault.rate:
             return data
         out = bytearray()
         for byte in data:
-            if self.rng.random() >= self.fault.rate:
+            if rng.random() >= self.fault.rate:
                 out.append(byte)
                 continue
-            kind = self.rng.choice(self.fault.kinds)
+            kind = rng.choice(self.fault.kinds)
             if kind == "corrupt":
-                out.append(byte ^ (1 << self.rng.randrange(8)))
+                out.append(byte ^ (1 << rng.randrange(8)))
             elif kind == "duplicate":
                 out += bytes((byte, byte))
             elif kind == "delay":
-                time.sleep(self.rng.uniform(0.0, 0.05))
+                time.sleep(rng.uniform(0.0, 0.05))
                 out.append(byte)
             # drop: nothing
         return bytes(out)
@@ -107,7 +115,7 @@ class NoisyPort:
             self.lines_written += 1
             if self.lines_written == self.fault.reset_after and self._reset is not None:
                 self._reset()
-        self.port.write(self._noise(data))
+        self.port.write(self._noise(data, self.rng_out))
         return len(data)
 
     def readline(self) -> bytes:
@@ -116,7 +124,7 @@ class NoisyPort:
             self.replies_read += 1
             if self.replies_read == self.fault.lose_reply:
                 return b""
-        return self._noise(line)
+        return self._noise(line, self.rng_in)
 
     def close(self) -> None:
         self.port.close()
@@ -129,7 +137,9 @@ class NoisyPort:
 class SimTarget:
     name = "sim://"
     hang_s = 60.0
-    timeouts = dict(status_retry_s=0.1, reply_s=0.3, stall_s=0.3)
+    # the instant machine answers inside the write: a reply missing for 50 ms is lost
+    # (a late one only costs a status query). At 0.3 s a session took ~3 s, 1,000 an hour.
+    timeouts = dict(status_retry_s=0.02, reply_s=0.1, stall_s=0.05)
 
     def __init__(self):
         self._n = 0
@@ -169,6 +179,9 @@ class SimavrTarget:
         board = SimulatedBoard(self.elf).start()
 
         def trace():
+            # stopped first: the harness flushes its pin record only every 100 ms, so
+            # one read while it runs can miss the last steps (40 of 100 "wrong" so)
+            board.stop()
             tick, axis, direction = step_trace(board.trace())
             moved = [int(direction[axis == a].sum()) for a in range(3)]
             return Trace(tick, axis, direction, tuple(moved), int(tick[-1]) if len(tick) else 0)
@@ -211,7 +224,7 @@ def session(target, job, program, fault: Fault, seed: int, tmp: Path, log=None) 
     journal = Journal(tmp / f"journal-{seed}.json")
     journal.path.unlink(missing_ok=True)
     try:
-        port = NoisyPort(opener(), fault, random.Random(seed), reset)
+        port = NoisyPort(opener(), fault, seed, reset)
         link = _attach(target, port, url)
         port.enabled = True
         streamer = JobStreamer(link, job, program, journal=journal)

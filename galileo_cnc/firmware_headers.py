@@ -1,7 +1,7 @@
 """C headers for the firmware, generated from the one Python definition of each thing.
 
 `protocol_header()` renders galileo_cnc/protocol/spec.py (wire format, commands
-with their queue blocks, error codes, states, CRC table) and `config_header()`
+with their queue blocks, error codes, states, the line check) and `config_header()`
 renders the board's fixed facts (config/hardware.py), a MachineConfig with its
 digest, and the arc band tables of docs/motion.md §5.3. Both files are committed
 under firmware/galileo/ so the Arduino IDE can build the sketch without Python;
@@ -52,7 +52,13 @@ def protocol_header() -> str:
         f"#define PROTO_RX_BUFFER_BYTES {P.RX_BUFFER_BYTES}",
         f"#define PROTO_QUEUE_BLOCKS {P.QUEUE_BLOCKS}",
         f"#define PROTO_SEQ_MAX {P.SEQ_MAX}UL",
-        f"#define PROTO_CRC8_POLY 0x{P.CRC8_POLY:02X}",
+        "/* The check on every line, both ways: text, separator (even/odd text length),",
+        " * CRC-16 over both as four upper-case hex digits. */",
+        f"#define PROTO_CRC16_POLY 0x{P.CRC16_POLY:04X}",
+        f"#define PROTO_CRC16_INIT 0x{P.CRC16_INIT:04X}",
+        f"#define PROTO_CHECK_SEP_EVEN {_c_char(P.CHECK_SEPARATORS[0])}",
+        f"#define PROTO_CHECK_SEP_ODD {_c_char(P.CHECK_SEPARATORS[1])}",
+        f"#define PROTO_CHECK_BYTES {P.CHECK_BYTES}",
         "",
         "/* Real-time bytes, picked off in the receive interrupt. */",
     ]
@@ -84,7 +90,6 @@ def protocol_header() -> str:
             "extern const char *const proto_error_texts[ERR_COUNT] PROGMEM;",
             "extern const uint8_t proto_error_is_alarm[ERR_COUNT] PROGMEM;",
             "extern const char *const proto_state_names[STATE_COUNT] PROGMEM;",
-            "extern const uint8_t proto_crc8_table[256] PROGMEM;",
             "", "#ifdef PROTO_TABLES", "",
             "const struct proto_command_spec proto_commands[CMD_COUNT] PROGMEM = {"]
     for spec in P.COMMANDS:
@@ -107,8 +112,6 @@ def protocol_header() -> str:
         out.append(f'static const char proto_state_{s}[] PROGMEM = "{s}";')
     out += ["const char *const proto_state_names[STATE_COUNT] PROGMEM = {",
             _table([f"proto_state_{s}" for s in P.STATES], 5), "};", "",
-            "const uint8_t proto_crc8_table[256] PROGMEM = {",
-            _table([f"0x{v:02X}" for v in P.CRC8_TABLE], 12), "};", "",
             "#endif /* PROTO_TABLES */", "", "#endif /* GALILEO_PROTOCOL_H */", ""]
     return "\n".join(out)
 

@@ -151,8 +151,8 @@ def status_when(link: "FirmwareLink", predicate, timeout_s: float = 5.0,
 
 
 def framed(body: bytes) -> bytes:
-    """A line with the right CRC but whatever body the test wants (valid or not)."""
-    return body + b"*%02X\n" % P.crc8(body)
+    """A line with the right check but whatever body the test wants (valid or not)."""
+    return P.checked(body)
 
 
 def check_bad_input_replies(link: "FirmwareLink", idle_timeout_s: float) -> None:
@@ -165,7 +165,9 @@ def check_bad_input_replies(link: "FirmwareLink", idle_timeout_s: float) -> None
 
     assert link.send(P.QueryStatus()).kind == "ok"               # N0
     assert link.send_raw(b"\x01\xfegarbage#$%\n") == P.Reply("rs", 1)
-    assert link.send_raw(b"N1 S*00\n") == P.Reply("rs", 1)       # bad checksum
+    assert link.send_raw(b"N1 S*0000\n") == P.Reply("rs", 1)     # bad checksum
+    good = framed(b"N1 S")
+    assert link.send_raw(good[:-6] + b"#" + good[-5:]) == P.Reply("rs", 1)  # wrong parity
     assert link.send_raw(framed(b"N7 S")) == P.Reply("rs", 1)    # wrong sequence
     r = link.send_raw(b"N1 L " + b"1" * 70 + b"\n")
     assert (r.kind, r.code) == ("error", 2)                      # over-long

@@ -2,6 +2,7 @@
  * reply per line; the supervisor for alarms, aborts, overruns and status. */
 #include <avr/pgmspace.h>
 #include <string.h>
+#include <util/crc16.h>
 
 #define PROTO_TABLES
 #include "commands.h"
@@ -9,6 +10,10 @@
 #include "protocol.h"
 #include "serial.h"
 #include "stepper.h"
+
+#if PROTO_CRC16_POLY != 0x1021 || PROTO_CRC16_INIT != 0xFFFF
+#error "the line check is avr-libc's _crc_xmodem_update started at 0xFFFF (CRC-16/CCITT-FALSE)"
+#endif
 
 /* `make -C firmware PROFILE=1`: Uno pin A1 is high while the main loop handles
  * one command line (checks, parse, plan, reply queued), A2 while the planner
@@ -66,14 +71,14 @@ static void reply_error(uint8_t code, uint8_t with_seq, uint16_t seq)
         serial_print_P(pl_violation.above ? PSTR(", above ") : PSTR(", below "));
         serial_print_int(pl_violation.limit);
     }
-    serial_write('\n');
+    serial_end_line();
 }
 
 static void reply_resend(void)
 {
     serial_print_P(PSTR("rs N"));
     serial_print_int(expected_seq);
-    serial_write('\n');
+    serial_end_line();
 }
 
 static void print_banner(void)
@@ -120,7 +125,7 @@ static void print_status(void)
 void commands_banner(void)
 {
     print_banner();
-    serial_write('\n');
+    serial_end_line();
 }
 
 static uint8_t hex_value(char c)
@@ -151,18 +156,27 @@ static const char *parse_int(const char *p, int32_t *out)
 
 static void handle_line(char *s, uint8_t len)
 {
-    if (len < 4 || s[len - 3] != '*') {
+    /* The check: the separator's parity catches every lost or doubled byte, the
+     * CRC-16 (over text and separator) every error of up to three bits. */
+    if (len <= PROTO_CHECK_BYTES) {
         reply_resend();
         return;
     }
-    uint8_t hi = hex_value(s[len - 2]), lo = hex_value(s[len - 1]), crc = 0;
-    for (uint8_t i = 0; i < len - 3; i++)
-        crc = pgm_read_byte(&proto_crc8_table[crc ^ (uint8_t)s[i]]);
-    if (hi > 15 || lo > 15 || crc != (uint8_t)(hi << 4 | lo)) {
+    uint8_t text_len = len - PROTO_CHECK_BYTES;
+    uint8_t bad = s[text_len] != (text_len & 1 ? PROTO_CHECK_SEP_ODD : PROTO_CHECK_SEP_EVEN);
+    uint16_t crc = PROTO_CRC16_INIT, check = 0;
+    for (uint8_t i = 0; i <= text_len; i++)
+        crc = _crc_xmodem_update(crc, (uint8_t)s[i]);
+    for (uint8_t i = text_len + 1; i < len; i++) {
+        uint8_t v = hex_value(s[i]);
+        bad |= v > 15;
+        check = check << 4 | (v & 0xF);
+    }
+    if (bad || crc != check) {
         reply_resend();
         return;
     }
-    s[len - 3] = 0;
+    s[text_len] = 0;
     const char *p = s + 1;
     uint32_t seq = 0;
     uint8_t digits = 0;
@@ -260,7 +274,7 @@ static void execute_pending(void)
     } else if (cmd == CMD_CONFIG) {
         serial_print_P(PSTR(" config " CFG_VALUES_TEXT));
     }
-    serial_write('\n');
+    serial_end_line();
 }
 
 static void enter_alarm(uint8_t code)
@@ -268,7 +282,7 @@ static void enter_alarm(uint8_t code)
     alarm_code = code;
     planner_resync();
     print_error_head(code, 0, 0, 1);
-    serial_write('\n');
+    serial_end_line();
 }
 
 void commands_service(void)
@@ -277,7 +291,7 @@ void commands_service(void)
     if (serial_status_request) {
         serial_status_request = 0;
         print_status();
-        serial_write('\n');
+        serial_end_line();
     }
     if (st_phase == PHASE_ALARM && stepper_flush())
         enter_alarm(st_alarm_code);
@@ -289,7 +303,7 @@ void commands_service(void)
     if (st_overruns != reported_overruns) {
         reported_overruns = st_overruns;
         print_error_head(ERR_STEP_OVERRUN, 0, 0, 1);
-        serial_write('\n');
+        serial_end_line();
     }
     stepper_service();
     if (!pending.waiting) {

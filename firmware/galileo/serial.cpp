@@ -1,5 +1,6 @@
 #include <avr/interrupt.h>
 #include <avr/io.h>
+#include <util/crc16.h>
 
 #include "protocol.h"
 #include "serial.h"
@@ -13,6 +14,8 @@ static volatile uint8_t rx_buf[RX_SLOTS];
 static volatile uint8_t rx_head, rx_tail;
 static uint8_t tx_buf[TX_SLOTS];
 static uint8_t tx_head, tx_tail;
+static uint16_t tx_crc = PROTO_CRC16_INIT; /* over the line being written */
+static uint8_t tx_count;                   /* its bytes so far: the separator's parity */
 static char line_buf[PROTO_MAX_LINE_BYTES];
 static uint8_t line_len, line_too_long;
 
@@ -112,13 +115,34 @@ void serial_service(void)
     }
 }
 
-void serial_write(char c)
+static void tx_put(char c)
 {
     uint8_t next = tx_head + 1 == TX_SLOTS ? 0 : tx_head + 1;
     while (next == tx_tail)
         serial_service();
     tx_buf[tx_head] = c;
     tx_head = next;
+}
+
+void serial_write(char c)
+{
+    tx_crc = _crc_xmodem_update(tx_crc, (uint8_t)c);
+    tx_count++;
+    tx_put(c);
+}
+
+void serial_end_line(void)
+{
+    char sep = tx_count & 1 ? PROTO_CHECK_SEP_ODD : PROTO_CHECK_SEP_EVEN;
+    uint16_t crc = _crc_xmodem_update(tx_crc, (uint8_t)sep);
+    tx_put(sep);
+    for (int8_t shift = 12; shift >= 0; shift -= 4) {
+        uint8_t v = (crc >> shift) & 0xF;
+        tx_put(v < 10 ? '0' + v : 'A' - 10 + v);
+    }
+    tx_put('\n');
+    tx_crc = PROTO_CRC16_INIT;
+    tx_count = 0;
 }
 
 void serial_print(const char *s)

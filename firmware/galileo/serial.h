@@ -21,6 +21,8 @@ void serial_service(void); /* move one byte to the transmitter if it is free */
 /* A complete line (without newline, NUL-terminated) or an over-long one. */
 uint8_t serial_read_line(char **line, uint8_t *len);
 void serial_write(char c);
+/* The line's check (separator, CRC-16 in hex) and its newline (docs/protocol.md). */
+void serial_end_line(void);
 void serial_print(const char *s);
 void serial_print_P(const char *s); /* a string in flash (PSTR) */
 void serial_print_int(int32_t v);

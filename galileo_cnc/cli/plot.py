@@ -3,6 +3,9 @@
 Reads the file, applies the offset (`auto`: the proposed one, `none`, or X,Y in
 mm), plans, streams with a one-line progress display, announces pen changes
 (waits for Enter unless --yes), and can write the step trace and a preview.
+`--trace` writes the steps the machine reports where it can (sim://: its reference's own
+stepper; simavr://: the step pins the harness recorded) and says so; from a real board,
+which cannot report its steps, it writes the reference's trace of the job and says that.
 Exit codes: 0 done, 1 bad input or refused job, 3 port lost (resume with
 --resume), 130 stopped with Ctrl-C (the machine ramped down).
 """
@@ -18,6 +21,7 @@ from typing import TextIO
 from galileo_cnc.config.profile import Profile
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.job import Job
+from galileo_cnc.machine.trace import Trace
 from galileo_cnc.machine.timing import duration_text
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
 from galileo_cnc.plan.ink.inking import mm_text
@@ -27,6 +31,7 @@ from galileo_cnc.stream.journal import Journal
 from galileo_cnc.stream.resume import plan_resume
 from galileo_cnc.stream.streamer import JobStreamer, PenChange, Progress, StreamResult
 from galileo_cnc.transport.link import MachineLink, PortGone
+from galileo_cnc.transport.port import with_step_trace
 
 EXIT_OK, EXIT_FAILED, EXIT_PORT_LOST, EXIT_INTERRUPTED = 0, 1, 3, 130
 
@@ -84,7 +89,9 @@ class PlotOptions:
     units: str | None = None
 
 
-def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.stderr) -> int:
+def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None = None) -> int:
+    # the streams of the call, not of the import (a test may have replaced them since)
+    out = out if out is not None else sys.stdout
     profile = options.profile
     journal = Journal.default()
     progress = TextProgress(out)
@@ -95,8 +102,11 @@ def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.s
                             options=PlanOptions(mode=options.mode, file_order=not options.group,
                                                 layers=options.layers, units=options.units))
 
-    link = MachineLink.open(profile.port, profile.baud, profile.config, profile.path)
+    port = with_step_trace(profile.port) if options.trace and profile.port else profile.port
+    link = MachineLink.open(port, profile.baud, profile.config, profile.path)
     link.on_message = progress.message
+    steps = ReportedSteps(link)
+    outputs = None
     try:
         found = " (no board found)" if profile.port is None and link.simulated else ""
         out.write(link.describe() + found + "\n")
@@ -145,10 +155,12 @@ def run_plot(options: PlotOptions, out: TextIO = sys.stdout, err: TextIO = sys.s
                              f"({result.confirmed} of {result.total} commands confirmed)")
             return EXIT_INTERRUPTED
         progress.message(f"\aprocess has finished in {duration_text(time.monotonic() - began)}")
-        _write_outputs(options, link, job, program, offset, out,
-                       planned.copper if planned is not None else None)
+        steps.job_done(link)
+        outputs = (job, program, offset, planned.copper if planned is not None else None)
     finally:
         link.close()
+    if outputs is not None:             # after closing: simavr's pin record is complete then
+        _write_outputs(options, link, steps, *outputs, out=out)
     return EXIT_OK
 
 
@@ -162,21 +174,70 @@ def _say_ink(ink, out: TextIO) -> None:
         out.write(f"{warning}\n")
 
 
-def _write_outputs(options: PlotOptions, link: MachineLink, job: Job, program: Program,
-                   offset: tuple[int, int], out: TextIO, copper=None) -> None:
+def _write_outputs(options: PlotOptions, link: MachineLink, steps: ReportedSteps, job: Job,
+                   program: Program, offset: tuple[int, int], copper=None, *,
+                   out: TextIO) -> None:
     """The step trace and the preview; `copper` (ink mode) colours what the ink
-    left bare and drew outside."""
+    left bare and drew outside. The preview draws the reference's trace (the plan)."""
     if not (options.trace or options.preview):
         return
     trace = job_trace(link, job)
     if options.trace:
-        trace.save(options.trace)
-        out.write(f"step trace: {options.trace} ({len(trace)} steps)\n")
+        reported = steps.trace()
+        if reported is not None:
+            reported.save(options.trace)
+            out.write(f"step trace: {options.trace} ({len(reported)} steps, as "
+                      f"{steps.source} reported them)\n")
+        else:
+            trace.save(options.trace)
+            out.write(f"step trace: {options.trace} ({len(trace)} steps): the reference "
+                      f"machine's, since {link.port_name} cannot report its steps\n")
     if options.preview:
         from galileo_cnc.preview.render import render_preview
         info = render_preview(program, trace, link.config, offset, options.preview,
                               job=job, copper=copper)
         out.write(f"preview: {options.preview}: {info.summary()}\n")
+
+
+class ReportedSteps:
+    """The steps the machine behind a link reports: sim:// its reference machine's own
+    stepper (from the step count at the job's start: a named machine may have moved
+    before), simavr:// the step and direction pin edges the harness recorded since the
+    board's power-on (complete once the port is closed). None from a real board."""
+
+    def __init__(self, link: MachineLink):
+        handle = link.handle
+        self._machine = getattr(handle, "machine", None)
+        board = getattr(handle, "board", None)
+        self._board = board if board is not None and board.records_steps else None
+        self._first = len(self._machine.trace()) if self._machine is not None else 0
+        self._config = link.config
+        self._trace: Trace | None = None
+        self._final: tuple[int, int, int] | None = None
+        self.source = ("the simulated machine" if self._machine is not None else
+                       "the firmware's step pins in simavr" if self._board is not None else "")
+
+    def job_done(self, link: MachineLink) -> None:
+        """While the port is still open: the sim's steps, or where the board stands."""
+        if self._machine is not None:
+            whole = self._machine.trace()
+            self._trace = Trace(whole.tick[self._first:], whole.axis[self._first:],
+                                whole.dir[self._first:], whole.final_position,
+                                whole.total_ticks)
+        elif self._board is not None:
+            status = link.status()
+            self._final = (status.x_steps, status.y_steps, status.z_steps)
+
+    def trace(self) -> Trace | None:
+        """After the port is closed: the reported steps, None if nothing reports them."""
+        if self._board is not None and self._final is not None and self._trace is None:
+            c = self._config
+            pins = ((c.x_step_pin, c.x_dir_pin), (c.y_step_pin, c.y_dir_pin),
+                    (c.z_step_pin, c.z_dir_pin))
+            tick, axis, direction = self._board.step_trace(pins)
+            self._trace = Trace(tick, axis, direction, self._final,
+                                int(tick[-1]) if len(tick) else 0)
+        return self._trace
 
 
 def job_trace(link: MachineLink, job: Job):

@@ -1,17 +1,19 @@
-"""Lines on the wire: framing with sequence and CRC-8, encoding and decoding commands,
-and reading the firmware's replies (docs/protocol.md).
+"""Lines on the wire: the check both sides put on every line (CRC-16 behind a separator
+that says the length's parity), framing with the sequence number, encoding and decoding
+commands, and reading the firmware's replies (docs/protocol.md).
 """
 
 from __future__ import annotations
 
+import binascii
 import re
 from dataclasses import dataclass
 from typing import NamedTuple
 
 from galileo_cnc.errors import GalileoError
-from galileo_cnc.protocol.spec import (BANNER_NAME, BY_MNEMONIC, COMMANDS, CRC8_TABLE,
-                                       ERROR_BY_CODE, FLAG, MAX_LINE_BYTES, PROTOCOL_VERSION,
-                                       SEQ_MAX, STATES, CommandSpec, ErrorSpec)
+from galileo_cnc.protocol.spec import (BANNER_NAME, BY_MNEMONIC, CHECK_BYTES, CHECK_SEPARATORS,
+                                       COMMANDS, CRC16_INIT, ERROR_BY_CODE, FLAG, MAX_LINE_BYTES,
+                                       PROTOCOL_VERSION, SEQ_MAX, STATES, CommandSpec, ErrorSpec)
 
 
 # ---- errors on the host ---------------------------------------------------------------
@@ -34,25 +36,45 @@ class LineRejected(ProtocolError):
         super().__init__(message)
 
 
+# ---- the check on every line ----------------------------------------------------------
+def crc16(data: bytes) -> int:
+    """CRC-16/CCITT-FALSE (check value 0x29B1 for `123456789`)."""
+    return binascii.crc_hqx(data, CRC16_INIT)
+
+
+def checked(text: bytes) -> bytes:
+    """`text` as a line on the wire, either way: text, separator, CRC-16 over both, newline."""
+    separator = CHECK_SEPARATORS[len(text) % 2]
+    return text + separator + b"%04X\n" % crc16(text + separator)
+
+
+_HEX4 = re.compile(rb"[0-9A-F]{4}")
+
+
+def unchecked(line: bytes) -> bytes | None:
+    """The text of a received line (newline and `\r` removed) if its check holds, else
+    None: the firmware's test, step for step (a separator of the wrong parity, hex
+    digits that are not four upper-case ones, or a CRC that differs)."""
+    n = len(line) - CHECK_BYTES
+    if n < 1 or line[n:n + 1] != CHECK_SEPARATORS[n % 2]:
+        return None
+    digits = line[n + 1:]
+    if not _HEX4.fullmatch(digits) or int(digits, 16) != crc16(line[:n + 1]):
+        return None
+    return line[:n]
+
+
 # ---- framing ----
-def crc8(data: bytes) -> int:
-    crc = 0
-    for byte in data:
-        crc = CRC8_TABLE[crc ^ byte]
-    return crc
-
-
 def next_seq(seq: int) -> int:
     """The sequence number after `seq` (1 .. SEQ_MAX, then 1 again)."""
     return 1 if seq >= SEQ_MAX else seq + 1
 
 
 def frame_line(seq: int, text: str) -> bytes:
-    """`N<seq> <text>*HH\\n`; raises ProtocolError if it would exceed MAX_LINE_BYTES."""
+    """`N<seq> <text>*HHHH\\n`; raises ProtocolError if it would exceed MAX_LINE_BYTES."""
     if not 0 <= seq <= SEQ_MAX:
         raise ProtocolError(f"sequence number {seq} outside 0..{SEQ_MAX}")
-    body = f"N{seq} {text}".encode("ascii")
-    line = body + b"*%02X\n" % crc8(body)
+    line = checked(f"N{seq} {text}".encode("ascii"))
     if len(line) > MAX_LINE_BYTES:
         raise ProtocolError(f"line of {len(line)} bytes exceeds {MAX_LINE_BYTES}: {line!r}")
     return line
@@ -110,13 +132,10 @@ def decode_line(line: bytes, expected_seq: int | None = None) -> DecodedLine:
     line = line.rstrip(b"\n").replace(b"\r", b"")
     if len(line) + 1 > MAX_LINE_BYTES:
         raise LineRejected("line too long", code=2)
-    n = len(line)
-    if n < 4 or line[n - 3:n - 2] != b"*":
+    text = unchecked(line)
+    if text is None:
         raise LineRejected("checksum", resend=True)
-    check = line[n - 2:]
-    if not re.fullmatch(rb"[0-9A-F]{2}", check) or int(check, 16) != crc8(line[:n - 3]):
-        raise LineRejected("checksum", resend=True)
-    body = line[:n - 3].decode("latin-1")
+    body = text.decode("latin-1")
     m = _SEQUENCE.match(body)
     rest = body[m.end():] if m else ""
     if m is None or len(m.group(1)) > 5 or int(m.group(1)) > SEQ_MAX or not rest.startswith(" "):
@@ -216,9 +235,25 @@ def _banner(text: str) -> Banner | None:
 
 
 def parse_reply(line: bytes | str) -> Reply:
-    """Decode one firmware line; raises ProtocolError for anything undocumented."""
-    text = line.decode("ascii", "replace") if isinstance(line, bytes) else line
-    text = text.rstrip("\r\n")
+    """Decode one line from the firmware; ProtocolError for a line whose check fails
+    (garbled on the way: better lost than believed) or that is undocumented.
+
+    A banner without a valid check is still read when it names another protocol
+    version (before 4 replies had none), so that `check_banner` can say what to do.
+    """
+    raw = line.encode("latin-1") if isinstance(line, str) else line
+    raw = raw.rstrip(b"\n").replace(b"\r", b"")
+    text = unchecked(raw)
+    if text is None:
+        old = _banner(raw.decode("ascii", "replace"))
+        if old is not None and old.protocol_version != PROTOCOL_VERSION:
+            return Reply("banner", text=raw.decode("ascii"), banner=old)
+        raise ProtocolError(f"garbled reply from the machine (its check fails): {raw!r}")
+    return reply_of_text(text.decode("ascii", "replace"))
+
+
+def reply_of_text(text: str) -> Reply:
+    """Decode the text of a firmware line whose check held."""
     if (m := _OK_RE.match(text)) is not None:
         payload = m.group(2) or ""
         return Reply("ok", int(m.group(1)), text=payload, status=_status(payload),

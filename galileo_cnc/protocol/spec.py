@@ -17,14 +17,22 @@ from galileo_cnc.job import (ArcTo, Dwell, EndJob, Flash, Home, Jog, LineTo, Mot
 # 2: the banner names the build's config; `C` lists it. 3: real-time bytes that no
 # single-bit error of line text can produce; a refused line is not counted (its number
 # is expected again), so nothing behind it runs and status `N` shows the refusal.
-PROTOCOL_VERSION = 3
+# 4: CRC-16 in place of CRC-8, a separator that says the length's parity (every lost or
+# doubled byte is caught), and the same check on every line the machine sends.
+PROTOCOL_VERSION = 4
 FIRMWARE_VERSION = "0.1.0"
 BANNER_NAME = "galileo-cnc"
 MAX_LINE_BYTES = 64          # including the newline
 RX_BUFFER_BYTES = 128        # the firmware's receive ring; the host counts characters against it
 QUEUE_BLOCKS = 8             # planned blocks the firmware queues (a Rapid is two, a Flash three)
 SEQ_MAX = 65535              # after SEQ_MAX comes 1; N0 is always accepted and restarts at 1
-CRC8_POLY = 0x07             # CRC-8/SMBUS: x^8 + x^2 + x + 1, init 0, no reflection
+CRC16_POLY = 0x1021          # CRC-16/CCITT-FALSE: x^16 + x^12 + x^5 + 1,
+CRC16_INIT = 0xFFFF          # init 0xFFFF, no reflection (avr-libc's _crc_xmodem_update)
+#: The byte before the check: `*` after text of an even number of bytes, `#` after an odd
+#: one, so a single lost, doubled or inserted byte (a UART's usual failure, which a CRC
+#: catches only 65 535 times in 65 536) always shows. They lie two bits apart.
+CHECK_SEPARATORS = (b"*", b"#")
+CHECK_BYTES = 5              # separator and four upper-case hex digits
 
 # Real-time bytes: acted on in the receive interrupt, never part of a line. Line text is
 # printable ASCII and `\n`; every byte one bit away from it is barred (GRBL's `!` is a
@@ -165,17 +173,3 @@ ERRORS = (
 )
 ERROR_BY_CODE = {e.code: e for e in ERRORS}
 ERROR_BY_NAME = {e.name: e for e in ERRORS}
-
-
-# ---- CRC-8 -------------------------------------------------------------------
-def _crc8_table() -> tuple[int, ...]:
-    table = []
-    for byte in range(256):
-        crc = byte
-        for _ in range(8):
-            crc = ((crc << 1) ^ CRC8_POLY) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
-        table.append(crc)
-    return tuple(table)
-
-
-CRC8_TABLE = _crc8_table()

@@ -220,16 +220,17 @@ class SimulatedMachine:
         block.first, block.end = self._timeline.append(block.items, now)
 
     def _start_hold(self) -> None:
-        """`!`: decelerate from the current clock and stop (docs/motion.md §6)."""
+        """Hold (RT_HOLD): decelerate from the current clock and stop (docs/motion.md §6)."""
         now = self._clock.now()
         self._advance(now)
         if not self._timeline.held:
             self._timeline.hold(self._timeline.end if now is None else now)
 
     def _resume(self) -> None:
-        """`~`: the rest of the move with a fresh ramp, then the blocks queued meanwhile."""
+        """Resume (RT_RESUME): the rest of the move with a fresh ramp, then the blocks
+        queued meanwhile."""
         if not self._timeline.held or self._aborting:
-            return                          # the firmware ignores `~` during an abort
+            return                          # the firmware ignores a resume during an abort
         now = self._clock.now()
         stop, shift = self._timeline.resume(now)
         for block in self._queue:
@@ -280,7 +281,8 @@ class SimulatedMachine:
 
     # ---- lines --------------------------------------------------------------------------
     def _emit(self, text: str) -> None:
-        self._output(text.encode("ascii") + b"\n")
+        """One line to the host, with the check the firmware's serial_end_line adds."""
+        self._output(P.checked(text.encode("ascii")))
 
     def _snapshot(self) -> Snapshot:
         m = self.machine

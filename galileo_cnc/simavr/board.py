@@ -349,6 +349,11 @@ class SimulatedBoard:
         deepest write; None unless started with stack_paint and stopped."""
         return self.stack.get("free")
 
+    @property
+    def records_steps(self) -> bool:
+        """Started with a trace: its pins' edges can be read (complete once stopped)."""
+        return self._want_trace
+
     def trace(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(cycle int64, pin int8, level int8) of every traced edge so far."""
         if self._edges is not None:

@@ -1,6 +1,6 @@
 """pyserial URL handler for `simavr://`: the real firmware, running in simavr, as a port.
 
-    simavr://[?elf=PATH&realtime=0|1]
+    simavr://[?elf=PATH&realtime=0|1&trace=0|1]
 
 Opening the port starts the project's harness (galileo_cnc.simavr.board.SimulatedBoard,
 docs/harness.md; found by $GALILEO_SIMAVR, PATH or the checkout) on the firmware ELF
@@ -8,7 +8,9 @@ docs/harness.md; found by $GALILEO_SIMAVR, PATH or the checkout) on the firmware
 built by `make -C firmware`) and opens the pseudo-terminal its
 UART0 is bridged to; closing the port stops the board. `realtime=1` (the default)
 paces the simulated chip to wall time, as a board runs; `realtime=0` lets simavr
-run as fast as it can. Found by `serial.serial_for_url` once "galileo_cnc.simavr" is
+run as fast as it can. `trace=1` records the step and direction pins' edges
+(`port.board.step_trace()`, readable after the port is closed: `plot --trace`).
+Found by `serial.serial_for_url` once "galileo_cnc.simavr" is
 in `serial.protocol_handler_packages` (galileo_cnc.transport.port adds it).
 """
 
@@ -23,24 +25,26 @@ from serial.serialutil import SerialException
 from galileo_cnc.simavr.board import (SimulatedBoard, SimulatedBoardError, firmware_missing_message,
                                       firmware_path, harness_available, harness_missing_message)
 
-_FORM = "simavr://[?elf=PATH&realtime=0|1]"
+_FORM = "simavr://[?elf=PATH&realtime=0|1&trace=0|1]"
 
 
-def parse_url(url: str) -> tuple[Path | None, bool]:
-    """(ELF, realtime) from `simavr://[?elf=PATH&realtime=0|1]`."""
+def parse_url(url: str) -> tuple[Path | None, bool, bool]:
+    """(ELF, realtime, trace) from `simavr://[?elf=PATH&realtime=0|1&trace=0|1]`."""
     parts = urllib.parse.urlsplit(url)
     if parts.scheme != "simavr" or parts.netloc or parts.path:
         raise SerialException(f"expected a URL of the form {_FORM}, got {url!r}")
-    elf, realtime = firmware_path(), True
+    elf, realtime, trace = firmware_path(), True, False
     for option, values in urllib.parse.parse_qs(parts.query, True).items():
         if option == "elf":
             elf = Path(values[0])
         elif option == "realtime" and values[0] in ("0", "1"):
             realtime = values[0] == "1"
+        elif option == "trace" and values[0] in ("0", "1"):
+            trace = values[0] == "1"
         else:
             raise SerialException(f"simavr://: bad option {option}={values[0]!r} "
                                   f"(expected {_FORM})")
-    return elf, realtime
+    return elf, realtime, trace
 
 
 class Serial(PosixSerial):
@@ -52,7 +56,7 @@ class Serial(PosixSerial):
 
     def open(self):
         url = self._port
-        elf, realtime = parse_url(url)
+        elf, realtime, trace = parse_url(url)
         if elf is None:        # say what else is missing too, so one look fixes both
             harness = "" if harness_available() else f"; and {harness_missing_message()}"
             raise SerialException(f"simavr://: {firmware_missing_message()}{harness}")
@@ -60,7 +64,7 @@ class Serial(PosixSerial):
             raise SerialException(f"simavr://: no firmware at {elf}: build it with "
                                   f"`make -C firmware` (in a checkout) or pass ?elf=PATH")
         try:
-            self.board = SimulatedBoard(elf, trace=False, realtime=realtime).start()
+            self.board = SimulatedBoard(elf, trace=trace, realtime=realtime).start()
         except SimulatedBoardError as exc:
             raise SerialException(f"simavr://: {exc}") from exc
         self._port = self.portstr = self.board.port   # the pty the harness bridges UART0 to

@@ -259,13 +259,13 @@ class JobStreamer:
 
     def _await_reply(self) -> P.Reply | None:
         """The next reply; on a stall, settle the wire by the machine's status."""
-        waited = 0.0
+        waited, poll = 0.0, min(0.2, self.stall_s)
         while not self._abort.is_set():
             self._check_reset()
-            reply = self.link.next_reply(0.2)
+            reply = self.link.next_reply(poll)
             if reply is not None:
                 return reply
-            waited += 0.2
+            waited += poll
             if waited >= self.stall_s and (self._unconfirmed or self._wire):
                 status = self.link.status()
                 if self.link.standing(status):
@@ -410,7 +410,7 @@ class JobStreamer:
                 raise StreamAborted("stopped by the user")
             if self.link.standing(self.link.status()):
                 return
-            time.sleep(0.05)
+            time.sleep(min(0.05, self.stall_s))
 
     def _stop_machine(self) -> None:
         """Ramp down and unlock; replies to lines in flight are collected."""

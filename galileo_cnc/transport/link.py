@@ -8,10 +8,12 @@ and keeps a reader thread that sorts what arrives: line replies (`ok`, `error`,
 
 A port that vanishes, or stops answering the real-time status query, raises
 `PortGone` within SILENT_S: a motion line may legitimately wait unanswered while
-the machine's queue is full, so silence is judged by `?`, never by line replies.
-Every wait is bounded: `?` is asked again when its status does not come (a garbled
-status line ends nothing), and a line whose reply is lost is settled by the status's
-`N` (accepted: done; not accepted and nothing queued: sent again), never waited for.
+the machine's queue is full, so silence is judged by the status query (RT_STATUS),
+never by line replies. Every line from the machine carries a check (protocol 4): a
+garbled one is dropped, never believed. Every wait is bounded: the status is asked
+again when it does not come or a garbled line came instead, and a line whose reply
+is lost is settled by the status's `N` (accepted: done; not accepted and nothing
+queued: sent again), never waited for.
 """
 
 from __future__ import annotations
@@ -37,7 +39,7 @@ POLL_S = 1.0
 SILENT_S = 3.0
 #: The greeting's reply comes after any the machine still owed the last session.
 GREETING_S = 10.0
-#: `?` is sent again when no status came for this long (the reply was garbled or lost).
+#: The status query is sent again when no status came for this long (lost or garbled).
 STATUS_RETRY_S = 0.5
 #: A line with no reply for this long is settled by the status (see send_protocol).
 REPLY_S = 2.0
@@ -112,6 +114,7 @@ class MachineLink:
         self._status_cond = threading.Condition()
         self._status: P.Status | None = None
         self._status_count = 0
+        self._garbled_count = 0        # lines whose check failed (one may be our status)
         self._alarm: P.Reply | None = None
         self._failure: Exception | None = None
         self._write_lock = threading.Lock()
@@ -242,6 +245,11 @@ class MachineLink:
                      f"from the profile); jobs are refused until it is reflashed")
         return line
 
+    @property
+    def handle(self) -> serial.SerialBase:
+        """The pyserial port (sim:// has `.machine`, simavr:// `.board`)."""
+        return self._port
+
     def close(self) -> None:
         self._closed = True
         try:
@@ -278,6 +286,11 @@ class MachineLink:
         try:
             reply = P.parse_reply(raw)
         except P.ProtocolError:
+            # a garbled line is dropped, never believed; if it was the status being
+            # waited for, `status()` asks again at once
+            with self._status_cond:
+                self._garbled_count += 1
+                self._status_cond.notify_all()
             text = raw.decode("ascii", "replace").strip()
             if text:
                 self._message(f"ignored from the machine: {text!r}")
@@ -333,7 +346,7 @@ class MachineLink:
 
     def next_reply(self, timeout_s: float | None = None) -> P.Reply | None:
         """The next line reply; None after `timeout_s`. Raises PortGone when the port
-        died or stays silent to `?` (checked every POLL_S while waiting)."""
+        died or stays silent to the status query (asked every POLL_S while waiting)."""
         deadline = None if timeout_s is None else time.monotonic() + timeout_s
         while True:
             wait = POLL_S if deadline is None else min(POLL_S, deadline - time.monotonic())
@@ -379,13 +392,22 @@ class MachineLink:
         self.write(line)
         while True:
             reply = self.next_reply(self.reply_s)
-            if reply is None:
-                if deadline is not None and time.monotonic() > deadline:
-                    raise PortGone(f"{self.port_name}: no reply to {line.decode().strip()!r}")
+            if reply is None and deadline is not None and time.monotonic() > deadline:
+                raise PortGone(f"{self.port_name}: no reply to {line.decode().strip()!r}")
+            stray_rs = reply is not None and reply.kind == "rs" \
+                and reply.seq not in (seq, P.next_seq(seq))
+            if reply is None or stray_rs:
+                # no reply, or `rs` for another number: a late one to lines a job had in
+                # flight, or the machine's count was reset. Never renumber from the `rs`
+                # itself (a late `ok` to that old number would pass for ours): the
+                # status says what became of the line and which number comes next.
                 status = self.status()
                 if status.last_seq == seq:
                     if not payload:
                         return P.Reply("ok", seq)           # accepted, its `ok` was lost
+                    send_again(renumber=True)
+                elif stray_rs and status.last_seq != previous_seq(seq):
+                    self.seq = status.last_seq              # the count was reset
                     send_again(renumber=True)
                 elif status.queue_blocks == 0 and status.state != "run":
                     send_again(renumber=False)              # lost on the way, or refused
@@ -406,14 +428,10 @@ class MachineLink:
             if reply.kind == "rs":
                 if reply.seq == seq:
                     send_again(renumber=False)              # our line was garbled
-                elif reply.seq == P.next_seq(seq):
+                else:
                     # a copy of a line the machine had accepted: ours went through
                     if not payload:
                         return P.Reply("ok", seq)
-                    send_again(renumber=True)
-                else:
-                    # the firmware expects another number (its count was reset): renumber
-                    self.seq = previous_seq(reply.seq)
                     send_again(renumber=True)
 
     def send(self, command: Command, timeout_s: float | None = None) -> P.Reply:
@@ -422,16 +440,19 @@ class MachineLink:
 
     # ---- real-time ----------------------------------------------------------------------
     def status(self, timeout_s: float = SILENT_S) -> P.Status:
-        """A fresh status (real-time status byte, asked again every `status_retry_s`:
-        a garbled or lost status line ends nothing); PortGone when none comes in
-        `timeout_s`."""
+        """A fresh status (real-time status byte, asked again after `status_retry_s`,
+        then twice as long each time up to STATUS_RETRY_S, or as soon as a garbled
+        line arrives: a garbled or lost status line ends nothing); PortGone when none
+        comes in `timeout_s`."""
         with self._status_cond:
             count = self._status_count
         deadline = time.monotonic() + timeout_s
+        retry_s = self.status_retry_s
         while True:
             self.write(P.RT_STATUS)
-            ask_again = time.monotonic() + self.status_retry_s
+            ask_again = time.monotonic() + retry_s
             with self._status_cond:
+                garbled = self._garbled_count
                 while self._status_count == count:
                     if self._failure is not None:
                         raise self._failure
@@ -439,7 +460,11 @@ class MachineLink:
                     if now >= deadline:
                         raise PortGone(f"{self.port_name}: no status reply for "
                                        f"{timeout_s:g} s")
+                    if self._garbled_count != garbled:
+                        break                   # answered, garbled: ask again now
                     if now >= ask_again:
+                        # no answer: a slow line must not fill up with status lines
+                        retry_s = min(2 * retry_s, STATUS_RETRY_S)
                         break
                     self._status_cond.wait(min(deadline, ask_again) - now)
                 else:

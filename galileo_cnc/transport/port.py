@@ -42,6 +42,14 @@ def with_sim_config(url_or_name: str, config_path) -> str:
     return url_or_name + ("&" if "?" in url_or_name else "?") + f"config={config_path}"
 
 
+def with_step_trace(url_or_name: str) -> str:
+    """`simavr://` recording its step pins, for a trace of what the firmware stepped
+    (sim:// always knows its steps; a board cannot report them)."""
+    if not url_or_name.lower().startswith(SIMAVR_URL) or "trace=" in url_or_name:
+        return url_or_name
+    return url_or_name + ("&" if "?" in url_or_name else "?") + "trace=1"
+
+
 def port_error_text(error: BaseException) -> str:
     """What went wrong with a port, in the user's words rather than pyserial's
     ('[Errno 2] could not open port /dev/x: [Errno 2] No such file or directory: ...')."""

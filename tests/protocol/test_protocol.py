@@ -1,4 +1,4 @@
-"""The wire protocol's one definition: framing, CRC-8, commands, replies, headers."""
+"""The wire protocol's one definition: the line check, framing, commands, replies, headers."""
 
 from pathlib import Path
 
@@ -30,31 +30,90 @@ commands = st.one_of(
 )
 
 
-def test_crc8_is_crc8_smbus():
-    assert P.crc8(b"123456789") == 0xF4  # the catalogue check value of CRC-8/SMBUS
-    assert P.crc8(b"") == 0
+def test_crc16_is_crc16_ccitt_false():
+    assert P.crc16(b"123456789") == 0x29B1  # the catalogue check value of CRC-16/CCITT-FALSE
+    assert P.crc16(b"") == 0xFFFF
 
 
-def test_crc8_catches_what_xor_misses():
-    # XOR is blind to order and to a dropped pair of equal bytes; CRC-8 is not.
+def test_crc16_catches_what_xor_misses():
+    # XOR is blind to order and to a dropped pair of equal bytes; the CRC is not.
     def xor(data):
         out = 0
         for b in data:
             out ^= b
         return out
     assert xor(b"N12 L 100 20") == xor(b"N21 L 100 20")
-    assert P.crc8(b"N12 L 100 20") != P.crc8(b"N21 L 100 20")
+    assert P.crc16(b"N12 L 100 20") != P.crc16(b"N21 L 100 20")
     assert xor(b"N5 L 100 0") == xor(b"N5 L 1 0")
-    assert P.crc8(b"N5 L 100 0") != P.crc8(b"N5 L 1 0")
+    assert P.crc16(b"N5 L 100 0") != P.crc16(b"N5 L 1 0")
 
 
 def test_frame_line_format():
-    line = P.encode_command(LineTo(100, -20), 7)
-    assert line == b"N7 L 100 -20*%02X\n" % P.crc8(b"N7 L 100 -20")
-    assert P.encode_command(ArcTo(1, 2, 3, 4, cw=True), 8).startswith(b"N8 CW 1 2 3 4*")
-    assert P.encode_command(ArcTo(1, 2, 3, 4, cw=False), 9).startswith(b"N9 CCW 1 2 3 4*")
-    assert P.encode_command(Flash(), 1).startswith(b"N1 FL*")
-    assert P.encode_command(Motors(True), 1).startswith(b"N1 M 1*")
+    line = P.encode_command(LineTo(100, -20), 7)        # 12 bytes of text: `*`
+    assert line == b"N7 L 100 -20*%04X\n" % P.crc16(b"N7 L 100 -20*")
+    line = P.encode_command(LineTo(100, -2), 7)         # 11 bytes: `#`
+    assert line == b"N7 L 100 -2#%04X\n" % P.crc16(b"N7 L 100 -2#")
+    assert P.encode_command(ArcTo(1, 2, 3, 4, cw=True), 8).startswith(b"N8 CW 1 2 3 4")
+    assert P.encode_command(ArcTo(1, 2, 3, 4, cw=False), 9).startswith(b"N9 CCW 1 2 3 4")
+    assert P.encode_command(Flash(), 1).startswith(b"N1 FL")
+    assert P.encode_command(Motors(True), 1).startswith(b"N1 M 1")
+    assert P.unchecked(line[:-1]) == b"N7 L 100 -2"
+    assert P.unchecked(line[:-6] + b"*" + line[-5:-1]) is None     # the other separator
+    assert P.unchecked(line[:-1].lower()) is None                  # hex is upper-case
+
+
+def _received(wire: bytes) -> list[bytes]:
+    """The lines a receiver assembles from `wire` (`\r` ignored, `\n` ends a line)."""
+    return [line for line in wire.replace(b"\r", b"").split(b"\n") if line]
+
+
+def _single_byte_errors(line: bytes):
+    """Every line one byte fault away from `line` (its newline kept): each byte dropped,
+    doubled, or with one of its bits flipped."""
+    text = line[:-1]
+    for i in range(len(text)):
+        yield text[:i] + text[i + 1:] + b"\n"
+        yield text[:i + 1] + text[i:] + b"\n"
+        for bit in range(8):
+            yield text[:i] + bytes((text[i] ^ 1 << bit,)) + text[i + 1:] + b"\n"
+
+
+def _real_lines() -> list[bytes]:
+    """What goes over the wire for the sample board, both ways: its commands at the
+    sequence numbers they get (and a few more), and the machine's replies to them."""
+    from galileo_cnc.machine import simulate
+    from galileo_cnc.plan.offsets import proposed_offset
+    from galileo_cnc.plan.planner import plan_program
+    from galileo_cnc.readers import read_file
+    program = read_file(Path(__file__).resolve().parents[2] / "samples" / "led-blinker.gbr")
+    job = plan_program(program, None, proposed_offset(program))
+    lines = []
+    for seq0 in (1, 9_990, P.SEQ_MAX - len(job)):
+        for k, cmd in enumerate(job.commands):
+            seq = seq0 + k
+            lines.append(P.encode_command(cmd, seq))
+            lines.append(P.checked(b"ok N%d" % seq))
+            lines.append(P.checked(b"rs N%d" % seq))
+    end = simulate(job.commands).final_position
+    lines.append(P.checked(P.Status("idle", *end, 0, len(job)).text().encode()))
+    lines.append(P.checked(P.format_error(5, 12, "X would reach -5, below 0").encode()))
+    return lines
+
+
+def test_every_single_byte_fault_of_real_lines_is_detected():
+    """A dropped or doubled byte (an overrun, a framing error) shifts the rest of the
+    line; one CRC-8 in 256 let it through (protocol 3). The separator's parity catches
+    every one of them and CRC-16 every flipped bit: no such line is believed."""
+    lines = _real_lines()
+    assert len(lines) > 400
+    believed, tried = [], 0
+    for line in lines:
+        assert P.unchecked(line[:-1]) is not None
+        for garbled in _single_byte_errors(line):
+            tried += 1
+            believed += [(line, garbled) for text in _received(garbled)
+                         if P.unchecked(text) is not None]
+    assert tried > 70_000 and believed == []
 
 
 @given(commands, st.integers(0, P.SEQ_MAX))
@@ -63,7 +122,7 @@ def test_every_command_round_trips_within_the_line_limit(cmd, seq):
     assert len(line) <= P.MAX_LINE_BYTES and line.endswith(b"\n")
     decoded = P.decode_line(line)
     assert (decoded.seq, decoded.command) == (seq, cmd)
-    assert line.split(b" ")[1].split(b"*")[0] == decoded.mnemonic.encode()
+    assert P.unchecked(line[:-1]).split(b" ")[1] == decoded.mnemonic.encode()
 
 
 def test_the_longest_line_fits():
@@ -81,7 +140,7 @@ def test_out_of_range_arguments_are_refused_on_the_host():
 
 
 @pytest.mark.parametrize("raw, resend, code", [
-    (b"N3 L 1 2*00\n", True, None),                 # wrong checksum
+    (b"N3 L 1 2*0000\n", True, None),               # wrong checksum
     (b"N3 L 1 2\n", True, None),                    # no checksum
     (b"garbage\n", True, None),
     (b"N" + b"9" * 70 + b"\n", False, 2),           # over-long
@@ -116,31 +175,38 @@ def test_sequence_rules():
 
 
 def test_parse_replies():
-    assert P.parse_reply(b"ok N12\n") == P.Reply("ok", 12)
-    r = P.parse_reply("error:5 N13 soft limit: X would reach -1, below 0")
+    def parse(text: str) -> P.Reply:
+        return P.parse_reply(P.checked(text.encode()))
+    assert P.parse_reply(b"ok N12*%04X\n" % P.crc16(b"ok N12*")) == P.Reply("ok", 12)
+    r = parse("error:5 N13 soft limit: X would reach -1, below 0")
     assert (r.kind, r.seq, r.code, r.error.name) == ("error", 13, 5, "SOFT_LIMIT")
     assert r.text.startswith("soft limit")
-    r = P.parse_reply("error:2 line too long")
+    r = parse("error:2 line too long")
     assert (r.kind, r.seq, r.code) == ("error", None, 2)
-    assert P.parse_reply("rs N4") == P.Reply("rs", 4)
-    r = P.parse_reply("alarm:11 end-stop not found")
+    assert parse("rs N4") == P.Reply("rs", 4)
+    r = parse("alarm:11 end-stop not found")
     assert r.kind == "alarm" and r.error.alarm
-    assert P.parse_reply("msg:13 step interrupt overrun, timing slipped").kind == "msg"
+    assert parse("msg:13 step interrupt overrun, timing slipped").kind == "msg"
     status = P.Status("run", -5, 7, 300, 3, 41)
-    r = P.parse_reply(status.text())
+    r = parse(status.text())
     assert r.kind == "status" and r.status == status
-    r = P.parse_reply("ok N2 " + status.text())
+    r = parse("ok N2 " + status.text())
     assert r.kind == "ok" and r.seq == 2 and r.status == status
     banner = P.Banner(P.FIRMWARE_VERSION, P.PROTOCOL_VERSION, P.RX_BUFFER_BYTES, P.QUEUE_BLOCKS,
                       "60d6fe2c")
-    r = P.parse_reply(banner.text() + "\r\n")
+    r = P.parse_reply(P.checked(banner.text().encode())[:-1] + b"\r\n")
     assert r.kind == "banner" and r.banner == banner
+    # a banner of protocol 3 or older carries no check: read, so that it can be refused
     old = P.parse_reply("galileo-cnc 0.1.0 proto 1 rx 128 queue 8")   # before the digest
     assert old.banner.protocol_version == 1 and old.banner.config_digest == ""
     with pytest.raises(P.ProtocolVersionError):
         P.check_banner(old.banner)
     with pytest.raises(P.ProtocolError):
-        P.parse_reply("hello there")
+        parse("hello there")
+    with pytest.raises(P.ProtocolError, match="check"):    # garbled: not believed
+        P.parse_reply(P.checked(b"ok N12").replace(b"N12", b"N13"))
+    with pytest.raises(P.ProtocolError, match="check"):
+        P.parse_reply(b"ok N12\n")                          # no check at all
 
 
 def test_host_refuses_other_protocol_versions():
@@ -193,6 +259,7 @@ def test_committed_config_header_is_generated():
 def test_protocol_header_carries_the_definition():
     text = protocol_header()
     assert f"#define PROTO_VERSION {P.PROTOCOL_VERSION}" in text
+    assert "#define PROTO_CHECK_SEP_EVEN '*'" in text and "#define PROTO_CHECK_SEP_ODD '#'" in text
     for e in P.ERRORS:
         assert f"ERR_{e.name} = {e.code}," in text and f'"{e.text}"' in text
     for spec in P.COMMANDS:

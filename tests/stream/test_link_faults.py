@@ -8,7 +8,6 @@ few tenths of a second is lost, not late.
 
 from __future__ import annotations
 
-import random
 import sys
 from pathlib import Path
 
@@ -79,13 +78,80 @@ class DropFirst:
         return getattr(self.port, name)
 
 
+class GarbleStatusAndOk:
+    """Turns every 4th `ok` and status line into a believable lie: another digit in its
+    `N` (as noise could), the check left as it was."""
+
+    def __init__(self, port):
+        self.port, self.garbled, self.count = port, [], 0
+
+    def readline(self):
+        line = self.port.readline()
+        if line.startswith((b"ok N", b"status:")):
+            self.count += 1
+            if self.count % 4 == 0:
+                at = line.rindex(b"N") + 1
+                digit = b"%d" % ((int(line[at:at + 1]) + 1) % 10)
+                line = line[:at] + digit + line[at + 1:]
+                self.garbled.append(line)
+        return line
+
+    def __getattr__(self, name):
+        return getattr(self.port, name)
+
+
+def test_a_garbled_ok_or_status_is_dropped_by_its_check_not_believed(planned):
+    program, job = planned
+    port = GarbleStatusAndOk(open_port(URL, timeout=0.1))
+    link = quick_link(port)
+    messages = []
+    link.on_message = messages.append
+    result = quick_streamer(link, job, program).run()
+    link.close()
+    assert result.completed and len(port.garbled) >= 10
+    ignored = [m for m in messages if m.startswith("ignored from the machine")]
+    assert len(ignored) == len(port.garbled)
+    assert named_machine("faults").trace().same_steps(simulate(job.commands))
+
+
+class LateReplies:
+    """Delivers `lines` (checked, as the machine wrote them long ago) before anything else
+    once `arm()` is called: replies a job's lines in flight drew after it stopped waiting."""
+
+    def __init__(self, port):
+        self.port, self.late = port, []
+
+    def arm(self, *texts: bytes) -> None:
+        self.late = [P.checked(t) for t in texts]
+
+    def readline(self):
+        return self.late.pop(0) if self.late else self.port.readline()
+
+    def __getattr__(self, name):
+        return getattr(self.port, name)
+
+
+def test_a_late_rs_and_ok_for_an_old_number_do_not_pass_for_the_next_line():
+    # protocol 3 renumbered a line to the number of any `rs`: a late `rs N2` made `U` go
+    # out as N2, and the late `ok N2` behind it confirmed a `U` the machine never took
+    port = LateReplies(open_port(URL, timeout=0.1))
+    link = quick_link(port)
+    for _ in range(3):
+        link.send(Jog(dx_steps=10, dy_steps=0, dz_steps=0))     # N1 .. N3 accepted
+    port.arm(b"rs N2", b"ok N2")
+    reply = link.send_protocol(P.Unlock())
+    status = link.status()
+    link.close()
+    assert (reply.kind, reply.seq) == ("ok", 4)
+    assert status.last_seq == 4 and status.x_steps == 30
+
+
 @pytest.mark.parametrize("position", range(1, 60, 3))
 def test_a_lost_reply_anywhere_is_settled_and_the_trace_is_the_reference(planned, position):
     # every 3rd reply position of the job (pen changes at 1, 3, 9...; the last
     # replies are EndJob's and the closing U's)
     program, job = planned
-    port = B.NoisyPort(open_port(URL, timeout=0.1), B.Fault(lose_reply=position),
-                       random.Random(0))
+    port = B.NoisyPort(open_port(URL, timeout=0.1), B.Fault(lose_reply=position), 0)
     link = quick_link(port)
     port.enabled = True
     result = quick_streamer(link, job, program).run()
