@@ -109,18 +109,11 @@ def _run_plot(args: argparse.Namespace) -> int:
         raise GalileoError(f"plot --check runs GRBL's check mode ($C): it needs a GRBL board, "
                            f"and {profile.port or 'sim://'} runs galileo-cnc firmware "
                            f"(info and preview check a file without a machine)")
-    extra = {}
-    if args.optimize:
-        # cli/plot.py's PlotOptions takes `optimize` once it hands it to PlanOptions
-        if "optimize" not in {f.name for f in dataclasses.fields(PlotOptions)}:
-            raise GalileoError("plot --optimize is not available yet (preview, convert and "
-                               "the console's getg take it)")
-        extra["optimize"] = True
     options = PlotOptions(args.file, profile, offset=args.offset,
                           margin_nm=round(args.margin * NM_PER_MM), yes=args.yes,
                           preview=args.preview, trace=args.trace, resume=args.resume,
                           group=not args.file_order, mode=args.mode,
-                          layers=_layers(args), units=args.units, **extra)
+                          layers=_layers(args), units=args.units, optimize=args.optimize)
     return run_plot(options)
 
 

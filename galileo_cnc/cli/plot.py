@@ -87,6 +87,7 @@ class PlotOptions:
     mode: str = "auto"
     layers: tuple[str, ...] = ()
     units: str | None = None
+    optimize: bool = False          # reorder pen-drawing G-code too (plan/gcode_order.py)
 
 
 def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None = None) -> int:
@@ -100,7 +101,8 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
         planned = plan_file(options.file, profile.config, options.offset,
                             margin_nm=options.margin_nm, on_progress=progress.planning,
                             options=PlanOptions(mode=options.mode, file_order=not options.group,
-                                                layers=options.layers, units=options.units))
+                                                layers=options.layers, units=options.units,
+                                                optimize=options.optimize))
 
     port = with_step_trace(profile.port) if options.trace and profile.port else profile.port
     link = MachineLink.open(port, profile.baud, profile.config, profile.path)

@@ -125,7 +125,8 @@ def test_a_pen_file_with_one_pen_height_one_feed_and_one_s_is_reordered(tmp_path
     assert plan_file(path, options=PlanOptions(optimize=True)).job.ordered
 
 
-def test_the_command_line_and_getg_take_optimize(bad, tmp_path, capsys):
+def test_the_command_line_and_getg_take_optimize(bad, tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path))      # plot's journal
     out = tmp_path / "out.nc"
     assert main(["convert", str(bad), "-o", str(out), "--optimize"]) == 0
     assert "paths ordered" in capsys.readouterr().out
@@ -138,6 +139,11 @@ def test_the_command_line_and_getg_take_optimize(bad, tmp_path, capsys):
         assert main(command[:1] + [str(mill), "--optimize"] + command[1:]) == 1
         assert "mill.nc:4:" in capsys.readouterr().err
     assert main(["convert", str(bad), "-o", str(out), "--optimize", "--file-order"]) == 1
+    # plot: refused by line before connecting, and a pen file plots reordered
+    assert main(["plot", str(mill), "--optimize", "--port", "sim://?speed=0", "--yes"]) == 1
+    assert "mill.nc:4:" in capsys.readouterr().err
+    assert main(["plot", str(bad), "--optimize", "--port", "sim://?speed=0", "--yes"]) == 0
+    assert "process has finished" in capsys.readouterr().out
     console = types.SimpleNamespace(config=MachineConfig())
     options, _config, rest = _options(console, ["--optimize", "--mode", "centre", "a.nc"])
     assert options.optimize and options.mode == "centre" and rest == ["a.nc"]
