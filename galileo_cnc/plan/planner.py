@@ -43,6 +43,7 @@ from galileo_cnc.plan import gcode_order
 from galileo_cnc.plan.order import (DRAWING_KINDS, drawing_apertures, group_by_aperture,
                                    optimised_order, pure_geometry)
 from galileo_cnc.plan.paths import optimise
+from galileo_cnc.protocol.codec import range_problem
 from galileo_cnc.program.ops import (I, J, KIND, LINE, COL, NO_TOOL, TOOL, VALUE, X, Y,
                                      OpKind, Program)
 
@@ -223,6 +224,15 @@ def _label_pens(job: Job, program: Program) -> None:
 def check_job(job: Job, program: Program, config: MachineConfig) -> None:
     """Soft limits (and feed range) by the reference machine's own checks, from a
     machine at its origin; raises PlanError naming the op behind the refused command."""
+    for at, command in enumerate(job.commands):     # what the wire cannot carry
+        problem = range_problem(command)
+        if problem is not None:
+            op = job.op_index[at]
+            row = program.table[op] if op != NO_OP else None
+            pos = SourcePos(program.source, int(row[LINE]), int(row[COL])) \
+                if row is not None and row[LINE] else None
+            raise PlanError(f"{type(command).__name__}: {problem} (the machine's range)",
+                            pos, "", op)
     try:
         ReferenceMachine(config).plan(job.commands)
     except MachineError as problem:

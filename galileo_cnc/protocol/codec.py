@@ -87,6 +87,17 @@ def _spec_of(cmd: object) -> CommandSpec:
     raise ProtocolError(f"no wire form for {cmd!r}")
 
 
+def range_problem(cmd: object) -> str | None:
+    """What of a command the wire cannot carry ('ms=1000000000 outside 0..2000000'),
+    else None: the planner asks before anything is sent."""
+    spec = _spec_of(cmd)
+    for field, kind in spec.args:
+        value = getattr(cmd, field)
+        if value is not None and not kind.lo <= int(value) <= kind.hi:
+            return f"{field}={int(value)} outside {kind.lo}..{kind.hi}"
+    return None
+
+
 def command_text(cmd: object) -> str:
     """The mnemonic and arguments of a command, without framing: `L 100 -20`."""
     spec = _spec_of(cmd)

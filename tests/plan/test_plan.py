@@ -218,3 +218,16 @@ def test_centre_mode_keeps_one_pen_per_d_code_under_load_transforms(tmp_path):
     planned = plan_file(path, MachineConfig(), options=PlanOptions(mode="centre"))
     assert list(planned.job.pen_labels) == [10]
     assert sum(isinstance(c, Flash) for c in planned.job.commands) == 3
+
+
+def test_what_the_wire_cannot_carry_is_refused_while_planning_with_its_line(tmp_path):
+    # G4 P1000000000 used to be planned and then refused by the link after the
+    # machine had drawn the first line; now the plan refuses it, naming line 3.
+    from galileo_cnc.plan.pipeline import plan_file
+    path = tmp_path / "long-dwell.nc"
+    path.write_text("G21 G90\nG1 X1 F100\nG4 P1000000000\nG1 X2\nM2\n")
+    with pytest.raises(PlanError, match=r"Dwell: ms=1000000000 outside 0\.\.2000000") as refused:
+        plan_file(path, MachineConfig())
+    assert refused.value.pos.line == 3
+    path.write_text("G21 G90\nG1 X1 F100\nG4 P2000\nG1 X2\nM2\n")     # 2000 s: the limit
+    assert plan_file(path, MachineConfig()).job
