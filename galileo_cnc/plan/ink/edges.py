@@ -158,7 +158,8 @@ class EdgeIndex:
         pair_rank = np.arange(len(pair_first)) - np.repeat(np.cumsum(flat) - flat, flat)
         member = self._members[pair_first + pair_rank]
         owner = np.repeat(np.arange(len(p)), per_point)
-        tt, d = _pairs_to_edges(p[owner].astype(np.float64), self.a[member], self.b[member])
+        # point k against segment k: point_to_edges broadcasts a (k, 2) p the same way
+        tt, d = point_to_edges(p[owner].astype(np.float64), self.a[member], self.b[member])
         has = per_point > 0
         starts = (np.cumsum(per_point) - per_point)[has]
         best_d = np.full(len(p), np.inf)
@@ -176,20 +177,9 @@ class EdgeIndex:
         return done, best_k[done_points], tt[pick], best_d[done_points]
 
 
-def _pairs_to_edges(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """point_to_edges for pairs: point p[k] and segment a[k]-b[k], same arithmetic."""
-    a = a.astype(np.float64)
-    d = b.astype(np.float64) - a
-    length2 = np.einsum("ij,ij->i", d, d)
-    t = np.einsum("ij,ij->i", p - a, d) / np.where(length2 > 0, length2, 1.0)
-    t = np.clip(t, 0.0, 1.0)
-    closest = a + d * t[:, None]
-    return t, np.hypot(*(closest - p).T)
-
-
 def point_to_edges(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """For point p and segments a[k]-b[k]: the parameter t in [0, 1] of the nearest
-    point of each segment, and the distance to it."""
+    """For point p (or points p[k], one per segment) and segments a[k]-b[k]: the
+    parameter t in [0, 1] of the nearest point of each segment, and the distance to it."""
     a = a.astype(np.float64)
     d = b.astype(np.float64) - a
     length2 = np.einsum("ij,ij->i", d, d)
