@@ -9,7 +9,9 @@ may join); each path is an edge between the nodes of its ends. A connected set o
 paths with 2k nodes of odd degree cannot be drawn in fewer than max(1, k) strokes,
 and Hierholzer's walk (with a virtual node tied to every odd node) draws it in
 exactly that many: at a junction every arriving path leaves by another, not only the
-first one found. A joined path keeps its own first end point (the gap is under
+first one found. Where a set has more than two odd nodes, a short stretch between
+two of them may be drawn twice instead (plan/retrace.py): one stroke fewer, the same
+ink. A joined path keeps its own first end point (the gap is under
 `join_nm`); an arc keeps its centre. A trail is drawn the way its first piece in the
 file is drawn.
 """
@@ -19,12 +21,14 @@ from __future__ import annotations
 import numpy as np
 
 from galileo_cnc.plan.pieces import CCW, CW, MOVE, Piece, Point, with_kind
+from galileo_cnc.plan.retrace import retrace_cost, retraced_edges
 from galileo_cnc.program.ops import I, J, KIND, X, Y
 
-def chain(pieces: list[Piece], join_nm: int) -> list[Piece]:
+def chain(pieces: list[Piece], join_nm: int, retrace: bool = True) -> list[Piece]:
     """Join paths whose ends meet within `join_nm` into as few chains as the ends
-    allow (Euler trails); flashes stay alone. Chains come in the order of their
-    first piece."""
+    allow (Euler trails), with `retrace` drawing short stretches twice where that
+    saves a stroke (plan/retrace.py); flashes stay alone. Chains come in the order
+    of their first piece."""
     pieces = _split_at_junctions(pieces, join_nm)
     path_ids = [k for k, p in enumerate(pieces) if p.is_path]
     points = []
@@ -34,7 +38,13 @@ def chain(pieces: list[Piece], join_nm: int) -> list[Piece]:
         points.append((rows[-1][1][X], rows[-1][1][Y]))
     node = _cluster(points, join_nm)
     edges = [(node[2 * t], node[2 * t + 1]) for t in range(len(path_ids))]
-    trails = _euler_trails(edges, max(node, default=-1) + 1)
+    nodes = max(node, default=-1) + 1
+    if retrace:
+        costs = [retrace_cost(pieces[k]) for k in path_ids]
+        for e in retraced_edges(edges, costs, nodes):
+            edges.append(edges[e])
+            path_ids.append(path_ids[e])
+    trails = _euler_trails(edges, nodes)
     made: list[tuple[int, Piece]] = [(k, p) for k, p in enumerate(pieces) if not p.is_path]
     for trail in trails:
         if len(trail) == 1:                          # drawn as it is

@@ -8,7 +8,8 @@ The seed's CAM aligned DXF entities so each started where the last one ended
    the same geometry; what the pen would draw twice (a segment, a dot where the pen
    passes anyway, a flash) is drawn once (plan/repeats.py);
 2. **chains** (plan/chains.py): paths whose ends meet within `join_nm` joined into as
-   few strokes as the ends allow (Euler trails);
+   few strokes as the ends allow (Euler trails), a short stretch drawn twice where
+   that saves a lift (plan/retrace.py);
 3. **order** (here): a shortest open path from the head's position over the chain ends
    (either end first: a chain may be drawn reversed), exact up to EXACT chains, else
    the local search of plan/tour.py (spatial queries in plan/nearby.py). With a goal

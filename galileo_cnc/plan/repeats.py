@@ -77,7 +77,7 @@ def drop_repeats(pieces: list[Piece]) -> list[Piece]:
                     parent[find(here)] = find(end)
                     if key in seen:
                         repeats.append((flags, len(flags) - 1, here, end,
-                                        _length_nm(here, row)))
+                                        segment_length_nm(here, row)))
                     seen.add(key)
                 here = end
         kept.append(flags)
@@ -128,7 +128,7 @@ def drop_repeats(pieces: list[Piece]) -> list[Piece]:
     return out if changed else pieces
 
 
-def _length_nm(start: Point, row: Row) -> float:
+def segment_length_nm(start: Point, row: Row) -> float:
     """A segment's length (float: only to choose what to leave out)."""
     end = (row[X], row[Y])
     if row[KIND] == LINE:

@@ -7,7 +7,7 @@ import math
 
 from galileo_cnc.plan import paths
 from galileo_cnc.plan.order import group_by_aperture, optimise_groups
-from galileo_cnc.plan.repeats import LIFT_NM, _length_nm, drop_repeats
+from galileo_cnc.plan.repeats import LIFT_NM, segment_length_nm, drop_repeats
 from galileo_cnc.program.ops import I, J, KIND, X, Y, OpKind
 from galileo_cnc.readers import read_file
 
@@ -52,7 +52,7 @@ def ink(rows) -> tuple[set, int]:
 
 
 def drawn_nm(pieces) -> float:
-    return sum(_length_nm(p.rows[k - 1][1][X:Y + 1], p.rows[k][1]) for p in pieces
+    return sum(segment_length_nm(p.rows[k - 1][1][X:Y + 1], p.rows[k][1]) for p in pieces
                if p.is_path for k in range(1, len(p.rows)))
 
 
