@@ -40,8 +40,7 @@ def chain(pieces: list[Piece], join_nm: int, retrace: bool = True) -> list[Piece
     edges = [(node[2 * t], node[2 * t + 1]) for t in range(len(path_ids))]
     nodes = max(node, default=-1) + 1
     if retrace:
-        costs = [retrace_cost(pieces[k]) for k in path_ids]
-        for e in retraced_edges(edges, costs, nodes):
+        for e in retraced_edges(edges, lambda e: retrace_cost(pieces[path_ids[e]]), nodes):
             edges.append(edges[e])
             path_ids.append(path_ids[e])
     trails = _euler_trails(edges, nodes)
@@ -83,13 +82,15 @@ def _split_at_junctions(pieces: list[Piece], join_nm: int) -> list[Piece]:
     if len(points) == 2 * sum(p.is_path for p in pieces):
         return pieces                                  # no inner vertices at all
     unique, where = _distinct(points)
-    at: list[list[int]] = [[] for _ in unique]         # vertices at each point
+    # only a point with a second vertex on it or near it can be a junction: the
+    # lists are kept for those alone (most points of a sparse drawing have none)
+    at: dict[int, list[int]] = {}                      # vertices at each point
     for o, u in enumerate(where):
-        at[u].append(o)
-    close: list[list[int]] = [[u] for u in range(len(unique))]
+        at.setdefault(u, []).append(o)
+    close: dict[int, list[int]] = {u: [u] for u, there in at.items() if len(there) > 1}
     for _d2, a, b in _near_pairs(unique, join_nm):
-        close[a].append(b)
-        close[b].append(a)
+        close.setdefault(a, [a]).append(b)
+        close.setdefault(b, [b]).append(a)
     limit = join_nm * join_nm
 
     def away(k: int, r: int, r2: int) -> bool:
@@ -105,7 +106,7 @@ def _split_at_junctions(pieces: list[Piece], join_nm: int) -> list[Piece]:
         if r == 0 or r == len(pieces[k].rows) - 1:
             continue
         meets = False
-        for v in close[where[o]]:
+        for v in close.get(where[o], ()):
             for o2 in at[v]:
                 k2, r2 = owner[o2]
                 if k2 != k or (r2 != r and away(k, r, r2)):

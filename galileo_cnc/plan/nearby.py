@@ -77,8 +77,7 @@ def nearest(xs: np.ndarray, ys: np.ndarray, k: int,
     dx = xs[i] - xs[j]
     dy = ys[i] - ys[j]
     d = np.sqrt(dx * dx + dy * dy)
-    by = np.argsort(d, kind="stable")
-    by = by[np.argsort(i[by], kind="stable")]               # by i, then d, then j
+    by = np.lexsort((d, i))                                 # by i, then d, then j
     i, j, d = i[by], j[by], d[by]
     first = np.searchsorted(i, np.arange(n))
     keep = np.arange(len(i)) - first[i] < keep_per_row

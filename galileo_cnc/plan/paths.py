@@ -21,8 +21,10 @@ only to choose, never to place.
 
 from __future__ import annotations
 
+import gc
 import math
 from collections import deque
+from contextlib import contextmanager
 
 from galileo_cnc.plan.chains import chain
 from galileo_cnc.plan.nearby import distances_to
@@ -130,6 +132,22 @@ def optimise(rows: list[tuple[int, Row]], start: Point, join_nm: int,
     """Rows of one pen in an order that draws the same ink with less pen-up travel
     (what the pen would draw twice drawn once: plan/repeats.py), ending, with `goal`,
     near where the next pen's work starts (see `order`)."""
-    chains = chain(drop_repeats(cut_pieces(rows, start)), join_nm)
-    tour, end = order(chains, start, moves, goal)
-    return [entry for c in tour for entry in c.rows], end
+    with _collector_paused():
+        chains = chain(drop_repeats(cut_pieces(rows, start)), join_nm)
+        tour, end = order(chains, start, moves, goal)
+        return [entry for c in tour for entry in c.rows], end
+
+
+@contextmanager
+def _collector_paused():
+    """Python's cycle collector off while optimising: the optimiser makes and drops
+    hundreds of thousands of small lists and tuples (none in a cycle: reference
+    counting frees them), and every collection it would trigger walks all the live
+    objects of the process, the whole program included, for nothing."""
+    was_on = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was_on:
+            gc.enable()

@@ -39,11 +39,12 @@ def retrace_cost(piece: Piece) -> float:
     return total + SEGMENT_NM * (len(piece.rows) - 1)
 
 
-def retraced_edges(edges: list[tuple[int, int]], costs: list[float], nodes: int,
+def retraced_edges(edges: list[tuple[int, int]], cost_of, nodes: int,
                    limit: float = LIFT_NM) -> list[int]:
     """Edges to draw a second time (an edge may come more than once): for each chosen
     pair of odd nodes, the edges of the cheapest path between them, costing under
-    `limit` in all."""
+    `limit` in all; `cost_of(e)` is what drawing edge e again costs (asked only when
+    some set of paths has more than two odd nodes)."""
     degree = [0] * nodes
     adjacency: list[list[int]] = [[] for _ in range(nodes)]
     for e, (a, b) in enumerate(edges):
@@ -62,11 +63,14 @@ def retraced_edges(edges: list[tuple[int, int]], costs: list[float], nodes: int,
     is_odd = [False] * nodes
     for v in odd:
         is_odd[v] = odd_left[component[v]] > 2
+    if not any(is_odd):
+        return []
+    costs: dict[int, float] = {}
     candidates = []
     for source in odd:
         if is_odd[source]:
-            for cost, target, path in _cheap_paths(source, edges, costs, adjacency,
-                                                   is_odd, limit):
+            for cost, target, path in _cheap_paths(source, edges, costs, cost_of,
+                                                   adjacency, is_odd, limit):
                 if source < target:
                     candidates.append((cost, source, target, path))
     candidates.sort(key=lambda c: (c[0], c[1], c[2]))
@@ -81,7 +85,7 @@ def retraced_edges(edges: list[tuple[int, int]], costs: list[float], nodes: int,
     return again
 
 
-def _cheap_paths(source: int, edges, costs, adjacency, is_odd, limit):
+def _cheap_paths(source: int, edges, costs, edge_cost, adjacency, is_odd, limit):
     """(cost, odd node, edges on the way) of the odd nodes reachable from `source`
     for less than `limit` (Dijkstra, stopped at the limit)."""
     best = {source: 0.0}
@@ -103,6 +107,8 @@ def _cheap_paths(source: int, edges, costs, adjacency, is_odd, limit):
         for e in adjacency[v]:
             a, b = edges[e]
             w = b if a == v else a
+            if e not in costs:
+                costs[e] = edge_cost(e)
             reach = cost + costs[e]
             if reach < limit and reach < best.get(w, math.inf):
                 best[w] = reach
