@@ -10,7 +10,8 @@ inserted once; G-code keeps its file order, where feeds and pen moves are modal.
   not known to be down, then LineTo; ARC_CW/CCW -> PenDown if needed, then ArcTo
   with the centre rounded to the nearest step and given relative to the rounded
   start (an arc farther than the machine's MAX_ARC_COORD steps from its centre is
-  drawn as chords within half a step); FLASH -> Rapid to the point (unless there),
+  drawn as chords within half a step; one whose chord is within half a step of it is
+  a LineTo: docs/motion.md, "Short arcs"); FLASH -> Rapid to the point (unless there),
   Flash; PEN_UP/PEN_DOWN,
   DWELL, FEED (nm/s -> steps/s) as themselves; SELECT, POLARITY and the REGION
   markers emit nothing (region contours are drawn as outlines);
@@ -28,6 +29,7 @@ PenUp/EndJob) and the aperture in force, for progress, resume and pen changes.
 
 from __future__ import annotations
 
+import math
 from typing import Callable
 
 from galileo_cnc.config.machine import MachineConfig
@@ -69,6 +71,27 @@ def _within_arc_range(start: tuple[int, int], centre: tuple[int, int],
     """Whether the machine can draw the arc natively (machine/arcs.py: MAX_ARC_COORD)."""
     return max(abs(start[0] - centre[0]), abs(start[1] - centre[1]),
                abs(end[0] - centre[0]), abs(end[1] - centre[1])) <= MAX_ARC_COORD
+
+
+def _chord_within_half_a_step(start: tuple[int, int], centre: tuple[int, int],
+                              end: tuple[int, int], cw: bool) -> bool:
+    """Whether the straight line from `start` to `end` stays within half a step of the
+    arc (steps; a full circle never): then the line's steps are within a step of the
+    arc, as the arc's own are. Such arcs are sent as lines: an arc costs the firmware
+    a band table and setup (several ms), so runs of 1-step arcs fell behind the
+    reference (docs/motion.md, "Short arcs")."""
+    if start == end:
+        return False
+    sx, sy = start[0] - centre[0], start[1] - centre[1]
+    ex, ey = end[0] - centre[0], end[1] - centre[1]
+    cross = sx * ey - sy * ex
+    if (cross < 0) if not cw else (cross > 0):
+        return False                            # over half a turn: a bulge, not flat
+    half = 0.5
+    radius = math.hypot(sx, sy)
+    chord2 = (end[0] - start[0]) ** 2 + (end[1] - start[1]) ** 2
+    # sagitta r - sqrt(r^2 - c^2/4) < h  <=>  c^2 < 4h(2r - h)   (a choice: floats)
+    return chord2 < 4 * half * (2 * radius - half)
 
 
 def plotting_order(program: Program, config: MachineConfig, offset_nm: tuple[int, int],
@@ -163,7 +186,10 @@ def plan_program(program: Program, config: MachineConfig | None = None,
                 pen_down = True
             start = at if at is not None else (steps(at_nm[0]), steps(at_nm[1]))
             centre = (steps(at_nm[0] + row[I]), steps(at_nm[1] + row[J]))
-            if _within_arc_range(start, centre, target):
+            if _chord_within_half_a_step(start, centre, target, kind == OpKind.ARC_CW):
+                if target != start:
+                    add(LineTo(*target))
+            elif _within_arc_range(start, centre, target):
                 add(ArcTo(target[0], target[1], centre[0] - start[0], centre[1] - start[1],
                           cw=kind == OpKind.ARC_CW))
             else:

@@ -10,6 +10,8 @@ LATENCY_JITTER_TICKS (docs/protocol.md, "Step timing").
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -127,6 +129,29 @@ def test_tiny_arcs_are_scaled_to_their_length(firmware):
                     ArcTo(3, 4, 3, 4, cw=True), ArcTo(0, 0, -3, -4, cw=False),
                     SetFeed(3000), ArcTo(0, 0, 2, 0, cw=True), ArcTo(0, 0, 4, 7, cw=False)]
     check_job(firmware, job)
+
+
+def test_a_run_of_one_step_arcs_as_planned_keeps_time(firmware):
+    # 60 one-step pieces of a 12.5 mm circle back to back at the default feed: each
+    # arc cost the firmware a band table and setup, about 6.7 ms a move for 3.75 ms of
+    # steps, and the trace fell 180 ms behind. The planner sends an arc whose chord is
+    # within half a step of it as a line (docs/motion.md, "Short arcs").
+    from galileo_cnc.plan.planner import plan_program
+    from galileo_cnc.readers.gcode import read_gcode
+
+    def on_circle(k):
+        return 12.5 * math.cos(k / 2000) - 7.5, 5 + 12.5 * math.sin(k / 2000)
+
+    lines = ["G21 G90", "G0 X5 Y5", "M3"]
+    for k in range(1, 61):
+        (x0, y0), (x, y) = on_circle(k - 1), on_circle(k)
+        lines.append(f"G3 X{x:.6f} Y{y:.6f} I{-7.5 - x0:.6f} J{5 - y0:.6f}")
+    # and the shortest arcs it keeps: semicircles of one step's radius
+    lines += ["G0 X20 Y5", "M3"] + [f"G{2 + k % 2} X{20 + 0.0125 * (k + 1):.4f} Y5 "
+                                    f"I0.00625 J0" for k in range(40)]
+    job = plan_program(read_gcode("short-arcs.nc", "\n".join(lines) + "\n"), MachineConfig())
+    assert sum(isinstance(c, ArcTo) for c in job.commands) == 40
+    check_job(firmware, job.commands)
 
 
 def test_flashes_rapids_and_dwells(firmware):

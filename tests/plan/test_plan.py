@@ -208,6 +208,31 @@ def test_an_arc_beyond_the_machines_arc_range_is_drawn_as_chords_within_half_a_s
     assert (chords[-1].x_steps, chords[-1].y_steps) == end
 
 
+def test_an_arc_within_half_a_step_of_its_chord_is_sent_as_a_line():
+    # 1-step pieces of a 12.5 mm circle (sagitta 0.00006 step) become lines to the same
+    # end step; a semicircle of one step's radius, a quarter of a 2-step circle
+    # (sagitta 0.59 step) and a full circle stay arcs
+    from galileo_cnc.readers.gcode import read_gcode
+
+    def on_circle(k):                   # 5 mm + a point of the circle round (-7.5, 5) mm
+        return 12.5 * math.cos(k / 2000) - 7.5, 5 + 12.5 * math.sin(k / 2000)
+
+    pieces = []
+    for k in range(1, 6):
+        (x0, y0), (x, y) = on_circle(k - 1), on_circle(k)
+        pieces.append(f"G3 X{x:.6f} Y{y:.6f} I{-7.5 - x0:.6f} J{5 - y0:.6f}")
+    text = ("G21 G90\nG0 X5 Y5\nM3\n" + "\n".join(pieces)
+            + "\nG0 X20 Y5\nM3\nG2 X20.0125 Y5 I0.00625 J0\n"
+            + "G0 X30 Y5\nM3\nG3 X30.0125 Y5.0125 I0 J0.0125\n"
+            + "G0 X40 Y5\nM3\nG2 X40 Y5 I1 J0\n")
+    job = plan_program(read_gcode("short-arcs.nc", text), CFG)
+    drawn = [c for c in job.commands if isinstance(c, (LineTo, ArcTo))]
+    assert [type(c).__name__ for c in drawn] == ["LineTo"] * 5 + ["ArcTo"] * 3
+    assert [(c.x_steps, c.y_steps) for c in drawn[:5]] == \
+        [(round(160 * on_circle(k)[0]), round(160 * on_circle(k)[1])) for k in range(1, 6)]
+    simulate(job.commands, CFG)
+
+
 def test_centre_mode_keeps_one_pen_per_d_code_under_load_transforms(tmp_path):
     # D10 flashed plain, turned by %LR30 and plain again: three dots, one pen (a dot is
     # a dot at any angle); the reader's derived aperture must not ask for a second pen.
