@@ -144,16 +144,15 @@ def _run_grbl_plot(args: argparse.Namespace, profile, port: str, plan) -> int:
     from galileo_cnc.cli.plot_grbl import GrblPlotOptions, run_grbl_plot
 
     # refused before connecting: these need what only our firmware reports or keeps
-    if args.resume:
-        raise GalileoError("plot --resume is not available on a GRBL board yet "
-                           "(docs/grbl.md, \"Not done yet\")")
+    if args.resume and args.check:
+        raise GalileoError("plot --resume --check: check the job without --resume")
     if args.trace:
         raise GalileoError("plot --trace: a GRBL board cannot report its steps "
                            "(--preview draws the plan)")
     return run_grbl_plot(GrblPlotOptions(
         args.file, profile, port, plan, offset=args.offset,
         margin_nm=round(args.margin * NM_PER_MM), yes=args.yes, check=args.check,
-        preview=args.preview))
+        preview=args.preview, resume=args.resume))
 
 
 def _run_preview(args: argparse.Namespace) -> int:

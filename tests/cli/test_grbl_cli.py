@@ -8,6 +8,7 @@ profile's 160 steps/mm and fast rates with `$` commands, as a user would once.""
 
 from __future__ import annotations
 
+import re
 import sys
 from contextlib import contextmanager
 from pathlib import Path
@@ -19,24 +20,20 @@ from galileo_cnc.cli import main as cli
 from galileo_cnc.cli import plot_grbl
 from galileo_cnc.config.profile import load_profile
 from galileo_cnc.grbl import firmware
-from galileo_cnc.grbl.gcode import GcodeLine, job_to_gcode, pen_from_config
+from galileo_cnc.grbl.gcode import GcodeLine, expected_end_steps, job_to_gcode, pen_from_config
 from galileo_cnc.grbl.link import GrblLink
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
+from galileo_cnc.simavr import board as simavr_board
+from galileo_cnc.simavr import grbl_firmware
+from galileo_cnc.transport.port import open_port
 
 # the GRBL tests' helpers (build, settings, pin trace) live beside them
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "grbl"))
-from grbl_support import SCALE, SETTINGS, check_trace, grbl_elf, positions  # noqa: E402
+from grbl_support import (PROFILE, SCALE, SETTINGS, check_trace, grbl_elf,  # noqa: E402
+                          positions)
 
 ROOT = Path(__file__).resolve().parents[2]
 SAMPLE = str(ROOT / "samples" / "led-blinker.gbr")
-# the default profile's mechanics (160 steps/mm), run fast so the simulated job is short
-PROFILE = """[machine]
-feed_mm_s = 100
-rapid_feed_mm_s = 100
-z_feed_mm_s = 50
-feed_warn_mm_s = 100
-flash_dwell_ms = 20
-"""
 
 
 @pytest.fixture
@@ -152,3 +149,64 @@ def test_a_line_grbl_refuses_stops_the_plot_naming_it(profile, capsys, monkeypat
     assert "led-blinker.gbr:" in refused and "error:20: Unsupported command" in refused
     assert refused.endswith("in G-code line 10 'G5 Z1.875'")
     assert board.summary["overruns"] == "0"
+
+
+# ---- simavr://?firmware=grbl: GRBL in simavr as a port, no hardware ------------------------
+
+#: GRBL's settings in the URL (its simulated EEPROM starts empty each time): the test
+#: machine's, as SETTINGS; realtime=0 lets simavr run as fast as it can.
+GRBL_URL = "simavr://?firmware=grbl&realtime=0&" + "&".join(
+    f"${number}={value}" for number, value in SETTINGS.items())
+STEP_NM = 6250      # 160 steps/mm
+
+
+def reported_work_steps(out: str) -> tuple[int, ...]:
+    """The end position plot prints, in steps (GRBL reports 3 decimals of a mm)."""
+    match = re.search(r"GRBL stands at X (\S+) Y (\S+) Z (\S+) mm \(work\)", out)
+    assert match, out[-500:]
+    nm = [round(float(text) * 1_000_000) for text in match.groups()]
+    steps = tuple(round(v / STEP_NM) for v in nm)
+    assert all(abs(v - s * STEP_NM) <= 500 for v, s in zip(nm, steps))   # a step's report
+    return steps
+
+
+def test_plot_over_the_simavr_grbl_url_finishes_exactly(profile, capsys):
+    grbl_elf()                      # built (or skipped with the missing package) first
+    assert cli._probe(GRBL_URL, 115200) == "GRBL 1.1h"      # ports --probe's tag
+    code = cli.main(["plot", SAMPLE, "--port", GRBL_URL, "--mode", "centre", "--yes",
+                     "--profile", profile])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    assert f"GRBL 1.1h on {GRBL_URL} (RX 128 B, 15 blocks, 160 steps/mm)" in out
+    assert out.count("insert pen for aperture D") == 6 and "process has finished" in out
+    assert "ALARM" not in out + err and "error" not in out + err
+    lines = planned_gcode(profile)
+    assert reported_work_steps(out) == expected_end_steps(lines, SCALE)[-1]
+
+
+def test_simavr_grbl_url_bad_options_and_missing_pieces(profile, capsys, monkeypatch, tmp_path):
+    grbl_elf()
+    for url, words in [
+            ("simavr://?firmware=grbl&speed=2", "bad option speed='2'"),
+            ("simavr://?firmware=marlin", "bad option firmware='marlin'"),
+            ("simavr://?firmware=grbl&$100=fast", "bad option $100='fast'"),
+            ("simavr://?$100=160", "$100=160 is a GRBL setting: add firmware=grbl"),
+            ("simavr://?firmware=grbl&realtime=0&$999=1", "GRBL refused $999=1: error:3")]:
+        assert cli.main(["plot", SAMPLE, "--port", url, "--yes", "--profile", profile]) == 1
+        err = capsys.readouterr().err
+        assert f"cannot open {url}" in err and words in err, err
+    # GRBL's own defaults (250 steps/mm): the refusal says what to add to the URL
+    url = "simavr://?firmware=grbl&realtime=0"
+    assert cli.main(["plot", SAMPLE, "--port", url, "--yes", "--profile", profile]) == 1
+    err = capsys.readouterr().err
+    assert "Add $100=160&$101=160&$102=160 to the simavr:// URL" in err
+    # nothing built yet and no avr-gcc: the Debian packages are named
+    monkeypatch.setattr(grbl_firmware, "BUILD_DIR", tmp_path / "build-grbl")
+    monkeypatch.setenv("PATH", str(tmp_path / "bin"))
+    with pytest.raises(serial.SerialException, match=r"install the Debian packages "
+                       r"gcc-avr make \(sudo apt install gcc-avr make\)"):
+        open_port("simavr://?firmware=grbl")
+    monkeypatch.setenv(simavr_board.HARNESS_ENV, str(tmp_path / "no-harness"))
+    with pytest.raises(serial.SerialException, match=r"galileo-simavr is not built.*"
+                       r"Debian packages: libsimavr-dev"):
+        open_port("simavr://?firmware=grbl")

@@ -35,6 +35,15 @@ SETTINGS = {12: "0.0005",
             120: "2000", 121: "2000", 122: "2000"}       # mm/s^2
 CONFIG = MachineConfig(feed_mm_s=100, rapid_feed_mm_s=100, z_feed_mm_s=50,
                        feed_warn_mm_s=100, flash_dwell_ms=20)
+#: CONFIG as a profile file: the default mechanics (160 steps/mm), run fast so a
+#: whole simulated job is short
+PROFILE = """[machine]
+feed_mm_s = 100
+rapid_feed_mm_s = 100
+z_feed_mm_s = 50
+feed_warn_mm_s = 100
+flash_dwell_ms = 20
+"""
 SCALE = AxisScale.from_texts([STEPS_PER_MM] * 3)
 
 _elf: list[Path] = []
@@ -69,18 +78,25 @@ def grbl_machine(settings: dict[int, str] = SETTINGS, **board_kwargs):
 def positions(board) -> np.ndarray:
     """GRBL's machine position in steps after every step interrupt, (N+1, 3) from
     (0,0,0): steps of one interrupt share a cycle and count as one move."""
-    tick, axis, direction = step_trace(board.trace(), firmware.AXIS_PINS)
+    return positions_and_ticks(board.trace())[0]
+
+
+def positions_and_ticks(edges) -> tuple[np.ndarray, np.ndarray]:
+    """positions() of a trace, with each row's Timer1 tick (-1 for the power-up row)."""
+    tick, axis, direction = step_trace(edges, firmware.AXIS_PINS)
     delta = np.zeros((len(tick), 3), dtype=np.int64)
     delta[np.arange(len(tick)), axis] = -direction      # dir pin high = negative ($3=0)
     pos = np.cumsum(delta, axis=0)
     last_of_group = np.r_[tick[1:] != tick[:-1], True] if len(tick) else np.zeros(0, bool)
-    return np.vstack([np.zeros((1, 3), np.int64), pos[last_of_group]])
+    return (np.vstack([np.zeros((1, 3), np.int64), pos[last_of_group]]),
+            np.r_[-1, tick[last_of_group]].astype(np.int64))
 
 
-def motions(lines: list[GcodeLine], scale: AxisScale = SCALE):
+def motions(lines: list[GcodeLine], scale: AxisScale = SCALE, start=(0, 0, 0)):
     """(kind, start, end, centre or None) in steps for every motion line, in GRBL's
-    own arithmetic: `end` is where GRBL's planner targets (lround of its floats)."""
-    pos = [0, 0, 0]
+    own arithmetic: `end` is where GRBL's planner targets (lround of its floats).
+    `start`: where the head stands before the first line."""
+    pos = list(start)
     for line in lines:
         words = line.text.split()
         if not words or words[0] not in ("G0", "G1", "G2", "G3"):
@@ -100,7 +116,7 @@ def motions(lines: list[GcodeLine], scale: AxisScale = SCALE):
         yield words[0], start, tuple(pos), centre
 
 
-def check_trace(pos: np.ndarray, lines: list[GcodeLine]) -> dict:
+def check_trace(pos: np.ndarray, lines: list[GcodeLine], start=(0, 0, 0)) -> dict:
     """Every motion's end point is reached exactly, in order, and every position
     between two end points lies within one step of that motion's path on every
     axis (the step grid's own measure: some point of the path is less than a
@@ -109,7 +125,7 @@ def check_trace(pos: np.ndarray, lines: list[GcodeLine]) -> dict:
     index = 0
     worst_axis = worst_euclid = 0.0
     count = 0
-    for kind, start, end, centre in motions(lines):
+    for kind, start, end, centre in motions(lines, start=start):
         assert tuple(pos[index]) == start, (kind, start, tuple(pos[index]))
         first = index
         if centre is not None and end == start:      # a full circle: leave, come back

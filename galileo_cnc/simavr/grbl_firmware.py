@@ -1,0 +1,114 @@
+"""Stock GRBL 1.1h in the simavr harness: build it (its own Makefile, in a temp
+folder) and run it as a SimulatedBoard with its pins traced and simavr's timer
+quirks corrected (docs/harness.md "Timer quirks", docs/grbl.md).
+
+The GRBL source is read from `../shared/grbl-1.1h` beside the checkout (or
+$GALILEO_GRBL_SOURCE), never copied into the project; the built ELF is cached
+in the checkout's firmware/build-grbl/ (ignored by git), or, installed without a
+checkout, in the user's cache folder, with the source digest it came from.
+Lives beside the harness so `simavr://?firmware=grbl` (protocol_simavr) can use
+it; galileo_cnc.grbl.firmware re-exports it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import re
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+from galileo_cnc.errors import GalileoError
+from galileo_cnc.simavr.board import REPO_ROOT, SimulatedBoard, missing_debian_packages
+
+GRBL_SOURCE_ENV = "GALILEO_GRBL_SOURCE"
+DEFAULT_SOURCE = REPO_ROOT.parent / "shared" / "grbl-1.1h"
+BUILD_DIR = REPO_ROOT / "firmware" / "build-grbl"
+ELF_NAME = "grbl.elf"
+BUILD_PACKAGES = ("gcc-avr", "avr-libc", "make")
+
+# GRBL's Uno pin map (cpu_map.h): X/Y/Z step D2-D4, dir D5-D7 (high = negative
+# with the stock $3=0), limits D9/D10/D12 (pulled up, low = triggered).
+AXIS_PINS: tuple[tuple[int, int], ...] = ((2, 5), (3, 6), (4, 7))
+LIMIT_PINS = (9, 10, 12)
+SPINDLE_PWM_PIN = 11
+TRACE_PINS = (2, 3, 4, 5, 6, 7)
+# OCR1A at cycle 0: any small TOP lets the first step interrupt fire; GRBL sets
+# its own value there.
+OCR1A_AT_START = 16
+HARNESS_ARGS = ("--axis-pins", "X:2:5,Y:3:6,Z:4:7",
+                "--ocr1a-at-start", str(OCR1A_AT_START), "--replay-tcnt0")
+
+
+class GrblBuildError(GalileoError):
+    """GRBL could not be built (missing source or toolchain, make failed)."""
+
+
+def source_dir() -> Path:
+    return Path(os.environ.get(GRBL_SOURCE_ENV, DEFAULT_SOURCE))
+
+
+def build_dir() -> Path:
+    """The checkout's firmware/build-grbl, else (installed with pip) the user's cache."""
+    if (REPO_ROOT / "firmware").is_dir():
+        return BUILD_DIR
+    cache = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(cache) / "galileo-cnc" / "build-grbl"
+
+
+def source_digest(src: Path) -> str:
+    h = hashlib.sha256()
+    for path in sorted((src / "grbl").glob("*.[ch]")) + [src / "Makefile"]:
+        h.update(path.name.encode() + b"\0" + path.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def build_grbl(src: Path | None = None, out_dir: Path | None = None) -> Path:
+    """The GRBL ELF, built from `src` unless the cached one came from the same source."""
+    src = Path(src) if src else source_dir()
+    out_dir = Path(out_dir) if out_dir else build_dir()
+    if not (src / "Makefile").is_file() or not (src / "grbl" / "grbl.h").is_file():
+        raise GrblBuildError(f"GRBL 1.1h source not found at {src} (set {GRBL_SOURCE_ENV} "
+                             f"to a grbl-1.1h folder holding its Makefile and grbl/)")
+    digest = source_digest(src)
+    elf = out_dir / ELF_NAME
+    stamp = out_dir / "source.sha256"
+    if elf.is_file() and (out_dir / "size.txt").is_file() and stamp.is_file() \
+            and stamp.read_text().strip() == digest:
+        return elf
+    missing = missing_debian_packages(BUILD_PACKAGES)
+    if missing:
+        raise GrblBuildError(f"building GRBL needs make, and avr-gcc with avr-libc: install "
+                             f"the Debian package{'s' if len(missing) > 1 else ''} "
+                             f"{' '.join(missing)} (sudo apt install {' '.join(missing)})")
+    with tempfile.TemporaryDirectory(prefix="galileo-grbl-") as tmp:
+        work = Path(tmp) / "grbl-1.1h"
+        shutil.copytree(src, work, ignore=shutil.ignore_patterns("build", "*.hex"))
+        (work / "build").mkdir()
+        result = subprocess.run(["make", "-C", str(work)], capture_output=True, text=True)
+        if result.returncode != 0:
+            raise GrblBuildError("GRBL's make failed:\n" + (result.stdout + result.stderr)[-3000:])
+        out_dir.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(work / "build" / "main.elf", elf)
+        shutil.copyfile(work / "grbl.hex", out_dir / "grbl.hex")
+        sizes = re.search(r"^\s*(\d+)\s+(\d+)\s+(\d+)\s", result.stdout, re.M)
+        if sizes is None:
+            raise GrblBuildError("no avr-size line in GRBL's make output")
+        # avr-size's berkeley columns: text data bss (bytes)
+        (out_dir / "size.txt").write_text(" ".join(sizes.groups()) + "\n")
+    stamp.write_text(digest + "\n")
+    return elf
+
+
+def grbl_board(elf: Path | None = None, *, limits: tuple = (), trace: bool = True,
+               extra_pins: tuple[int, ...] = (), extra_args: tuple[str, ...] = (),
+               **kwargs) -> SimulatedBoard:
+    """A SimulatedBoard running GRBL. `limits`: (axis, trip in GRBL steps) pairs:
+    the axis' limit switch closes while GRBL's position >= trip (GRBL homes
+    toward +; the harness counts steps with dir high as +, GRBL as -)."""
+    endstops = [(axis, LIMIT_PINS["XYZ".index(axis)], -trip) for axis, trip in limits]
+    return SimulatedBoard(elf or build_grbl(), trace=trace,
+                          pins=TRACE_PINS + tuple(extra_pins), endstops=endstops,
+                          extra_args=HARNESS_ARGS + tuple(extra_args), **kwargs)
