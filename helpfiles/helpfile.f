@@ -71,6 +71,11 @@ connect [PORT]
     built-in simulated machine). If PORT cannot be opened, the working
     connection is kept. A board whose firmware was built for another machine
     profile is named on the connection line and gets no jobs until reflashed.
+    A stock GRBL 1.1 board is recognised by its banner ("connected to GRBL
+    1.1h on ..."): getg, setup, status, home ($H) and unlock ($X) work on it
+    too (jogs are $J= moves; q or releasing the key cancels one); resume does
+    not (use galileo-cnc plot --resume there). Its $100-$102 must match the
+    profile's steps/mm, or jobs are refused with the lines to send.
 
 [home]
 home

@@ -21,7 +21,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
-import numpy as np
 import serial
 
 from galileo_cnc.cli.plot import (EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, EXIT_PORT_LOST,
@@ -34,11 +33,12 @@ from galileo_cnc.grbl.check import check_job
 from galileo_cnc.grbl.estimate import Machine, estimate
 from galileo_cnc.grbl.gcode import AxisScale, GcodeLine, job_to_gcode, pen_from_config, source_of
 from galileo_cnc.grbl.jog import home, unlock
-from galileo_cnc.grbl.link import FEED_HOLD, GrblLink
-from galileo_cnc.grbl.numbers import read_float, steps_per_mm_f32
-from galileo_cnc.grbl.reports import GrblError, alarm_text, error_text
+from galileo_cnc.grbl.link import GrblLink
+from galileo_cnc.grbl.reports import GrblError
+from galileo_cnc.grbl.session import (describe, hold_and_reset, pen_pieces, position_text,
+                                      refuse_other_scale, source_line, stream_piece)
 from galileo_cnc.grbl.resume import STEPPER_BLOCKS, GrblResumeError, lead_in, rewind
-from galileo_cnc.grbl.stream import GrblStreamError, stream
+from galileo_cnc.grbl.stream import GrblStreamError
 from galileo_cnc.grbl.travel import applies, check_travel
 from galileo_cnc.machine.timing import duration_text
 from galileo_cnc.plan.pipeline import PlannedFile, PlanOptions, plan_file
@@ -46,10 +46,8 @@ from galileo_cnc.program.ops import NM_PER_MM
 from galileo_cnc.stream.journal import (ABORTED, FAILED, FINISHED, INTERRUPTED, RUNNING,
                                         Journal, JournalEntry, file_digest)
 from galileo_cnc.stream.streamer import PenChange, describe_aperture
-from galileo_cnc.transport.port import SIMAVR_URL, open_port, port_error_text
+from galileo_cnc.transport.port import open_port, port_error_text
 
-#: How long a feed hold may take to bring the machine to rest after Ctrl-C.
-HOLD_WAIT_S = 30.0
 #: The GRBL job journal's file in the user's data folder (beside our firmware's).
 GRBL_JOURNAL_NAME = "journal-grbl.json"
 
@@ -162,7 +160,7 @@ def run_grbl_plot(options: GrblPlotOptions, out: TextIO | None = None, port=None
                              f"--resume")
             return EXIT_PORT_LOST
         except KeyboardInterrupt:
-            _hold_and_reset(link)
+            hold_and_reset(link)
             journal.end(ABORTED, "stopped with Ctrl-C")
             progress.message("stopped: GRBL held the feed, then was reset (its queue is "
                              "dropped, the position kept)")
@@ -305,45 +303,6 @@ def open_grbl_port(port: str, baud: int):
         raise GalileoError(f"cannot open {port}: {port_error_text(problem)}") from None
 
 
-def position_text(status) -> str:
-    """`GRBL stands at X 5.000 Y 4.000 Z 1.875 mm (work)`, from its last report."""
-    if status is None:
-        return "GRBL's position was not reported"
-    x, y, z = (f"{nm / NM_PER_MM:.3f}" for nm in status.wpos_nm)
-    return f"GRBL stands at X {x} Y {y} Z {z} mm (work)"
-
-
-def describe(link: GrblLink, device: str) -> str:
-    """`GRBL 1.1h on /dev/ttyACM0 (RX 128 B, 15 blocks, 160 steps/mm)`."""
-    spm = [float(read_float(link.settings.steps_per_mm_text(a))) for a in range(3)]
-    steps = f"{spm[0]:g}" if len(set(spm)) == 1 else "/".join(f"{v:g}" for v in spm)
-    blocks = link.build.planner_blocks or "?"
-    return (f"GRBL {link.version} on {device} (RX {link.rx_buffer_bytes} B, {blocks} blocks, "
-            f"{steps} steps/mm)")
-
-
-def refuse_other_scale(link: GrblLink, steps_per_mm: float, profile_path,
-                       port: str = "") -> None:
-    """The job is planned in the profile's steps but sent in mm: GRBL turns them
-    back into steps with its own $100-$102, so both must agree."""
-    ours = np.float32(steps_per_mm)
-    differ = [100 + a for a in range(3)
-              if steps_per_mm_f32(link.settings.steps_per_mm_text(a)) != ours]
-    if not differ:
-        return
-    theirs = ", ".join(f"${n}={link.settings[n]}" for n in differ)
-    wanted = " ".join(f"${n}={steps_per_mm:g}" for n in differ)
-    profile = f"the profile {profile_path}" if profile_path else "the default profile"
-    if port.startswith(SIMAVR_URL):     # a fresh simulated EEPROM each time: in the URL
-        send = f"Add {'&'.join(wanted.split())} to the simavr:// URL (GRBL's settings)"
-    else:
-        send = f"Send GRBL {wanted} (its settings, kept in its EEPROM)"
-    raise GalileoError(
-        f"GRBL's steps/mm differ from {profile}'s {steps_per_mm:g} steps/mm: GRBL has "
-        f"{theirs}. Nothing was sent. {send} if the profile is right, or set "
-        f"steps_per_rev/pitch_mm in the profile to GRBL's")
-
-
 def _say_plan(planned: PlannedFile, out: TextIO) -> None:
     box, offset = planned.artwork.drawn_box_nm, planned.offset_nm
     if box is not None:
@@ -365,7 +324,7 @@ def _stream_with_pen_changes(link: GrblLink, planned: PlannedFile, lines: list[G
 
     def show(done: int) -> None:
         eta = max(0.0, estimate_s - (time.monotonic() - began))
-        progress.lines(done, total, _source_line(planned, lines[done - 1].command), eta)
+        progress.lines(done, total, source_line(planned, lines[done - 1].command), eta)
 
     def ask(first: int, aperture: int, resuming: bool = False) -> None:
         label = job.pen_labels.get(aperture) or \
@@ -377,7 +336,7 @@ def _stream_with_pen_changes(link: GrblLink, planned: PlannedFile, lines: list[G
         if not yes:
             sys.stdin.readline()
 
-    pieces = _pieces(lines, job.pen_changes)
+    pieces = pen_pieces(lines, job.pen_changes)
     before = [piece for piece in pieces if piece[0] < start]
     if before and not any(first == start for first, _ in pieces):
         # resuming: the pen in the holder may be another (a change at `start` asks anyway)
@@ -388,85 +347,12 @@ def _stream_with_pen_changes(link: GrblLink, planned: PlannedFile, lines: list[G
         if first < start:
             continue
         if first > position or chunk:
-            _stream_piece(link, chunk + lines[position:first],
+            stream_piece(link, chunk + lines[position:first],
                           numbers + list(range(position, first)), where, show, on_reply)
             position, chunk, numbers = first, [], []
         ask(first, aperture)
-    _stream_piece(link, chunk + lines[position:total], numbers + list(range(position, total)),
+    stream_piece(link, chunk + lines[position:total], numbers + list(range(position, total)),
                   where, show, on_reply)
-
-
-def _stream_piece(link: GrblLink, chunk: list[GcodeLine], numbers: list[int | None], where,
-                  show, on_reply=None) -> None:
-    """`chunk` to a stop; numbers[i] is chunk[i]'s index in the whole job (None for a
-    resume's lead-in), so a refusal or an alarm is named by its number in the job
-    (stream() counts from the chunk's first line)."""
-    if not chunk:
-        return
-
-    def acked(index: int, reply) -> None:
-        if numbers[index] is not None:
-            show(numbers[index] + 1)
-            if on_reply is not None:
-                on_reply(numbers[index], reply)
-
-    def name(index: int) -> str:
-        number = numbers[index]
-        return (f"G-code line {number + 1}" if number is not None else
-                f"line {index + 1} of the resume's lead-in")
-
-    try:
-        stream(link, chunk, where=where, travel_check=False, on_ack=acked)
-    except GrblStreamError as stopped:
-        if not stopped.alarm and not stopped.errors:
-            raise                   # GRBL fell silent: no line to name
-        if stopped.alarm:
-            index = min(stopped.acked, len(chunk) - 1)      # the line in flight
-            place = where(chunk[index].command)
-            text = (f"{place + ': ' if place else ''}{alarm_text(stopped.code)} "
-                    f"(at {name(index)} {chunk[index].text!r})")
-        else:
-            first = stopped.errors[0]
-            place = f"{first.where}: " if first.where else ""
-            text = (f"GRBL refused a line: {place}{error_text(first.code)} in "
-                    f"{name(first.index)} {first.line.text!r}")
-        done = sum(1 for n in numbers[:stopped.acked] if n is not None)
-        raise GrblStreamError(text, stopped.errors, done, code=stopped.code,
-                              alarm=stopped.alarm) from None
-
-
-def _pieces(lines: list[GcodeLine], pen_changes: dict[int, int]) -> list[tuple[int, int]]:
-    """(first G-code line of the change, aperture) for each pen change, in order."""
-    found = []
-    for command in sorted(pen_changes):
-        first = next((i for i, line in enumerate(lines) if line.command >= command), None)
-        if first is not None:
-            found.append((first, pen_changes[command]))
-    return found
-
-
-def _source_line(planned: PlannedFile, command: int) -> int:
-    job = planned.job
-    if not 0 <= command < len(job.op_index) or job.op_index[command] < 0:
-        return 0
-    op = planned.plotted.op(job.op_index[command])
-    pos = getattr(op, "pos", None) or getattr(op, "source", None)
-    return pos.line if pos is not None else 0
-
-
-def _hold_and_reset(link: GrblLink) -> None:
-    """Ctrl-C: a feed hold decelerates on the path (no step lost), then the soft
-    reset drops GRBL's queue; a reset while moving would lose the position."""
-    try:
-        link.realtime(FEED_HOLD)
-        deadline = time.monotonic() + HOLD_WAIT_S
-        while time.monotonic() < deadline:
-            status = link.status()
-            if status.state == "Idle" or (status.state == "Hold" and status.substate == 0):
-                break
-        link.soft_reset()
-    except GrblError:
-        pass        # the user already asked to stop; the message says what to do
 
 
 def _write_preview(path: str, planned: PlannedFile, config, out: TextIO) -> None:

@@ -1,9 +1,9 @@
 """The console: banner, connection line, the `>>` prompt loop and its bottom toolbar.
 
 Commands live in their own modules and reach the console through the registry
-(registry.py); this module owns what they share: the link to the machine, the
-machine configuration, printing (also from the link's reader thread) and
-questions.
+(registry.py); this module owns what they share: the machine (a backend.Backend:
+our firmware or GRBL), the machine configuration, printing (also from the link's
+reader thread) and questions.
 """
 
 from __future__ import annotations
@@ -20,18 +20,14 @@ from prompt_toolkit.shortcuts import print_formatted_text, prompt
 
 from galileo_cnc import __version__
 from galileo_cnc.config.machine import MachineConfig
+from galileo_cnc.console.backend import Backend, MachineView, open_backend
 from galileo_cnc.console.commands import build_registry
-from galileo_cnc.console.units import position_mm_text
 from galileo_cnc.errors import GalileoError
-from galileo_cnc.job import SetFeed
-from galileo_cnc.protocol import Status
-from galileo_cnc.transport.link import LinkError, MachineAlarm, MachineLink, PortGone
+from galileo_cnc.transport.link import MachineAlarm, PortGone
 
 PROMPT = ">> "
 #: While the prompt waits, the toolbar's state and position are refreshed this often.
 TOOLBAR_REFRESH_S = 0.5
-#: States in which the head may be moving: a command interrupted there must stop it.
-MOVING_STATES = ("run", "hold", "homing")
 
 
 class Console:
@@ -42,8 +38,8 @@ class Console:
         self.baud = baud
         self.config = config                    # feed changes from `setup` land here
         self.profile = config                   # as read: what the board must be built for
-        self.link: MachineLink | None = None
-        self.last_status: Status | None = None
+        self.backend: Backend | None = None
+        self.last_status: MachineView | None = None
         self.leaving = False
         self.registry = build_registry()
         self.session: PromptSession = PromptSession(
@@ -80,16 +76,21 @@ class Console:
             self.say("please answer y or n")
 
     # ---- the machine ----------------------------------------------------------------
+    @property
+    def link(self):
+        """The backend's link (MachineLink or GrblLink), None when not connected."""
+        return self.backend.link if self.backend is not None else None
+
     def connect(self, port: str | None) -> bool:
         """Open `port` (None: find a board, else sim://); a working connection is kept
         when the new one cannot be made, and given up only to reopen the same port."""
-        old = self.link
+        old = self.backend
         if old is not None and (port is None or port == old.port_name):
             self.disconnect()                   # a port opens once: close it first
             old = None
         try:
-            link = MachineLink.open(port, self.baud, self.config, self.config_path,
-                                    profile=self.profile)
+            backend = open_backend(port, self.baud, self.config, self.config_path,
+                                   profile=self.profile, on_message=self.say_from_thread)
         except GalileoError as error:
             if old is not None:
                 self.say(f"{error}; still connected to {old.port_name}")
@@ -98,55 +99,51 @@ class Console:
                 self.say("type `connect PORT` to try again (`ports` lists them)")
             return False
         if old is not None:
-            old.close()
-        link.on_message = self.say_from_thread
-        self.link = link
-        line = link.describe()
-        if port is None and link.simulated:
+            self.disconnect()
+        self.backend = backend
+        line = backend.describe()
+        if port is None and backend.simulated:
             line += " (no board found)"
         self.say(line)
-        try:  # the machine starts with its own default feed; make it ours
-            link.send(SetFeed(self.config.feed_steps_per_s))
-        except LinkError as error:
-            self.say(f"could not set the feed rate: {error}")
+        with backend.session():
+            backend.after_connect(self)
         self.refresh_status()
         return True
 
     def use_config(self, config: MachineConfig) -> None:
         """Plan with `config` from now on; the link's copy goes into the job journal."""
         self.config = config
-        if self.link is not None:
-            self.link.config = config
+        if self.backend is not None:
+            self.backend.use_config(config)
 
     def disconnect(self) -> None:
-        if self.link is not None:
-            self.link.close()
-            self.link = None
+        if self.backend is not None:
+            self.backend.close()
+            self.backend = None
             self.last_status = None
 
-    def refresh_status(self) -> Status | None:
+    def refresh_status(self) -> MachineView | None:
         self.last_status = None
-        if self.link is not None:
+        if self.backend is not None:
             try:
-                self.last_status = self.link.status(timeout_s=1.0)
-            except LinkError:
+                self.last_status = self.backend.view(timeout_s=1.0)
+            except GalileoError:
                 pass
         return self.last_status
 
     def stop_if_moving(self) -> None:
         """After an interrupted command: never leave the head moving."""
-        status = self.refresh_status()
-        if self.link is not None and status is not None and status.state in MOVING_STATES:
-            self.say("stopping the machine (ramping down)")
-            self.link.abort()
+        view = self.refresh_status()
+        if self.backend is not None:
+            self.backend.stop_if_moving(self, view)
 
     def toolbar(self) -> str:
-        if self.link is None:
+        if self.backend is None:
             return " not connected | type connect [PORT]"
-        status = self.last_status
-        state = status.state if status else "no answer"
-        where = position_mm_text(status, self.config) if status else "position unknown"
-        return (f" {self.link.port_name} | {state} | {where} | "
+        view = self.last_status
+        state = view.state if view else "no answer"
+        where = view.where if view else "position unknown"
+        return (f" {self.backend.port_name} | {state} | {where} | "
                 f"feed {self.config.feed_mm_s:g} mm/s")
 
     # ---- the loop ------------------------------------------------------------------------
@@ -178,10 +175,10 @@ class Console:
         (a jog or a home may still be running); commands query for themselves."""
         while not self.leaving:
             self._at_prompt.wait()
-            link = self.link
-            if link is not None and not self.leaving:
+            backend = self.backend
+            if backend is not None and not self.leaving:
                 try:
-                    self.last_status = link.status(timeout_s=1.0)
+                    self.last_status = backend.poll()
                 except GalileoError:
                     self.last_status = None     # the toolbar says "no answer"
             time.sleep(TOOLBAR_REFRESH_S)
@@ -198,11 +195,20 @@ class Console:
         if command is None:
             self.unknown(name)
             return
-        if command.needs_machine and self.link is None:
+        backend = self.backend
+        if command.needs_machine and backend is None:
             self.say("not connected to a machine: type connect [PORT]")
             return
+        why = backend.unsupported(command.name) if backend is not None else None
+        if why is not None:
+            self.say(why)
+            return
         try:
-            command.run(self, arguments)
+            if command.needs_machine:
+                with backend.session():       # the toolbar's poller waits meanwhile
+                    command.run(self, arguments)
+            else:
+                command.run(self, arguments)
         except PortGone as error:
             self.say(str(error))
             self.say("the port is gone: type connect to reconnect, then resume")
@@ -214,13 +220,18 @@ class Console:
         except (KeyboardInterrupt, EOFError):
             self.say("cancelled")
             self._stop_safely()
-        status = self.refresh_status()
-        if status is not None and status.state == "alarm":
-            self.say("the machine is locked (alarm): check it, then type unlock")
+        if self.backend is not None:
+            with self.backend.session():
+                view = self.refresh_status()
+                lines = self.backend.after_command(view)
+            for text in lines:
+                self.say(text)
 
     def _stop_safely(self) -> None:
         try:
-            self.stop_if_moving()
+            if self.backend is not None:
+                with self.backend.session():
+                    self.stop_if_moving()
         except GalileoError as error:
             self.say(f"could not stop the machine: {error}")
 

@@ -12,15 +12,11 @@ import os
 from prompt_toolkit.completion import PathCompleter
 
 from galileo_cnc.config.machine import pen_widths_from_text
-from galileo_cnc.console.job_screen import JobScreen, report
-from galileo_cnc.machine.timing import duration_text, job_timing
 from galileo_cnc.plan.offsets import offset_from_text
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.plan.pipeline import (PLANNING_NOTICE_OPS, Artwork, PlanOptions, load_artwork,
                                        plan_file)
 from galileo_cnc.program.ops import NM_PER_MM
-from galileo_cnc.stream.journal import Journal
-from galileo_cnc.stream.streamer import JobStreamer
 
 
 def run(console, arguments: list[str]) -> None:
@@ -29,7 +25,7 @@ def run(console, arguments: list[str]) -> None:
         "file to plot: ", completer=PathCompleter(expanduser=True))
     if not path:
         return
-    console.link.check_config()             # a board built for another machine: say so first
+    console.backend.check_before_planning(console)    # e.g. a board built for another machine
     artwork = load_artwork(os.path.expanduser(path), layers=options.layers,
                            units=options.units)     # GalileoError: one message, no traceback
     if (problem := artwork.misfit(console.config)) is not None:
@@ -43,20 +39,13 @@ def run(console, arguments: list[str]) -> None:
     # the accepted proposal is "auto": in ink mode the fills may need more room
     choice = "auto" if offset_nm == artwork.proposal_nm else offset_nm
     planned = plan_file(artwork, config, choice, options=options)  # PlanError: file:line
-    job, program = planned.job, planned.plotted
     if planned.offset_nm != offset_nm:
         console.say(f"offsets     X {_mm(planned.offset_nm[0])} mm, Y {_mm(planned.offset_nm[1])} "
                     "mm (the ink reaches past the centre lines)")
     if planned.ink is not None:
         for warning in planned.ink.warnings:
             console.say(str(warning))
-    timing = job_timing(job.commands, console.config)
-    pens = len(job.pen_changes)
-    console.say(f"{len(job)} machine commands, {pens} pen change{'s' * (pens != 1)}, "
-                f"estimated time {duration_text(timing.total_s)}")
-    streamer = JobStreamer(console.link, job, program, journal=Journal.default(), timing=timing)
-    result = JobScreen(console, program.source, len(job)).run(streamer.run, streamer.abort)
-    report(console, result)
+    console.backend.plot(console, planned, config)
 
 
 def _options(console, arguments: list[str]) -> tuple[PlanOptions, object, list[str]]:

@@ -1,23 +1,18 @@
-"""Small machine commands: status, ports, connect, home, unlock."""
+"""Small machine commands: status, ports, connect, home, unlock (what differs
+between our firmware and GRBL lives in the backend)."""
 
 from __future__ import annotations
 
-from galileo_cnc.console.units import position_mm_text
-from galileo_cnc.job import Home
-from galileo_cnc.protocol import Unlock
 from galileo_cnc.transport.discovery import list_ports
 
 
 def status(console, arguments: list[str]) -> None:
-    state = console.link.status()
-    console.say(f"state {state.state}, {position_mm_text(state, console.config)} "
-                f"(steps X {state.x_steps} Y {state.y_steps} Z {state.z_steps}), "
-                f"queue {state.queue_blocks}, feed {console.config.feed_mm_s:g} mm/s")
+    console.say(console.backend.status_line(console.config))
 
 
 def ports(console, arguments: list[str]) -> None:
     found = list_ports()
-    current = console.link.port_name if console.link else None
+    current = console.backend.port_name if console.backend else None
     if not found:
         console.say("no serial ports found (sim:// is always there)")
     for port in found:
@@ -33,16 +28,8 @@ def connect(console, arguments: list[str]) -> None:
 
 
 def home(console, arguments: list[str]) -> None:
-    console.say("homing...")
-    console.link.send(Home())
-    state = console.link.wait_idle()
-    console.say(f"homed: {position_mm_text(state, console.config)}")
+    console.backend.home(console)
 
 
 def unlock(console, arguments: list[str]) -> None:
-    alarm = console.link.take_alarm()
-    console.link.send_protocol(Unlock())
-    state = console.link.status()
-    cause = f" (it was alarm:{alarm.code} {alarm.text})" if alarm else ""
-    console.say(f"unlocked{cause}: state {state.state}, "
-                f"{position_mm_text(state, console.config)}")
+    console.backend.unlock(console)

@@ -4,11 +4,8 @@ from __future__ import annotations
 
 import math
 
-from galileo_cnc.config.machine import MIN_FEED_STEPS_PER_S
-from galileo_cnc.console.keypad import jog_with_keypad
 from galileo_cnc.console.units import NM_PER_JOG_UNIT, refusal_text
 from galileo_cnc.errors import GalileoError
-from galileo_cnc.job import SetFeed
 from galileo_cnc.transport.link import PortGone
 
 MENU = """setup
@@ -39,7 +36,7 @@ def run(console, arguments: list[str]) -> None:
 def jog(console) -> None:
     units = _ask_jog_units(console)
     if units is not None:
-        jog_with_keypad(console, units)
+        console.backend.jog_with_keypad(console, units)
 
 
 def _ask_jog_units(console) -> int | None:
@@ -74,10 +71,9 @@ def feed(console) -> None:
         console.say(f"not a number: {answer!r}")
         return
     steps_per_s = config.feed_steps_per_s_of(mm_s)
-    lowest = MIN_FEED_STEPS_PER_S / config.steps_per_mm
-    highest = config.max_feed_steps_per_s / config.steps_per_mm
-    if not MIN_FEED_STEPS_PER_S <= steps_per_s <= config.max_feed_steps_per_s:
-        console.say(f"refused: the machine runs {lowest:g} .. {highest:g} mm/s")
+    refusal = console.backend.feed_refusal(config, mm_s)
+    if refusal is not None:
+        console.say(refusal)
         return
     if mm_s > config.feed_warn_mm_s:
         console.say(f"warning: {mm_s:g} mm/s ({config.feed_rpm(mm_s):.0f} rpm) is above "
@@ -86,10 +82,10 @@ def feed(console) -> None:
         if not console.confirm("use it anyway?", default=False):
             console.say(f"feed rate stays {config.feed_mm_s:g} mm/s")
             return
-    console.link.send(SetFeed(steps_per_s))
+    note = console.backend.set_feed(console, mm_s)
     console.use_config(config.replace(feed_mm_s=mm_s))
     console.say(f"feed rate {mm_s:g} mm/s ({steps_per_s} steps/s, "
-                f"{config.feed_rpm(mm_s):.0f} rpm)")
+                f"{config.feed_rpm(mm_s):.0f} rpm){note}")
 
 
 _ACTIONS = {"1": jog, "2": feed}

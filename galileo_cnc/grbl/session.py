@@ -1,0 +1,139 @@
+"""Running a planned job on a connected GRBL board: what `plot` and the console's
+`getg` share (cli/plot_grbl.py, console/grbl_job.py).
+
+The connection line, the steps/mm check against the profile, the job cut into
+pieces at its pen changes, one piece streamed to a stop with refusals and alarms
+named by their line in the whole job, and a stop on the user's word (feed hold,
+then soft reset, so no step is lost).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from galileo_cnc.errors import GalileoError
+from galileo_cnc.grbl.gcode import GcodeLine
+from galileo_cnc.grbl.link import FEED_HOLD, GrblLink
+from galileo_cnc.grbl.numbers import read_float, steps_per_mm_f32
+from galileo_cnc.grbl.reports import GrblError, alarm_text, error_text
+from galileo_cnc.grbl.stream import GrblStreamError, stream
+from galileo_cnc.plan.pipeline import PlannedFile
+from galileo_cnc.program.ops import NM_PER_MM
+from galileo_cnc.transport.port import SIMAVR_URL
+
+#: How long a feed hold may take to bring the machine to rest after Ctrl-C.
+HOLD_WAIT_S = 30.0
+
+
+def position_text(status) -> str:
+    """`GRBL stands at X 5.000 Y 4.000 Z 1.875 mm (work)`, from its last report."""
+    if status is None:
+        return "GRBL's position was not reported"
+    x, y, z = (f"{nm / NM_PER_MM:.3f}" for nm in status.wpos_nm)
+    return f"GRBL stands at X {x} Y {y} Z {z} mm (work)"
+
+
+def describe(link: GrblLink, device: str) -> str:
+    """`GRBL 1.1h on /dev/ttyACM0 (RX 128 B, 15 blocks, 160 steps/mm)`."""
+    spm = [float(read_float(link.settings.steps_per_mm_text(a))) for a in range(3)]
+    steps = f"{spm[0]:g}" if len(set(spm)) == 1 else "/".join(f"{v:g}" for v in spm)
+    blocks = link.build.planner_blocks or "?"
+    return (f"GRBL {link.version} on {device} (RX {link.rx_buffer_bytes} B, {blocks} blocks, "
+            f"{steps} steps/mm)")
+
+
+def refuse_other_scale(link: GrblLink, steps_per_mm: float, profile_path,
+                       port: str = "") -> None:
+    """The job is planned in the profile's steps but sent in mm: GRBL turns them
+    back into steps with its own $100-$102, so both must agree."""
+    ours = np.float32(steps_per_mm)
+    differ = [100 + a for a in range(3)
+              if steps_per_mm_f32(link.settings.steps_per_mm_text(a)) != ours]
+    if not differ:
+        return
+    theirs = ", ".join(f"${n}={link.settings[n]}" for n in differ)
+    wanted = " ".join(f"${n}={steps_per_mm:g}" for n in differ)
+    profile = f"the profile {profile_path}" if profile_path else "the default profile"
+    if port.startswith(SIMAVR_URL):     # a fresh simulated EEPROM each time: in the URL
+        send = f"Add {'&'.join(wanted.split())} to the simavr:// URL (GRBL's settings)"
+    else:
+        send = f"Send GRBL {wanted} (its settings, kept in its EEPROM)"
+    raise GalileoError(
+        f"GRBL's steps/mm differ from {profile}'s {steps_per_mm:g} steps/mm: GRBL has "
+        f"{theirs}. Nothing was sent. {send} if the profile is right, or set "
+        f"steps_per_rev/pitch_mm in the profile to GRBL's")
+
+
+def stream_piece(link: GrblLink, chunk: list[GcodeLine], numbers: list[int | None], where,
+                  show, on_reply=None) -> None:
+    """`chunk` to a stop; numbers[i] is chunk[i]'s index in the whole job (None for a
+    resume's lead-in), so a refusal or an alarm is named by its number in the job
+    (stream() counts from the chunk's first line)."""
+    if not chunk:
+        return
+
+    def acked(index: int, reply) -> None:
+        if numbers[index] is not None:
+            show(numbers[index] + 1)
+            if on_reply is not None:
+                on_reply(numbers[index], reply)
+
+    def name(index: int) -> str:
+        number = numbers[index]
+        return (f"G-code line {number + 1}" if number is not None else
+                f"line {index + 1} of the resume's lead-in")
+
+    try:
+        stream(link, chunk, where=where, travel_check=False, on_ack=acked)
+    except GrblStreamError as stopped:
+        if not stopped.alarm and not stopped.errors:
+            raise                   # GRBL fell silent: no line to name
+        if stopped.alarm:
+            index = min(stopped.acked, len(chunk) - 1)      # the line in flight
+            place = where(chunk[index].command)
+            text = (f"{place + ': ' if place else ''}{alarm_text(stopped.code)} "
+                    f"(at {name(index)} {chunk[index].text!r})")
+        else:
+            first = stopped.errors[0]
+            place = f"{first.where}: " if first.where else ""
+            text = (f"GRBL refused a line: {place}{error_text(first.code)} in "
+                    f"{name(first.index)} {first.line.text!r}")
+        done = sum(1 for n in numbers[:stopped.acked] if n is not None)
+        raise GrblStreamError(text, stopped.errors, done, code=stopped.code,
+                              alarm=stopped.alarm) from None
+
+
+def pen_pieces(lines: list[GcodeLine], pen_changes: dict[int, int]) -> list[tuple[int, int]]:
+    """(first G-code line of the change, aperture) for each pen change, in order."""
+    found = []
+    for command in sorted(pen_changes):
+        first = next((i for i, line in enumerate(lines) if line.command >= command), None)
+        if first is not None:
+            found.append((first, pen_changes[command]))
+    return found
+
+
+def source_line(planned: PlannedFile, command: int) -> int:
+    job = planned.job
+    if not 0 <= command < len(job.op_index) or job.op_index[command] < 0:
+        return 0
+    op = planned.plotted.op(job.op_index[command])
+    pos = getattr(op, "pos", None) or getattr(op, "source", None)
+    return pos.line if pos is not None else 0
+
+
+def hold_and_reset(link: GrblLink) -> None:
+    """Ctrl-C: a feed hold decelerates on the path (no step lost), then the soft
+    reset drops GRBL's queue; a reset while moving would lose the position."""
+    try:
+        link.realtime(FEED_HOLD)
+        deadline = time.monotonic() + HOLD_WAIT_S
+        while time.monotonic() < deadline:
+            status = link.status()
+            if status.state == "Idle" or (status.state == "Hold" and status.substate == 0):
+                break
+        link.soft_reset()
+    except GrblError:
+        pass        # the user already asked to stop; the message says what to do
