@@ -88,6 +88,14 @@ class MachineConfig:
     # The pens the user owns, widths in mm (TOML: a [pens] table, widths_mm = [0.3, 0.8]).
     # Ink mode fills copper with them, widest first (docs/ink.md); not in config.h.
     pen_widths_mm: tuple = (0.4,)
+    # On a stock GRBL board (TOML: a [grbl] table): the pen on the Z axis ("z", at the
+    # pen heights above) or a servo on the spindle output ("servo": M3 S<down> lowers
+    # it, M5 raises it, or M3 S<up> when servo_up_s > 0, each change followed by a
+    # dwell: GRBL does not wait for a servo). Not in config.h.
+    grbl_pen: str = "z"
+    servo_down_s: int = 1000
+    servo_up_s: int = 0
+    servo_dwell_ms: int = 150
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -107,6 +115,16 @@ class MachineConfig:
         for name in positive:
             if getattr(self, name) <= 0:
                 raise ConfigError(f"config: {name} must be > 0, got {getattr(self, name)!r}")
+        if self.grbl_pen not in GRBL_PENS:
+            raise ConfigError(f"config: grbl_pen ([grbl] pen) must be one of {', '.join(GRBL_PENS)}, "
+                              f"got {self.grbl_pen!r}")
+        for name in ("servo_down_s", "servo_up_s"):
+            if not 0 <= getattr(self, name) <= MAX_SPINDLE_S:
+                raise ConfigError(f"config: {name} must be 0..{MAX_SPINDLE_S} (GRBL's S "
+                                  f"word, scaled by its $30), got {getattr(self, name)!r}")
+        if not 0 <= self.servo_dwell_ms <= MAX_SERVO_DWELL_MS:
+            raise ConfigError(f"config: servo_dwell_ms must be 0..{MAX_SERVO_DWELL_MS}, "
+                              f"got {self.servo_dwell_ms!r}")
         for name in ("pen_lift_steps", "flash_dwell_ms", "home_pulloff_steps"):
             if getattr(self, name) < 0:
                 raise ConfigError(f"config: {name} must be >= 0, got {getattr(self, name)!r}")
@@ -303,16 +321,25 @@ class MachineConfig:
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], source: str = "config") -> "MachineConfig":
-        """Build from a TOML-like mapping: top-level keys or a `[machine]` table, and
-        the pens from a `[pens]` table (widths_mm)."""
-        pens = {}
+        """Build from a TOML-like mapping: top-level keys or a `[machine]` table, the
+        pens from a `[pens]` table (widths_mm), a GRBL board's pen from a `[grbl]`
+        table (pen, servo_down_s, servo_up_s, servo_dwell_ms)."""
+        tables = {}          # keys from the [pens] and [grbl] tables
         if isinstance(data.get("pens"), Mapping):
             unknown = sorted(set(data["pens"]) - {"widths_mm"})
             if unknown:
                 raise ConfigError(f"{source}: unknown pens setting(s): {', '.join(unknown)} "
                                   "(expected widths_mm = [0.3, 0.8])")
             if "widths_mm" in data["pens"]:
-                pens["pen_widths_mm"] = data["pens"]["widths_mm"]
+                tables["pen_widths_mm"] = data["pens"]["widths_mm"]
+        if isinstance(data.get("grbl"), Mapping):
+            names = {"pen": "grbl_pen", "servo_down_s": "servo_down_s",
+                     "servo_up_s": "servo_up_s", "servo_dwell_ms": "servo_dwell_ms"}
+            unknown = sorted(set(data["grbl"]) - set(names))
+            if unknown:
+                raise ConfigError(f"{source}: unknown grbl setting(s): {', '.join(unknown)} "
+                                  f"(known: {', '.join(names)})")
+            tables.update({names[key]: value for key, value in data["grbl"].items()})
         if "machine" in data and isinstance(data["machine"], Mapping):
             extra = [k for k in data if k != "machine" and not isinstance(data[k], Mapping)]
             data = {**{k: data[k] for k in extra}, **data["machine"]}
@@ -320,7 +347,7 @@ class MachineConfig:
             data = {k: v for k, v in data.items() if not isinstance(v, Mapping)}
         _check_keys(data, source)
         try:
-            return cls(**data, **pens)
+            return cls(**data, **tables)
         except ConfigError as problem:  # name the file, not just the key
             text = str(problem)
             if source != "config" and text.startswith("config: "):
@@ -343,6 +370,11 @@ class MachineConfig:
 
 
 MIN_FEED_STEPS_PER_S = 10
+#: The pen on a GRBL board: on the Z axis, or a servo on the spindle output.
+GRBL_PENS = ("z", "servo")
+#: Bounds of the servo's S words and its dwell (GRBL's $30 is 1000 by default).
+MAX_SPINDLE_S = 100_000
+MAX_SERVO_DWELL_MS = 10_000
 #: Arduino Uno pins a profile may use: D2..D13 and A0..A5 as 14..19 (D0/D1: serial).
 FIRST_PIN, LAST_PIN = 2, 19
 #: Pens in a set, and the widest pen, that the ink mode takes.

@@ -196,10 +196,13 @@ def _flash(w: _Writer, c: J.Flash, flash_dwell_ms: int) -> None:
 
 
 def pen_from_config(config) -> GrblPen:
-    """Z mode with the profile's pen heights and Z feed (MachineConfig)."""
-    return GrblPen(servo=False, up_z_steps=config.pen_up_z_steps,
+    """The profile's pen (MachineConfig): on the Z axis at its pen heights and Z feed,
+    or, with `grbl_pen = "servo"` ([grbl] pen), a servo on the spindle output."""
+    return GrblPen(servo=config.grbl_pen == "servo", up_z_steps=config.pen_up_z_steps,
                    down_z_steps=config.pen_down_z_steps,
-                   z_feed_steps_per_s=config.z_feed_steps_per_s)
+                   z_feed_steps_per_s=config.z_feed_steps_per_s,
+                   down_s=config.servo_down_s, up_s=config.servo_up_s or None,
+                   servo_dwell_ms=config.servo_dwell_ms)
 
 
 def job_to_gcode(job: J.Job, scale: AxisScale, pen: GrblPen = GrblPen(), *,

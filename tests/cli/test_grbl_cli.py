@@ -45,9 +45,9 @@ def profile(tmp_path, monkeypatch):
 
 
 @contextmanager
-def grbl(settings: dict[int, str]):
+def grbl(settings: dict[int, str], **board_kwargs):
     """GRBL booted in simavr with `settings` written; the setup's port closed again."""
-    with firmware.grbl_board(grbl_elf()) as board:
+    with firmware.grbl_board(grbl_elf(), **board_kwargs) as board:
         with serial.Serial(board.port, 115200, timeout=0.2) as port:
             link = GrblLink.connect(port)
             for number, value in settings.items():
@@ -82,6 +82,30 @@ def test_plot_on_grbl_draws_the_sample_exactly(profile, tmp_path, capsys):
     # every end point reached exactly, in order, every step within one of the path
     checked = check_trace(positions(board), planned_gcode(profile))
     assert checked["motions"] > 40
+
+
+def test_a_servo_pen_chosen_in_the_profile_lifts_with_the_spindle_output(tmp_path, capsys,
+                                                                         monkeypatch):
+    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path))
+    servo = tmp_path / "servo.toml"
+    servo.write_text(PROFILE + '[grbl]\npen = "servo"\nservo_down_s = 500\n'
+                     'servo_dwell_ms = 40\n')
+    with grbl(SETTINGS, extra_pins=(grbl_firmware.SPINDLE_PWM_PIN,)) as board:
+        code = cli.main(["plot", SAMPLE, "--port", board.port, "--mode", "centre", "--yes",
+                         "--profile", str(servo)])
+        board.stop()
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    lines = planned_gcode(str(servo))
+    texts = [line.text for line in lines]
+    assert "M3 S500" in texts and "M5" in texts and "G4 P0.04" in texts
+    assert not any(" Z" in text for text in texts[1:])          # no pen heights
+    pos = positions(board)
+    assert (pos[:, 2] == 0).all()                               # Z never stepped
+    _cycle, pin, _level = board.trace()
+    assert (pin == grbl_firmware.SPINDLE_PWM_PIN).sum() > 2 * texts.count("M3 S500")
+    moves = sum(text.split()[0] in ("G0", "G1", "G2", "G3") for text in texts)
+    assert moves > 30 and check_trace(pos, lines)["motions"] == moves   # every end exact
 
 
 def test_other_steps_per_mm_refused_before_anything_moves(profile, capsys):

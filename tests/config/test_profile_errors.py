@@ -30,6 +30,10 @@ SAMPLE = Path(__file__).resolve().parents[2] / "samples" / "led-blinker.gbr"
     (b"[serial]\nport = 3\n", "[serial] port must be text"),
     (b"\xff\xfe[machine]\n", "not UTF-8 text (byte 0xff at offset 0)"),
     (b"[machine\n", "bad TOML"),
+    (b"[grbl]\npen = \"pneumatic\"\n", "grbl_pen ([grbl] pen) must be one of z, servo"),
+    (b"[grbl]\nservo_down_s = -5\n", "servo_down_s must be 0..100000"),
+    (b"[grbl]\nservo_dwell_ms = 1.5\n", "servo_dwell_ms must be an integer, got 1.5"),
+    (b"[grbl]\nservo = true\n", "unknown grbl setting(s): servo (known: pen,"),
 ])
 def test_bad_profile_names_file_key_and_expectation(tmp_path, text, expected):
     profile = tmp_path / "profile.toml"
@@ -64,3 +68,19 @@ def test_plot_with_a_bad_profile_stops_with_one_line(tmp_path, profile_text):
     assert "Traceback" not in done.stderr
     assert done.stderr.strip().startswith(f"galileo-cnc: {profile}: ")
     assert "%" not in done.stdout          # no progress bar: nothing was streamed
+
+
+def test_a_servo_pen_is_the_profiles_choice_and_survives_the_journal(tmp_path):
+    from galileo_cnc.config.machine import tomllib
+    from galileo_cnc.grbl.gcode import pen_from_config
+
+    profile = tmp_path / "profile.toml"
+    profile.write_text('[grbl]\npen = "servo"\nservo_down_s = 700\nservo_up_s = 200\n')
+    config = load_profile(profile).config
+    pen = pen_from_config(config)
+    assert (pen.servo, pen.down_s, pen.up_s, pen.servo_dwell_ms) == (True, 700, 200, 150)
+    # the journal keeps the profile as to_toml's text: the same pen comes back
+    assert MachineConfig.from_mapping(tomllib.loads(config.to_toml())) == config
+    assert not pen_from_config(MachineConfig()).servo           # the default: Z axis
+    # not in config.h: the firmware digest does not change with the GRBL pen
+    assert config.firmware_digest() == MachineConfig().firmware_digest()
