@@ -8,6 +8,8 @@ import json
 import os
 import sys
 
+import serial
+
 from galileo_cnc import __version__
 from galileo_cnc.config.hardware import DEFAULT_BAUD
 from galileo_cnc.errors import GalileoError
@@ -102,10 +104,12 @@ def _run_plot(args: argparse.Namespace) -> int:
     check_output(args.preview, "--preview")
     check_output(args.trace, "--trace")
     profile = _profile(args)
-    grbl_port, profile = _grbl_port(profile)
+    grbl_port, profile, handle = _board_port(profile)
     if grbl_port is not None:
-        return _run_grbl_plot(args, profile, grbl_port, plan)
+        return _run_grbl_plot(args, profile, grbl_port, plan, handle)
     if args.check:
+        if handle is not None:
+            handle.close()
         raise GalileoError(f"plot --check runs GRBL's check mode ($C): it needs a GRBL board, "
                            f"and {profile.port or 'sim://'} runs galileo-cnc firmware "
                            f"(info and preview check a file without a machine)")
@@ -113,46 +117,62 @@ def _run_plot(args: argparse.Namespace) -> int:
                           margin_nm=round(args.margin * NM_PER_MM), yes=args.yes,
                           preview=args.preview, trace=args.trace, resume=args.resume,
                           group=not args.file_order, mode=args.mode,
-                          layers=_layers(args), units=args.units, optimize=args.optimize)
-    return run_plot(options)
+                          layers=_layers(args), units=args.units, optimize=args.optimize,
+                          handle=handle)
+    try:
+        return run_plot(options)
+    finally:
+        if handle is not None:
+            handle.close()                  # closed already unless planning failed
 
 
-def _grbl_port(profile):
-    """(port, profile) when the plot goes to a GRBL board, else (None, profile).
-    With no port given, find_board's probe picks the board; a galileo-cnc board
-    it found is handed on, so it is not probed twice. sim:// and simavr:// are
-    never probed: simavr://?firmware=grbl is GRBL, the rest our firmware."""
-    from galileo_cnc.transport.discovery import GALILEO, GRBL, find_board, identify_board
+def _board_port(profile):
+    """(GRBL port or None, profile, open handle or None): where the plot goes. With no
+    port given, find_open_board's probe picks the board; a named port is asked who
+    answers. Either way the probed port stays open and goes to the link (an Uno
+    resets each time its port is opened). sim:// and simavr:// are never probed:
+    simavr://?firmware=grbl is GRBL, the rest our firmware."""
+    from galileo_cnc.transport.discovery import GRBL, find_open_board, open_identified
     from galileo_cnc.transport.port import SIM_URL, SIMAVR_URL
 
     if profile.port is None:
-        found, kind = find_board(profile.baud)
+        found, kind, handle = find_open_board(profile.baud)
         if kind == GRBL:
-            return found, profile
-        if kind == GALILEO and found != SIM_URL:
-            return None, dataclasses.replace(profile, port=found)
-        return None, profile
+            return found, profile, handle
+        if found != SIM_URL:
+            return None, dataclasses.replace(profile, port=found), handle
+        return None, profile, None
     if profile.port.startswith(SIMAVR_URL) and "firmware=grbl" in profile.port:
-        return profile.port, profile
+        return profile.port, profile, None
     if profile.port.startswith((SIM_URL, SIMAVR_URL)):
-        return None, profile
-    return (profile.port if identify_board(profile.port, profile.baud) == GRBL else None), \
-        profile
+        return None, profile, None
+    try:
+        handle, kind = open_identified(profile.port, profile.baud)
+    except (serial.SerialException, OSError, ValueError):
+        return None, profile, None          # the link's own open says what is wrong
+    return (profile.port if kind == GRBL else None), profile, handle
 
 
-def _run_grbl_plot(args: argparse.Namespace, profile, port: str, plan) -> int:
+def _run_grbl_plot(args: argparse.Namespace, profile, port: str, plan, handle=None) -> int:
     from galileo_cnc.cli.plot_grbl import GrblPlotOptions, run_grbl_plot
 
-    # refused before connecting: these need what only our firmware reports or keeps
-    if args.resume and args.check:
-        raise GalileoError("plot --resume --check: check the job without --resume")
-    if args.trace:
-        raise GalileoError("plot --trace: a GRBL board cannot report its steps "
-                           "(--preview draws the plan)")
-    return run_grbl_plot(GrblPlotOptions(
-        args.file, profile, port, plan, offset=args.offset,
-        margin_nm=round(args.margin * NM_PER_MM), yes=args.yes, check=args.check,
-        preview=args.preview, resume=args.resume))
+    # refused before anything is sent: these need what only our firmware reports or keeps
+    refusal = ("plot --resume --check: check the job without --resume"
+               if args.resume and args.check else
+               "plot --trace: a GRBL board cannot report its steps (--preview draws the plan)"
+               if args.trace else None)
+    if refusal is not None:
+        if handle is not None:
+            handle.close()
+        raise GalileoError(refusal)
+    try:
+        return run_grbl_plot(GrblPlotOptions(
+            args.file, profile, port, plan, offset=args.offset,
+            margin_nm=round(args.margin * NM_PER_MM), yes=args.yes, check=args.check,
+            preview=args.preview, resume=args.resume), port=handle)
+    finally:
+        if handle is not None:
+            handle.close()                  # closed already unless planning failed
 
 
 def _run_preview(args: argparse.Namespace) -> int:

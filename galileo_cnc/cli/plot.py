@@ -16,7 +16,7 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TextIO
+from typing import Any, TextIO
 
 from galileo_cnc.config.profile import Profile
 from galileo_cnc.errors import GalileoError
@@ -88,6 +88,9 @@ class PlotOptions:
     layers: tuple[str, ...] = ()
     units: str | None = None
     optimize: bool = False          # reorder pen-drawing G-code too (plan/gcode_order.py)
+    #: the board's port, already open and probed (discovery.open_identified): the
+    #: link greets over it instead of opening `profile.port` again
+    handle: Any = None
 
 
 def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None = None) -> int:
@@ -105,7 +108,11 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
                                                 optimize=options.optimize))
 
     port = with_step_trace(profile.port) if options.trace and profile.port else profile.port
-    link = MachineLink.open(port, profile.baud, profile.config, profile.path)
+    if options.handle is not None:
+        link = MachineLink.attach(options.handle, port, profile.baud, profile.config,
+                                  profile.path, booted=True)
+    else:
+        link = MachineLink.open(port, profile.baud, profile.config, profile.path)
     link.on_message = progress.message
     steps = ReportedSteps(link)
     outputs = None

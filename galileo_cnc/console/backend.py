@@ -14,8 +14,10 @@ from contextlib import nullcontext
 from dataclasses import dataclass
 from typing import Any, ContextManager
 
+import serial
+
 from galileo_cnc.config.machine import MachineConfig
-from galileo_cnc.transport.discovery import GALILEO, GRBL, find_board, identify_board
+from galileo_cnc.transport.discovery import GALILEO, GRBL, find_open_board, open_identified
 from galileo_cnc.transport.port import SIM_URL, SIMAVR_URL
 
 
@@ -106,30 +108,36 @@ class Backend:
         raise NotImplementedError
 
 
-def board_kind(port: str | None, baud: int) -> tuple[str, str]:
-    """(port, GALILEO or GRBL), as `plot` routes it (cli/main.py): no port: the first
-    board that answers, GRBL or ours, else `sim://`; `sim://` and
+def board_kind(port: str | None, baud: int) -> tuple[str, str, Any]:
+    """(port, GALILEO or GRBL, open handle or None), as `plot` routes it (cli/main.py):
+    no port: the first board that answers, GRBL or ours, else `sim://`; `sim://` and
     `simavr://` are never probed (`simavr://?firmware=grbl` is GRBL); any other port
     is asked who answers, and what is not GRBL goes to our link (which says what is
-    wrong with it)."""
+    wrong with it). A probed port stays open for the link: an Uno resets each time
+    its port is opened."""
     if port is None:
-        return find_board(baud)
+        return find_open_board(baud)
     if port.startswith(SIMAVR_URL) and "firmware=grbl" in port:
-        return port, GRBL
+        return port, GRBL, None
     if port.startswith((SIM_URL, SIMAVR_URL)):
-        return port, GALILEO
-    return port, (GRBL if identify_board(port, baud) == GRBL else GALILEO)
+        return port, GALILEO, None
+    try:
+        handle, kind = open_identified(port, baud)
+    except (serial.SerialException, OSError, ValueError):
+        return port, GALILEO, None          # our link's own open says what is wrong
+    return port, (GRBL if kind == GRBL else GALILEO), handle
 
 
 def open_backend(port: str | None, baud: int, config: MachineConfig, config_path=None,
                  profile: MachineConfig | None = None, on_message=None) -> Backend:
     """The backend for what answers on `port`; GalileoError (LinkError) when none."""
-    found, kind = board_kind(port, baud)
+    found, kind, handle = board_kind(port, baud)
     if kind == GRBL:
         from galileo_cnc.console.grbl_backend import GrblBackend
-        return GrblBackend.open(found, baud, config, config_path, profile)
+        return GrblBackend.open(found, baud, config, config_path, profile, handle=handle)
     from galileo_cnc.console.galileo_backend import GalileoBackend
-    return GalileoBackend.open(found, baud, config, config_path, profile, on_message)
+    return GalileoBackend.open(found, baud, config, config_path, profile, on_message,
+                               handle=handle)
 
 
 __all__ = ["Backend", "MachineView", "board_kind", "open_backend", "GALILEO", "GRBL"]

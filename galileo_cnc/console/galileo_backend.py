@@ -31,8 +31,12 @@ class GalileoBackend(Backend):
 
     @classmethod
     def open(cls, port: str | None, baud: int, config: MachineConfig, config_path=None,
-             profile: MachineConfig | None = None, on_message=None) -> "GalileoBackend":
-        link = MachineLink.open(port, baud, config, config_path, profile=profile)
+             profile: MachineConfig | None = None, on_message=None,
+             handle=None) -> "GalileoBackend":
+        """`handle`: the port already open and probed (backend.board_kind)."""
+        link = (MachineLink.attach(handle, port, baud, config, config_path, profile=profile,
+                                   booted=True) if handle is not None else
+                MachineLink.open(port, baud, config, config_path, profile=profile))
         link.on_message = on_message
         return cls(link)
 

@@ -122,11 +122,13 @@ class GrblBackend(Backend):
 
     @classmethod
     def open(cls, name: str, baud: int, config: MachineConfig, config_path=None,
-             profile: MachineConfig | None = None) -> "GrblBackend":
-        try:
-            handle = open_port(name, baud, timeout=0.2)
-        except (serial.SerialException, OSError, ValueError) as problem:
-            raise LinkError(f"cannot open {name}: {port_error_text(problem)}") from None
+             profile: MachineConfig | None = None, handle=None) -> "GrblBackend":
+        """`handle`: the port already open and probed (backend.board_kind)."""
+        if handle is None:
+            try:
+                handle = open_port(name, baud, timeout=0.2)
+            except (serial.SerialException, OSError, ValueError) as problem:
+                raise LinkError(f"cannot open {name}: {port_error_text(problem)}") from None
         port = InterruptiblePort(handle)
         try:
             link = GrblLink.connect(port)

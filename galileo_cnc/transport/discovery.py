@@ -98,10 +98,25 @@ def answers_with_banner(device: str, baud: int, wait_s: float = BANNER_WAIT_S) -
 def identify_board(device: str, baud: int, wait_s: float = BANNER_WAIT_S) -> str | None:
     """GALILEO for our firmware, GRBL for stock GRBL 1.1, None for anything else."""
     try:
-        with open_port(device, baud, timeout=0.2) as port:
-            return _identify(port, wait_s)
+        port, kind = open_identified(device, baud, wait_s)
     except (serial.SerialException, OSError, ValueError):
         return None
+    port.close()
+    return kind
+
+
+def open_identified(device: str, baud: int, wait_s: float = BANNER_WAIT_S
+                    ) -> tuple[serial.SerialBase, str | None]:
+    """`device` opened once and who answers on it (GALILEO, GRBL or None). The caller
+    keeps the open port for its link: an Uno resets when its port is opened (2.5 s
+    and a lost position), so probing and then opening again would reset it twice.
+    Opening errors propagate."""
+    port = open_port(device, baud, timeout=0.2)
+    try:
+        return port, _identify(port, wait_s)
+    except BaseException:
+        port.close()
+        raise
 
 
 def _identify(port, wait_s: float) -> str | None:
@@ -129,16 +144,29 @@ def _identify(port, wait_s: float) -> str | None:
 def find_board(baud: int = DEFAULT_BAUD) -> tuple[str, str]:
     """(port, GALILEO or GRBL): a known board, else a USB port that answers, else
     (`sim://`, GALILEO)."""
+    device, kind, handle = find_open_board(baud)
+    if handle is not None:
+        handle.close()
+    return device, kind
+
+
+def find_open_board(baud: int = DEFAULT_BAUD) -> tuple[str, str, serial.SerialBase | None]:
+    """`find_board`, with the board's port left open for the link (None for
+    `sim://`): see `open_identified`."""
     if os.environ.get(NO_PROBE_ENV):
-        return SIM_URL, GALILEO
+        return SIM_URL, GALILEO, None
     ports = list_ports()
     candidates = [p for p in ports if p.known_board] + \
         [p for p in ports if p.usb and not p.known_board]
     for port in candidates:
-        kind = identify_board(port.device, baud)
+        try:
+            handle, kind = open_identified(port.device, baud)
+        except (serial.SerialException, OSError, ValueError):
+            continue
         if kind is not None:
-            return port.device, kind
-    return SIM_URL, GALILEO
+            return port.device, kind, handle
+        handle.close()
+    return SIM_URL, GALILEO, None
 
 
 def _carries_banner(line: bytes) -> bool:

@@ -148,19 +148,22 @@ class MachineLink:
     @classmethod
     def attach(cls, handle: serial.SerialBase, name: str, baud: int = DEFAULT_BAUD,
                config: MachineConfig | None = None, config_path=None,
-               profile: MachineConfig | None = None) -> "MachineLink":
-        """Greet the machine over an already open pyserial port."""
+               profile: MachineConfig | None = None, booted: bool = False) -> "MachineLink":
+        """Greet the machine over an already open pyserial port; `booted`: it has
+        answered on this port already (discovery.open_identified read its banner),
+        so there is no reset to wait out."""
+        handle.timeout = 0.1
         link = cls(handle, name, baud, config or MachineConfig(), config_path, profile)
         link._reader.start()
         try:
-            link._greet()
+            link._greet(booted)
             link._compare_config()
         except BaseException:
             link.close()
             raise
         return link
 
-    def _greet(self) -> None:
+    def _greet(self, booted: bool = False) -> None:
         """Wait out a board's reset, note its status, then `N0 V` (restarts the count).
 
         A board that kept power while the cable was out may still be running lines
@@ -168,7 +171,7 @@ class MachineLink:
         counts every line it will ever accept from that session, which resuming
         needs), and skip the replies it still owed, which arrive before ours.
         """
-        deadline = time.monotonic() + (0.3 if self.simulated else BANNER_WAIT_S)
+        deadline = time.monotonic() + (0.3 if self.simulated or booted else BANNER_WAIT_S)
         while self.banner is None and time.monotonic() < deadline:
             time.sleep(0.02)
         try:

@@ -64,12 +64,18 @@ def planned_gcode(profile_path: str) -> list[GcodeLine]:
                         flash_dwell_ms=config.flash_dwell_ms)
 
 
-def test_plot_on_grbl_draws_the_sample_exactly(profile, tmp_path, capsys):
+def test_plot_on_grbl_draws_the_sample_exactly(profile, tmp_path, capsys, monkeypatch):
     preview = tmp_path / "plotted.png"
     with grbl(SETTINGS) as board:
+        # probed (GRBL or ours?) and plotted over one open: an Uno resets at each open
+        opened = []
+        real_open = serial.serial_for_url
+        monkeypatch.setattr(serial, "serial_for_url",
+                            lambda url, *a, **k: opened.append(url) or real_open(url, *a, **k))
         code = cli.main(["plot", SAMPLE, "--port", board.port, "--mode", "centre", "--yes",
                          "--profile", profile, "--preview", str(preview)])
         board.stop()
+    assert opened == [board.port]
     out, err = capsys.readouterr()
     assert code == 0, err
     assert f"GRBL 1.1h on {board.port} (RX 128 B, 15 blocks, 160 steps/mm)" in out

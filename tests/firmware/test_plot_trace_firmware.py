@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import serial
 
 from galileo_cnc.cli.main import main
 from galileo_cnc.machine import simulate
@@ -51,11 +52,18 @@ def test_plot_trace_on_simavr_writes_the_steps_the_firmware_made(tmp_path, capsy
 
 
 def test_plot_trace_from_a_port_that_reports_no_steps_writes_the_reference_and_says_so(
-        tmp_path, capsys, reference):
+        tmp_path, capsys, reference, monkeypatch):
+    # the named port is probed (our firmware or GRBL?) and plotted over one open: an
+    # Uno resets each time its port is opened
+    opened = []
+    real_open = serial.serial_for_url
+    monkeypatch.setattr(serial, "serial_for_url",
+                        lambda url, *a, **k: opened.append(url) or real_open(url, *a, **k))
     out_file = tmp_path / "steps.npz"
     with SimulatedBoard(ELF, trace=False) as board:
         assert main(["plot", SQUARE, "--port", board.port, "--yes", "--offset", "none",
                      "--trace", str(out_file)]) == 0
+    assert opened == [board.port]
     out = capsys.readouterr().out
     assert f"the reference machine's, since {board.port} cannot report its steps" in out
     assert Trace.load(out_file).same_steps(reference)
