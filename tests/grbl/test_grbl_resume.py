@@ -25,7 +25,7 @@ from galileo_cnc.grbl.numbers import grbl_steps
 from galileo_cnc.grbl.resume import PREAMBLE_TEXT, lead_in, rewind, state_before
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
-from galileo_cnc.stream.journal import FINISHED, INTERRUPTED
+from galileo_cnc.stream.journal import ABORTED, FINISHED, INTERRUPTED
 
 from faults import FaultyPort
 from grbl_support import (PROFILE, SCALE, SETTINGS, check_trace, grbl_machine, motions,
@@ -223,3 +223,56 @@ def test_rewind_goes_back_over_the_queue_but_not_past_a_dwell():
     assert rewind(lines, 40, 0, 20) == 40 - 20 + 1     # the 20 motion lines before may be lost
     assert rewind(lines, 10, 0, 20) == 3               # everything before the dwell had run
     assert rewind(lines, 10, 6, 20) == 6               # not before the session's first line
+
+
+class CtrlCPort(RecordingPort):
+    """The user presses Ctrl-C while the plot sends the line after `after` lines."""
+
+    def __init__(self, port, after: int):
+        super().__init__(port)
+        self.after = after
+        self.raw = bytearray()          # every byte written, real-time ones included
+
+    def write(self, data: bytes) -> int:
+        if data.endswith(b"\n") and len(self.sent) == self.after:
+            self.after = -1
+            raise KeyboardInterrupt
+        self.raw += data
+        return super().write(data)
+
+
+def test_ctrl_c_holds_then_resets_and_resume_finishes_the_job(profile, capsys):
+    lines = job_lines(profile)
+    with grbl_machine(HOMING, limits=LIMITS) as (board, link):
+        link.command_checked("$H")
+        work = " ".join(f"{'XYZ'[a]}{v}" for a, v in enumerate(WORK_ZERO_MM))
+        link.command_checked(f"G0 {work}")
+        link.command_checked("G10 L20 P1 X0 Y0 Z0")
+        link.wait_idle()
+        link.port.close()
+        setup_end = settled_trace(board)
+
+        port = CtrlCPort(serial.Serial(board.port, 115200, timeout=0.2), after=60)
+        options = plot_grbl.GrblPlotOptions(
+            SAMPLE, load_profile(profile, port=board.port), board.port,
+            PlanOptions(mode="centre"), margin_nm=DEFAULT_MARGIN_NM, yes=True)
+        assert plot_grbl.run_grbl_plot(options, port=port) == plot_grbl.EXIT_INTERRUPTED
+        out, _ = capsys.readouterr()
+        assert "stopped: GRBL held the feed, then was reset" in out
+        entry = plot_grbl.grbl_journal().load()
+        assert entry.state == ABORTED and 0 < entry.confirmed < len(lines) - 10
+        # the feed hold (!) came first, then the soft reset (0x18): the position is kept
+        held = port.raw.index(b"!")
+        assert b"\x18" in port.raw[held:]
+
+        code = cli.main(["plot", SAMPLE, "--resume", "--yes", "--port", board.port,
+                         "--profile", profile])
+        out, err = capsys.readouterr()
+        board.stop()
+    assert code == 0, err
+    assert "ALARM" not in out + err and "process has finished" in out
+    assert plot_grbl.grbl_journal().load().state == FINISHED
+    pos, tick = positions_and_ticks(board.trace())
+    at_zero = pos[int(np.searchsorted(tick, setup_end[0][-1] // 8, side="right")) - 1]
+    end = next(reversed(list(motions(lines))))[2]
+    assert tuple(pos[-1] - at_zero) == end          # the job's last point, exactly
