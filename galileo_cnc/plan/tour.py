@@ -309,60 +309,39 @@ class Tour:
                         gained += gain
                         changed((u, up, v, vp))
                         break
-                # Or-opt: the run from v (away from vp) between u and up, v next to u
+                # Or-opt: a run of 1 to 3 chains from a (away from its partner ap)
+                # put between b and bp, a next to b; both ways round: the run from v
+                # between u and up, then the run from u between v and vp
                 best = None
                 q = pos[v]
-                step = -vside
-                for length in range(1, 4):
-                    if length + 2 > pairs:
-                        break
-                    pe = (q + step * (2 * length - 1)) % m
-                    if ((pu - q) * step) % m < 2 * length or \
-                            ((pos[up] - q) * step) % m < 2 * length:
-                        break
-                    e, en = tour[pe], tour[(pe + step) % m]
-                    if vp == 1 or en == 1:
-                        gain = base + travel[e] - tail[vp + en - 1]
-                    else:
-                        dx = xs[vp] - xs[en]
-                        dy = ys[vp] - ys[en]
-                        gain = base + travel[e] - sqrt(dx * dx + dy * dy)
-                    if gain <= _EPS:                 # bound: the last edge adds more
-                        continue
-                    if e != 1 != up:
-                        dx = xs[e] - xs[up]
-                        dy = ys[e] - ys[up]
-                        gain -= sqrt(dx * dx + dy * dy)
-                    else:
-                        gain -= tail[e + up - 1]
-                    if gain > _EPS and (best is None or gain > best[0]):
-                        best = (gain, v, vp, e, en, u, up)
-                # Or-opt: the run from u (away from up) between v and vp, u next to v
-                step = -uside
-                for length in range(1, 4):
-                    if length + 2 > pairs:
-                        break
-                    pe = (pu + step * (2 * length - 1)) % m
-                    if ((q - pu) * step) % m < 2 * length or \
-                            ((pos[vp] - pu) * step) % m < 2 * length:
-                        break
-                    e, en = tour[pe], tour[(pe + step) % m]
-                    if up == 1 or en == 1:
-                        gain = base + travel[e] - tail[up + en - 1]
-                    else:
-                        dx = xs[up] - xs[en]
-                        dy = ys[up] - ys[en]
-                        gain = base + travel[e] - sqrt(dx * dx + dy * dy)
-                    if gain <= _EPS:
-                        continue
-                    if e != 1 != vp:
-                        dx = xs[e] - xs[vp]
-                        dy = ys[e] - ys[vp]
-                        gain -= sqrt(dx * dx + dy * dy)
-                    else:
-                        gain -= tail[e + vp - 1]
-                    if gain > _EPS and (best is None or gain > best[0]):
-                        best = (gain, u, up, e, en, v, vp)
+                for a, ap, aside, pa, b, bp in ((v, vp, vside, q, u, up),
+                                                (u, up, uside, pu, v, vp)):
+                    step = -aside
+                    pb = pos[b]
+                    for length in range(1, 4):
+                        if length + 2 > pairs:
+                            break
+                        pe = (pa + step * (2 * length - 1)) % m
+                        if ((pb - pa) * step) % m < 2 * length or \
+                                ((pos[bp] - pa) * step) % m < 2 * length:
+                            break
+                        e, en = tour[pe], tour[(pe + step) % m]
+                        if ap == 1 or en == 1:
+                            gain = base + travel[e] - tail[ap + en - 1]
+                        else:
+                            dx = xs[ap] - xs[en]
+                            dy = ys[ap] - ys[en]
+                            gain = base + travel[e] - sqrt(dx * dx + dy * dy)
+                        if gain <= _EPS:             # bound: the last edge adds more
+                            continue
+                        if e != 1 != bp:
+                            dx = xs[e] - xs[bp]
+                            dy = ys[e] - ys[bp]
+                            gain -= sqrt(dx * dx + dy * dy)
+                        else:
+                            gain -= tail[e + bp - 1]
+                        if gain > _EPS and (best is None or gain > best[0]):
+                            best = (gain, a, ap, e, en, b, bp)
                 if best is not None:
                     gain, a, ap, e, en, b, bp = best
                     self._insert(a, ap, e, en, b, bp)
