@@ -18,22 +18,18 @@ import serial
 
 from galileo_cnc.cli import main as cli
 from galileo_cnc.cli import plot_grbl
-from galileo_cnc.config.profile import load_profile
 from galileo_cnc.grbl import firmware
-from galileo_cnc.grbl.gcode import GcodeLine, expected_end_steps, job_to_gcode, pen_from_config
+from galileo_cnc.grbl.gcode import GcodeLine, expected_end_steps, job_to_gcode
 from galileo_cnc.grbl.link import GrblLink
-from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 from galileo_cnc.simavr import board as simavr_board
 from galileo_cnc.simavr import grbl_firmware
 from galileo_cnc.transport.port import open_port
 
 # the GRBL tests' helpers (build, settings, pin trace) live beside them
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "grbl"))
-from grbl_support import (PROFILE, SCALE, SETTINGS, check_trace, grbl_elf,  # noqa: E402
-                          positions)
+from grbl_support import (PROFILE, SAMPLE, SCALE, SETTINGS, check_trace,  # noqa: E402
+                          grbl_elf, planned_gcode, positions)
 
-ROOT = Path(__file__).resolve().parents[2]
-SAMPLE = str(ROOT / "samples" / "led-blinker.gbr")
 
 
 @pytest.fixture
@@ -53,15 +49,6 @@ def grbl(settings: dict[int, str], **board_kwargs):
             for number, value in settings.items():
                 link.command_checked(f"${number}={value}")
         yield board
-
-
-def planned_gcode(profile_path: str) -> list[GcodeLine]:
-    """What plot should send, computed here from the same profile."""
-    config = load_profile(profile_path).config
-    planned = plan_file(SAMPLE, config, options=PlanOptions(mode="centre"))
-    return job_to_gcode(planned.job, SCALE, pen_from_config(config),
-                        feed_steps_per_s=config.feed_steps_per_s,
-                        flash_dwell_ms=config.flash_dwell_ms)
 
 
 def test_plot_on_grbl_draws_the_sample_exactly(profile, tmp_path, capsys, monkeypatch):

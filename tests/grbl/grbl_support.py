@@ -15,10 +15,12 @@ import numpy as np
 import serial
 
 from galileo_cnc.config.machine import MachineConfig
+from galileo_cnc.config.profile import load_profile
 from galileo_cnc.grbl import firmware
-from galileo_cnc.grbl.gcode import AxisScale, GcodeLine
+from galileo_cnc.grbl.gcode import AxisScale, GcodeLine, job_to_gcode, pen_from_config
 from galileo_cnc.grbl.link import GrblLink
 from galileo_cnc.grbl.numbers import grbl_steps, read_float
+from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 from galileo_cnc.simavr import board as simavr
 from galileo_cnc.simavr.board import step_trace
 
@@ -45,6 +47,8 @@ feed_warn_mm_s = 100
 flash_dwell_ms = 20
 """
 SCALE = AxisScale.from_texts([STEPS_PER_MM] * 3)
+#: the board the whole-plot tests draw
+SAMPLE = str(Path(__file__).resolve().parents[2] / "samples" / "led-blinker.gbr")
 
 _elf: list[Path] = []
 
@@ -182,3 +186,13 @@ def _circle_distance(path: np.ndarray, centre, start) -> tuple[float, float]:
     gap = np.maximum(np.abs(cx + r * np.cos(angles) - path[:, :1]),
                      np.abs(cy + r * np.sin(angles) - path[:, 1:2]))
     return float(gap.min(axis=1).max()), float(euclid.max())
+
+
+def planned_gcode(profile_path: str) -> list[GcodeLine]:
+    """The G-code `plot` sends for SAMPLE in centre mode, computed here from the
+    same profile."""
+    config = load_profile(profile_path).config
+    planned = plan_file(SAMPLE, config, options=PlanOptions(mode="centre"))
+    return job_to_gcode(planned.job, SCALE, pen_from_config(config),
+                        feed_steps_per_s=config.feed_steps_per_s,
+                        flash_dwell_ms=config.flash_dwell_ms)

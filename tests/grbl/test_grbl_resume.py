@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import re
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,20 +18,18 @@ import serial
 from galileo_cnc.cli import main as cli
 from galileo_cnc.cli import plot_grbl
 from galileo_cnc.config.profile import load_profile
-from galileo_cnc.grbl.gcode import GcodeLine, GrblPen, job_to_gcode, pen_from_config
+from galileo_cnc.grbl.gcode import GcodeLine, GrblPen, pen_from_config
 from galileo_cnc.grbl.link import GrblLink
 from galileo_cnc.grbl.numbers import grbl_steps
 from galileo_cnc.grbl.resume import PREAMBLE_TEXT, lead_in, rewind, state_before
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
-from galileo_cnc.plan.pipeline import PlanOptions, plan_file
+from galileo_cnc.plan.pipeline import PlanOptions
 from galileo_cnc.stream.journal import ABORTED, FINISHED, INTERRUPTED
 
 from faults import FaultyPort
-from grbl_support import (PROFILE, SCALE, SETTINGS, check_trace, grbl_machine, motions,
-                          positions_and_ticks)
+from grbl_support import (PROFILE, SAMPLE, SCALE, SETTINGS, check_trace, grbl_machine,
+                          motions, planned_gcode, positions_and_ticks)
 
-ROOT = Path(__file__).resolve().parents[2]
-SAMPLE = str(ROOT / "samples" / "led-blinker.gbr")
 MM = 160                # steps
 # homing on, switches at +2, +3, +1 mm (GRBL homes toward +, pulls off $27 = 1 mm);
 # $10=3 adds the buffer state to status reports (Bf:15,128: planner and RX buffer empty)
@@ -92,12 +89,15 @@ def sent_job_lines(sent: list[str], lines: list[GcodeLine]) -> int:
     return index - 1
 
 
-def job_lines(profile_path: str) -> list[GcodeLine]:
-    config = load_profile(profile_path).config
-    planned = plan_file(SAMPLE, config, options=PlanOptions(mode="centre"))
-    return job_to_gcode(planned.job, SCALE, pen_from_config(config),
-                        feed_steps_per_s=config.feed_steps_per_s,
-                        flash_dwell_ms=config.flash_dwell_ms)
+def set_work_zero(link: GrblLink) -> None:
+    """The user's set-up: home, go to the job's work zero, store it in G54; the
+    port is closed again for the plot."""
+    link.command_checked("$H")
+    work = " ".join(f"{'XYZ'[a]}{v}" for a, v in enumerate(WORK_ZERO_MM))
+    link.command_checked(f"G0 {work}")
+    link.command_checked("G10 L20 P1 X0 Y0 Z0")
+    link.wait_idle()
+    link.port.close()
 
 
 @pytest.fixture
@@ -109,17 +109,11 @@ def profile(tmp_path, monkeypatch):
 
 
 def test_resume_after_a_lost_port_homes_and_finishes_the_job(profile, capsys):
-    lines = job_lines(profile)
+    lines = planned_gcode(profile)
     config = load_profile(profile).config
     pen = pen_from_config(config)
     with grbl_machine(HOMING, limits=LIMITS) as (board, link):
-        # the user's set-up: home, go to the job's work zero, store it in G54
-        link.command_checked("$H")
-        work = " ".join(f"{'XYZ'[a]}{v}" for a, v in enumerate(WORK_ZERO_MM))
-        link.command_checked(f"G0 {work}")
-        link.command_checked("G10 L20 P1 X0 Y0 Z0")
-        link.wait_idle()
-        link.port.close()
+        set_work_zero(link)
         setup_end = settled_trace(board)
 
         # the first plot: its port dies in the middle of the job
@@ -242,14 +236,9 @@ class CtrlCPort(RecordingPort):
 
 
 def test_ctrl_c_holds_then_resets_and_resume_finishes_the_job(profile, capsys):
-    lines = job_lines(profile)
+    lines = planned_gcode(profile)
     with grbl_machine(HOMING, limits=LIMITS) as (board, link):
-        link.command_checked("$H")
-        work = " ".join(f"{'XYZ'[a]}{v}" for a, v in enumerate(WORK_ZERO_MM))
-        link.command_checked(f"G0 {work}")
-        link.command_checked("G10 L20 P1 X0 Y0 Z0")
-        link.wait_idle()
-        link.port.close()
+        set_work_zero(link)
         setup_end = settled_trace(board)
 
         port = CtrlCPort(serial.Serial(board.port, 115200, timeout=0.2), after=60)
