@@ -8,7 +8,6 @@ import json
 import os
 import sys
 
-import serial
 
 from galileo_cnc import __version__
 from galileo_cnc.config.hardware import DEFAULT_BAUD
@@ -99,80 +98,49 @@ def _layers(args: argparse.Namespace) -> tuple[str, ...]:
 
 def _run_plot(args: argparse.Namespace) -> int:
     from galileo_cnc.cli.plot import PlotOptions, run_plot
+    from galileo_cnc.transport.discovery import GRBL, open_board
+    from galileo_cnc.transport.port import SIM_URL
 
     plan = _plan_options(args)             # contradictory options refused before connecting
     check_output(args.preview, "--preview")
     check_output(args.trace, "--trace")
     profile = _profile(args)
-    grbl_port, profile, handle = _board_port(profile)
-    if grbl_port is not None:
-        return _run_grbl_plot(args, profile, grbl_port, plan, handle)
-    if args.check:
-        if handle is not None:
-            handle.close()
-        raise GalileoError(f"plot --check runs GRBL's check mode ($C): it needs a GRBL board, "
-                           f"and {profile.port or 'sim://'} runs galileo-cnc firmware "
-                           f"(info and preview check a file without a machine)")
-    options = PlotOptions(args.file, profile, offset=args.offset,
-                          margin_nm=round(args.margin * NM_PER_MM), yes=args.yes,
-                          preview=args.preview, trace=args.trace, resume=args.resume,
-                          group=not args.file_order, mode=args.mode,
-                          layers=_layers(args), units=args.units, optimize=args.optimize,
-                          handle=handle)
+    # the probed port stays open for the link: an Uno resets each time it is opened
+    device, kind, handle = open_board(profile.port, profile.baud)
     try:
+        if kind == GRBL:
+            return _run_grbl_plot(args, profile, device, plan, handle)
+        if profile.port is None and device != SIM_URL:
+            profile = dataclasses.replace(profile, port=device)
+        if args.check:
+            raise GalileoError(f"plot --check runs GRBL's check mode ($C): it needs a GRBL "
+                               f"board, and {profile.port or 'sim://'} runs galileo-cnc "
+                               f"firmware (info and preview check a file without a machine)")
+        options = PlotOptions(args.file, profile, offset=args.offset,
+                              margin_nm=round(args.margin * NM_PER_MM), yes=args.yes,
+                              preview=args.preview, trace=args.trace, resume=args.resume,
+                              group=not args.file_order, mode=args.mode,
+                              layers=_layers(args), units=args.units, optimize=args.optimize,
+                              handle=handle)
         return run_plot(options)
     finally:
         if handle is not None:
-            handle.close()                  # closed already unless planning failed
-
-
-def _board_port(profile):
-    """(GRBL port or None, profile, open handle or None): where the plot goes. With no
-    port given, find_open_board's probe picks the board; a named port is asked who
-    answers. Either way the probed port stays open and goes to the link (an Uno
-    resets each time its port is opened). sim:// and simavr:// are never probed:
-    simavr://?firmware=grbl is GRBL, the rest our firmware."""
-    from galileo_cnc.transport.discovery import GRBL, find_open_board, open_identified
-    from galileo_cnc.transport.port import SIM_URL, SIMAVR_URL
-
-    if profile.port is None:
-        found, kind, handle = find_open_board(profile.baud)
-        if kind == GRBL:
-            return found, profile, handle
-        if found != SIM_URL:
-            return None, dataclasses.replace(profile, port=found), handle
-        return None, profile, None
-    if profile.port.startswith(SIMAVR_URL) and "firmware=grbl" in profile.port:
-        return profile.port, profile, None
-    if profile.port.startswith((SIM_URL, SIMAVR_URL)):
-        return None, profile, None
-    try:
-        handle, kind = open_identified(profile.port, profile.baud)
-    except (serial.SerialException, OSError, ValueError):
-        return None, profile, None          # the link's own open says what is wrong
-    return (profile.port if kind == GRBL else None), profile, handle
+            handle.close()                  # the link closed it already, unless refused
 
 
 def _run_grbl_plot(args: argparse.Namespace, profile, port: str, plan, handle=None) -> int:
     from galileo_cnc.cli.plot_grbl import GrblPlotOptions, run_grbl_plot
 
     # refused before anything is sent: these need what only our firmware reports or keeps
-    refusal = ("plot --resume --check: check the job without --resume"
-               if args.resume and args.check else
-               "plot --trace: a GRBL board cannot report its steps (--preview draws the plan)"
-               if args.trace else None)
-    if refusal is not None:
-        if handle is not None:
-            handle.close()
-        raise GalileoError(refusal)
-    try:
-        return run_grbl_plot(GrblPlotOptions(
-            args.file, profile, port, plan, offset=args.offset,
-            margin_nm=round(args.margin * NM_PER_MM), yes=args.yes, check=args.check,
-            preview=args.preview, resume=args.resume), port=handle)
-    finally:
-        if handle is not None:
-            handle.close()                  # closed already unless planning failed
+    if args.resume and args.check:
+        raise GalileoError("plot --resume --check: check the job without --resume")
+    if args.trace:
+        raise GalileoError("plot --trace: a GRBL board cannot report its steps "
+                           "(--preview draws the plan)")
+    return run_grbl_plot(GrblPlotOptions(
+        args.file, profile, port, plan, offset=args.offset,
+        margin_nm=round(args.margin * NM_PER_MM), yes=args.yes, check=args.check,
+        preview=args.preview, resume=args.resume), port=handle)
 
 
 def _run_preview(args: argparse.Namespace) -> int:

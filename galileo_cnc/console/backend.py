@@ -3,7 +3,7 @@
 Two implementations: `galileo_backend.GalileoBackend` (our firmware, `sim://` and
 `simavr://`, over transport.link.MachineLink) and `grbl_backend.GrblBackend` (a
 stock GRBL 1.1 board, over grbl.link.GrblLink). `open_backend` asks the port who
-answers (as `plot` does) and opens the right one. Commands call the backend for
+answers (discovery.open_board, as `plot` does) and opens the right one. Commands call the backend for
 everything that differs between the two, never `if grbl:` themselves; a command
 that makes no sense on a backend is refused once, by `unsupported`.
 """
@@ -14,11 +14,9 @@ from contextlib import nullcontext
 from dataclasses import dataclass
 from typing import Any, ContextManager
 
-import serial
 
 from galileo_cnc.config.machine import MachineConfig
-from galileo_cnc.transport.discovery import GALILEO, GRBL, find_open_board, open_identified
-from galileo_cnc.transport.port import SIM_URL, SIMAVR_URL
+from galileo_cnc.transport.discovery import GALILEO, GRBL, open_board
 
 
 @dataclass(frozen=True, slots=True)
@@ -108,30 +106,10 @@ class Backend:
         raise NotImplementedError
 
 
-def board_kind(port: str | None, baud: int) -> tuple[str, str, Any]:
-    """(port, GALILEO or GRBL, open handle or None), as `plot` routes it (cli/main.py):
-    no port: the first board that answers, GRBL or ours, else `sim://`; `sim://` and
-    `simavr://` are never probed (`simavr://?firmware=grbl` is GRBL); any other port
-    is asked who answers, and what is not GRBL goes to our link (which says what is
-    wrong with it). A probed port stays open for the link: an Uno resets each time
-    its port is opened."""
-    if port is None:
-        return find_open_board(baud)
-    if port.startswith(SIMAVR_URL) and "firmware=grbl" in port:
-        return port, GRBL, None
-    if port.startswith((SIM_URL, SIMAVR_URL)):
-        return port, GALILEO, None
-    try:
-        handle, kind = open_identified(port, baud)
-    except (serial.SerialException, OSError, ValueError):
-        return port, GALILEO, None          # our link's own open says what is wrong
-    return port, (GRBL if kind == GRBL else GALILEO), handle
-
-
 def open_backend(port: str | None, baud: int, config: MachineConfig, config_path=None,
                  profile: MachineConfig | None = None, on_message=None) -> Backend:
     """The backend for what answers on `port`; GalileoError (LinkError) when none."""
-    found, kind, handle = board_kind(port, baud)
+    found, kind, handle = open_board(port, baud)   # a probed port stays open: see there
     if kind == GRBL:
         from galileo_cnc.console.grbl_backend import GrblBackend
         return GrblBackend.open(found, baud, config, config_path, profile, handle=handle)
@@ -140,4 +118,4 @@ def open_backend(port: str | None, baud: int, config: MachineConfig, config_path
                                handle=handle)
 
 
-__all__ = ["Backend", "MachineView", "board_kind", "open_backend", "GALILEO", "GRBL"]
+__all__ = ["Backend", "MachineView", "open_backend", "GALILEO", "GRBL"]

@@ -33,7 +33,7 @@ class GalileoBackend(Backend):
     def open(cls, port: str | None, baud: int, config: MachineConfig, config_path=None,
              profile: MachineConfig | None = None, on_message=None,
              handle=None) -> "GalileoBackend":
-        """`handle`: the port already open and probed (backend.board_kind)."""
+        """`handle`: the port already open and probed (discovery.open_board)."""
         link = (MachineLink.attach(handle, port, baud, config, config_path, profile=profile,
                                    booted=True) if handle is not None else
                 MachineLink.open(port, baud, config, config_path, profile=profile))

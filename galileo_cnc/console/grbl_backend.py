@@ -123,7 +123,7 @@ class GrblBackend(Backend):
     @classmethod
     def open(cls, name: str, baud: int, config: MachineConfig, config_path=None,
              profile: MachineConfig | None = None, handle=None) -> "GrblBackend":
-        """`handle`: the port already open and probed (backend.board_kind)."""
+        """`handle`: the port already open and probed (discovery.open_board)."""
         if handle is None:
             try:
                 handle = open_port(name, baud, timeout=0.2)

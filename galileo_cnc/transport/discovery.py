@@ -8,8 +8,8 @@ machine `sim://`, saying so on the connection line.
 
 `identify_board` also recognises a stock GRBL 1.1 board by its banner
 (`Grbl 1.1h ['$' for help]`), or, when it stayed silent, by its `error:N`
-reply to our version request and its `[VER:...]` reply to `$I`; `find_board`
-says which backend a port needs (docs/grbl.md).
+reply to our version request and its `[VER:...]` reply to `$I`; `open_board`
+says which backend a port needs and leaves it open for that link (docs/grbl.md).
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from serial.tools import list_ports as pyserial_list_ports
 
 from galileo_cnc import protocol as P
 from galileo_cnc.config.hardware import BANNER_WAIT_S, DEFAULT_BAUD
-from galileo_cnc.transport.port import SIM_URL, open_port
+from galileo_cnc.transport.port import SIM_URL, SIMAVR_URL, open_port
 
 #: USB bridges found on Arduino-class boards (VID, PID) -> what they usually are.
 KNOWN_BOARDS = {
@@ -141,18 +141,30 @@ def _identify(port, wait_s: float) -> str | None:
     return None
 
 
-def find_board(baud: int = DEFAULT_BAUD) -> tuple[str, str]:
-    """(port, GALILEO or GRBL): a known board, else a USB port that answers, else
-    (`sim://`, GALILEO)."""
-    device, kind, handle = find_open_board(baud)
-    if handle is not None:
-        handle.close()
-    return device, kind
+def open_board(port: str | None, baud: int = DEFAULT_BAUD
+               ) -> tuple[str, str, serial.SerialBase | None]:
+    """(device, GALILEO or GRBL, its port left open or None): where `plot` and the
+    console go for `port`. None: the first board that answers, GRBL or ours, else
+    `sim://`; `sim://` and `simavr://` are never probed (`simavr://?firmware=grbl` is
+    GRBL); any other port is asked who answers, and what is not GRBL goes to our link
+    (whose own open or greeting says what is wrong with it)."""
+    if port is None:
+        return find_open_board(baud)
+    if port.startswith(SIMAVR_URL) and "firmware=grbl" in port:
+        return port, GRBL, None
+    if port.startswith((SIM_URL, SIMAVR_URL)):
+        return port, GALILEO, None
+    try:
+        handle, kind = open_identified(port, baud)
+    except (serial.SerialException, OSError, ValueError):
+        return port, GALILEO, None
+    return port, (GRBL if kind == GRBL else GALILEO), handle
 
 
 def find_open_board(baud: int = DEFAULT_BAUD) -> tuple[str, str, serial.SerialBase | None]:
-    """`find_board`, with the board's port left open for the link (None for
-    `sim://`): see `open_identified`."""
+    """(port, GALILEO or GRBL, the port left open for the link): a known board,
+    else a USB port that answers, else (`sim://`, GALILEO, None). See
+    `open_identified` for why the port stays open."""
     if os.environ.get(NO_PROBE_ENV):
         return SIM_URL, GALILEO, None
     ports = list_ports()
