@@ -31,7 +31,7 @@ from galileo_cnc.stream.journal import Journal
 from galileo_cnc.stream.resume import plan_resume
 from galileo_cnc.stream.streamer import JobStreamer, PenChange, Progress, StreamResult
 from galileo_cnc.transport.link import MachineLink, PortGone
-from galileo_cnc.transport.port import with_step_trace
+from galileo_cnc.transport.port import SIM_URL, with_step_trace
 
 EXIT_OK, EXIT_FAILED, EXIT_PORT_LOST, EXIT_INTERRUPTED = 0, 1, 3, 130
 
@@ -107,7 +107,9 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
                                                 layers=options.layers, units=options.units,
                                                 optimize=options.optimize))
 
-    port = with_step_trace(profile.port) if options.trace and profile.port else profile.port
+    # no port: cli/main's open_board probed every port already and found no board
+    port = with_step_trace(profile.port) if options.trace and profile.port else \
+        profile.port or SIM_URL
     if options.handle is not None:
         link = MachineLink.attach(options.handle, port, profile.baud, profile.config,
                                   profile.path, booted=True)

@@ -77,24 +77,6 @@ def list_ports() -> list[PortInfo]:
     return found
 
 
-def answers_with_banner(device: str, baud: int, wait_s: float = BANNER_WAIT_S) -> bool:
-    """Open `device`, wait for our banner (boards reset on open) or ask with `N0 V`."""
-    try:
-        with open_port(device, baud, timeout=0.2) as port:
-            deadline = time.monotonic() + wait_s
-            asked = False
-            while time.monotonic() < deadline:
-                line = port.readline()
-                if line.endswith(b"\n") and _carries_banner(line):
-                    return True
-                if not line and not asked and time.monotonic() > deadline - wait_s / 2:
-                    port.write(P.frame_line(0, "V"))
-                    asked = True
-    except (serial.SerialException, OSError, ValueError):
-        return False
-    return False
-
-
 def identify_board(device: str, baud: int, wait_s: float = BANNER_WAIT_S) -> str | None:
     """GALILEO for our firmware, GRBL for stock GRBL 1.1, None for anything else."""
     try:
@@ -167,10 +149,7 @@ def find_open_board(baud: int = DEFAULT_BAUD) -> tuple[str, str, serial.SerialBa
     `open_identified` for why the port stays open."""
     if os.environ.get(NO_PROBE_ENV):
         return SIM_URL, GALILEO, None
-    ports = list_ports()
-    candidates = [p for p in ports if p.known_board] + \
-        [p for p in ports if p.usb and not p.known_board]
-    for port in candidates:
+    for port in _candidates():
         try:
             handle, kind = open_identified(port.device, baud)
         except (serial.SerialException, OSError, ValueError):
@@ -189,14 +168,18 @@ def _carries_banner(line: bytes) -> bool:
 
 
 def find_port(baud: int = DEFAULT_BAUD) -> str:
-    """A known board, else a port answering with our banner, else `sim://`."""
+    """A known board with our firmware, else another USB port answering with our
+    banner, else `sim://`."""
     if os.environ.get(NO_PROBE_ENV):
         return SIM_URL
-    ports = list_ports()
-    for port in ports:
-        if port.known_board and answers_with_banner(port.device, baud):
-            return port.device
-    for port in ports:    # other USB bridges; plain UARTs (ttyS*) need --port
-        if port.usb and not port.known_board and answers_with_banner(port.device, baud):
+    for port in _candidates():
+        if identify_board(port.device, baud) == GALILEO:
             return port.device
     return SIM_URL
+
+
+def _candidates() -> list[PortInfo]:
+    """The ports worth probing, known boards first; plain UARTs (ttyS*) need --port."""
+    ports = list_ports()
+    return [p for p in ports if p.known_board] + \
+        [p for p in ports if p.usb and not p.known_board]
