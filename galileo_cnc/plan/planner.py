@@ -40,7 +40,7 @@ from galileo_cnc.machine import ReferenceMachine
 from galileo_cnc.machine.arcs import MAX_ARC_COORD
 from galileo_cnc.plan.ink.inking import mm_text
 from galileo_cnc.plan.ink.narrow import aperture_width
-from galileo_cnc.plan.ink.shapes import arc_points
+from galileo_cnc.plan.ink.shapes import arc_angles, arc_points
 from galileo_cnc.plan import gcode_order
 from galileo_cnc.plan.order import (DRAWING_KINDS, drawing_apertures, group_by_aperture,
                                    optimised_order, pure_geometry)
@@ -74,14 +74,18 @@ def _within_arc_range(start: tuple[int, int], centre: tuple[int, int],
 
 
 def _chord_within_half_a_step(start: tuple[int, int], centre: tuple[int, int],
-                              end: tuple[int, int], cw: bool) -> bool:
+                              end: tuple[int, int], cw: bool, under_half_a_turn: bool) -> bool:
     """Whether the straight line from `start` to `end` stays within half a step of the
     arc (steps; a full circle never): then the line's steps are within a step of the
     arc, as the arc's own are. Such arcs are sent as lines: an arc costs the firmware
     a band table and setup (several ms), so runs of 1-step arcs fell behind the
-    reference (docs/motion.md, "Short arcs")."""
+    reference (docs/motion.md, "Short arcs").
+
+    `under_half_a_turn` is the file's own arc (nm): when both ends round to one step
+    (Altium writes arcs of 0.4 um), a short arc is a point, not the whole circle that
+    an arc ending where it starts means to the machine."""
     if start == end:
-        return False
+        return under_half_a_turn
     sx, sy = start[0] - centre[0], start[1] - centre[1]
     ex, ey = end[0] - centre[0], end[1] - centre[1]
     cross = sx * ey - sy * ex
@@ -186,17 +190,19 @@ def plan_program(program: Program, config: MachineConfig | None = None,
                 pen_down = True
             start = at if at is not None else (steps(at_nm[0]), steps(at_nm[1]))
             centre = (steps(at_nm[0] + row[I]), steps(at_nm[1] + row[J]))
-            if _chord_within_half_a_step(start, centre, target, kind == OpKind.ARC_CW):
+            cw = kind == OpKind.ARC_CW
+            sweep = arc_angles(*at_nm, x_nm, y_nm, at_nm[0] + row[I], at_nm[1] + row[J], cw)[1]
+            if _chord_within_half_a_step(start, centre, target, cw, abs(sweep) < math.pi):
                 if target != start:
                     add(LineTo(*target))
             elif _within_arc_range(start, centre, target):
                 add(ArcTo(target[0], target[1], centre[0] - start[0], centre[1] - start[1],
-                          cw=kind == OpKind.ARC_CW))
+                          cw=cw))
             else:
                 # the machine's arcs reach MAX_ARC_COORD steps from the centre (204.8 mm
                 # on the seed's machine): a flatter arc is drawn as chords within half a
                 # step of it
-                chords = arc_points(*at_nm, x_nm, y_nm, row[I], row[J], kind == OpKind.ARC_CW,
+                chords = arc_points(*at_nm, x_nm, y_nm, row[I], row[J], cw,
                                     max(config.nm_per_step // 2, 1))
                 point = start
                 for x, y in chords[1:].tolist():

@@ -233,6 +233,27 @@ def test_an_arc_within_half_a_step_of_its_chord_is_sent_as_a_line():
     simulate(job.commands, CFG)
 
 
+def test_an_arc_whose_ends_round_to_one_step_is_a_point_unless_it_goes_the_long_way(tmp_path):
+    # LimeSDR's top layer (Altium) has 0.4 um arcs on a 0.88 mm radius: both ends round
+    # to one step, and an arc ending where it starts is a whole circle to the machine,
+    # so each one drew a 1.76 mm ring of ink across other copper. The short way round
+    # is a point; the long way (end 0.4 um behind the start) is still the circle.
+    path = tmp_path / "slivers.gbr"
+    path.write_text("%FSLAX44Y44*%\n%MOMM*%\n%ADD13C,0.2*%\nG75*\nD13*\n"
+                    "X479328Y288650D02*\nG03*\nX479332Y288650I4J8812D01*\n"
+                    "G01*\nX489328Y288650D02*\nG03*\nX489324Y288650I4J8812D01*\nM02*\n")
+    job = plan_program(read_file(path), CFG)
+    drawn = [c for c in job.commands if isinstance(c, (LineTo, ArcTo))]
+    assert len(drawn) == 1 and isinstance(drawn[0], ArcTo)
+    start = job.commands[job.commands.index(drawn[0]) - 2]           # Rapid, PenDown, ArcTo
+    assert (drawn[0].x_steps, drawn[0].y_steps) == (start.x_steps, start.y_steps) == \
+        (round(48.9328 * 160), round(28.865 * 160))
+    without = [c for c in job.commands if c is not drawn[0]]
+    circle = (simulate(job.commands, CFG).steps_per_axis()[:2].sum()
+              - simulate(without, CFG).steps_per_axis()[:2].sum())
+    assert circle == 8 * round(0.8812 * 160)      # X and Y each go 4 radii round a circle
+
+
 def test_centre_mode_keeps_one_pen_per_d_code_under_load_transforms(tmp_path):
     # D10 flashed plain, turned by %LR30 and plain again: three dots, one pen (a dot is
     # a dot at any angle); the reader's derived aperture must not ask for a second pen.
