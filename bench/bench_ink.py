@@ -44,7 +44,9 @@ machine starts (Z = 0 is pen-down) is not a dot.
   `.pieces` drawn by `.pen_nm`, or `.path_nm` drawn by `.width_nm`) swept by that
   pen's disc, plus one pixel; (b) the rest;
 - bridges: components (8-connected) of ink | copper that hold 2 or more copper
-  islands (components of the reference copper); "merged" adds up islands - 1; the
+  islands (components of the reference copper, with the pieces of one island of our
+  exact geometry joined: copper thinner than a pixel, a fiducial's 10 um ring,
+  samples as separate dots); "merged" adds up islands - 1; the
   report says where (boxes round the ink outside the copper that touches 2+ islands,
   and in the --json records `bridge_touches_mm`: per box, one point of that ink next
   to each island it touches, to look the islands up in the planner's geometry);
@@ -374,11 +376,12 @@ def measure_file(path: Path, opts: dict) -> dict:
     start = time.perf_counter()
     try:
         image = dark_geometry(program)
-        dark_rings = R.rings_of(image.polygons())
+        dark_polygons = image.polygons()
+        dark_rings = R.rings_of(dark_polygons)
         dark_box = image.bounds()
         record["dark_mm2"] = image.area_nm2() / 1e12
     except Exception as problem:  # noqa: BLE001
-        dark_rings, dark_box = None, None
+        dark_polygons, dark_rings, dark_box = None, None, None
         record["dark_error"] = f"{type(problem).__name__}: {problem}"[:200]
     record["dark_s"] = time.perf_counter() - start
     del program
@@ -437,7 +440,11 @@ def measure_file(path: Path, opts: dict) -> dict:
                           f"{record.get('dark_error')}"
         return record
     record["copper_px"] = int(np.count_nonzero(copper))
-    copper_runs, copper_labels, record["islands"] = R.islands(copper)
+    copper_runs, copper_labels, record["raster_islands"] = R.islands(copper)
+    if dark_polygons is not None:
+        copper_labels = R.join_by_outline(copper_runs, copper_labels, grid, dark_polygons)
+    del dark_polygons
+    record["islands"] = int(len(np.unique(copper_labels)))
     record["reference_s"] = time.perf_counter() - start
 
     for mode, (offset, strokes, narrow) in planned_modes.items():
@@ -803,6 +810,23 @@ def selftest(opts: dict) -> None:
               f"{R.bridge_places(runs, labels, across & ~copper)} (rows, cols); one inside a "
               f"square: {R.bridges(runs, labels, within | copper)} (expect (0, 0)); both: "
               f"{R.bridges(runs, labels, both | copper)}")
+        # a trace thinner than a pixel samples as dots: one island once joined
+        hair = [(3.0, 5.0), (6.0, 5.3)]
+        text = _gerber("D13*\n" + _xy(*hair[0]) + "D02*\n" + _xy(*hair[1]) + "D01*\n",
+                       {13: "C,0.01"})
+        _, hair_grid, hair_copper, *_ = _setup(tmp, "hair.gbr", text, dpmm, band)
+        hair_runs, hair_labels, hair_raster = R.islands(hair_copper)
+        from galileo_cnc.plan.ink import dark_geometry
+        from galileo_cnc.readers import read_file
+        joined = R.join_by_outline(hair_runs, hair_labels, hair_grid,
+                                   dark_geometry(read_file(tmp / "hair.gbr")).polygons())
+        hair_canvas = R.SpanCanvas(hair_grid.height, hair_grid.width)
+        paint_paths(hair_canvas, hair_grid, [(np.array(hair) * NM_PER_MM, 300_000)])
+        hair_ink = hair_canvas.mask()
+        print(f"a 0.01 mm trace samples as {hair_raster} raster islands, joined by our "
+              f"geometry: {len(np.unique(joined))} (expect 1); a 0.3 mm pen along it: bridges "
+              f"{R.bridges(hair_runs, joined, hair_ink | hair_copper)} (expect (0, 0)), "
+              f"without the join {R.bridges(hair_runs, hair_labels, hair_ink | hair_copper)}")
         trace = [(3.0, 4.0), (6.0, 4.3)]
         ink = stroke(trace, 0.3)
         allowance = stroke(trace, 0.3, extra_px=1.0)

@@ -13,7 +13,8 @@ Everything here is numpy on whole arrays (no per-pixel or per-step Python loop):
 - `steps_segments`: walk the reference machine's step trace of a job, part by part
   (one pen each), and turn every pen-down stretch into chords of the stepped path.
 - `mask_runs`, `label_runs`, `bridges`: connected components (8-connectivity) on
-  the runs of a mask, so no int32 label image is ever built.
+  the runs of a mask, so no int32 label image is ever built; `join_by_outline`
+  joins the raster islands of one exact island (copper thinner than a pixel).
 - `pygerber_mask`: pygerber's raster (alpha of a dark-on-transparent render).
 """
 
@@ -364,6 +365,30 @@ def islands(copper: np.ndarray) -> tuple[Runs, np.ndarray, int]:
     runs = mask_runs(copper)
     labels = label_runs(runs)
     return runs, labels, int(len(np.unique(labels)))
+
+
+def join_by_outline(runs: Runs, labels: np.ndarray, grid: Grid, polygons) -> np.ndarray:
+    """Labels with the raster islands of one exact island joined: copper thinner than a
+    pixel (a 10 um fiducial ring at 25 um a pixel) samples as a row of dots, each its
+    own 8-connected island, and ink over it would count as a bridge between them.
+    `polygons`: the exact copper as (shell, [holes]) in program nm, one per island; a
+    raster island takes the island nearest its first pixel's centre (within a pixel)."""
+    import shapely
+
+    if not len(runs) or not polygons:
+        return labels
+    first = np.unique(labels)                       # a label is its first run's index
+    points = shapely.points(grid.left_nm + (runs.start[first] + 0.5) * grid.pitch_nm,
+                            grid.top_nm - (runs.row[first] + 0.5) * grid.pitch_nm)
+    tree = shapely.STRtree([shapely.Polygon(shell, holes) for shell, holes in polygons])
+    which, island = tree.query_nearest(points, max_distance=grid.pitch_nm, all_matches=False)
+    # one edge from every raster island to the first raster island of its exact island
+    order = np.argsort(island, kind="stable")
+    which, island = which[order], island[order]
+    head = np.r_[0, np.flatnonzero(np.diff(island)) + 1]
+    lead = np.repeat(first[which[head]], np.diff(np.r_[head, len(island)]))
+    parent = _components(len(runs), first[which], lead)
+    return parent[labels]
 
 
 def bridges(copper_runs: Runs, copper_labels: np.ndarray, union: np.ndarray) -> tuple[int, int]:
