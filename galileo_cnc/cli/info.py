@@ -97,6 +97,7 @@ def ink_summary(artwork: Artwork, config: MachineConfig, options: PlanOptions) -
         "pen_changes": len(planned.job.pen_changes),
         "narrow_features": len(ink.narrow),
         "bridges_avoided": len(ink.bridges),
+        "close_island_pairs": ink.close.count,
         "planning_s": round(ink.seconds, 2),
         "warnings": [str(w) for w in ink.warnings],
     }
@@ -148,7 +149,10 @@ def format_summary(summary: dict) -> str:
                      f"{ink['pen_up_mm'] / 1000:.2f} m, {ink['pen_lifts']} pen lifts, "
                      f"{ink['narrow_features']} narrow features drawn as centre lines"
                      + (f", {ink['bridges_avoided']} bridges avoided" if ink["bridges_avoided"]
-                        else ""))
+                        else "")
+                     + (f", {ink['close_island_pairs']} pair"
+                        f"{'s' * (ink['close_island_pairs'] != 1)} of islands too close "
+                        "kept apart" if ink["close_island_pairs"] else ""))
         for warning in ink["warnings"]:
             lines.append(f"  {warning}")
     if summary["warnings"]:

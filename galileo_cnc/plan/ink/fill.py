@@ -58,15 +58,20 @@ class PenFill:
 
 def fill_region(region: list, width_nm: int, tolerance_nm: int, *,
                 overlap: float = DEFAULT_OVERLAP, edge_margin_nm: int = 0,
-                batch_vertices: int = BATCH_VERTICES) -> PenFill:
+                batch_vertices: int = BATCH_VERTICES, keep_out: list | None = None) -> PenFill:
     """Rings, gap strokes and joins of one pen over `region` (a polygon set).
 
+    `keep_out`: a polygon set the ink stays out of (where two islands come too close
+    to keep their inks apart, islands.py): the pen's centre keeps its radius from it.
     Islands never share ink, so they are filled in batches of neighbours (see
     `island_batches`): each polygon operation then sweeps a few islands, not the
     board (Clipper's sweep slows with every outline a scanline crosses)."""
     fill = PenFill(width_nm)
+    avoid = clip.offset(keep_out, width_nm // 2, tolerance_nm) if keep_out else []
+    boxes = _boxes(avoid)
     for batch in island_batches(region, batch_vertices):
-        part = _fill_batch(batch, width_nm, tolerance_nm, overlap, edge_margin_nm)
+        near = [avoid[k] for k in _meeting(boxes, batch).tolist()]
+        part = _fill_batch(batch, width_nm, tolerance_nm, overlap, edge_margin_nm, near)
         fill.paths.extend(part.paths)
         fill.rings += part.rings
         fill.gap_strokes += part.gap_strokes
@@ -88,18 +93,28 @@ def inked_area_nm2(fills: list[PenFill], extra: list, region: list) -> float:
     others = [np.asarray(ring, dtype=np.int64) for f in fills[1:] for ring in f.ink]
     others += [np.asarray(ring, dtype=np.int64) for ring in extra]
     others = [ring for ring in others if len(ring) >= 3]
-    boxes = np.array([[*ring.min(axis=0), *ring.max(axis=0)] for ring in others]) \
-        if others else np.zeros((0, 4), dtype=np.int64)
+    boxes = _boxes(others)
     total = 0.0
     for batch, ink in fills[0].parts:
-        low = np.min([ring.min(axis=0) for ring in batch], axis=0)
-        high = np.max([ring.max(axis=0) for ring in batch], axis=0)
-        near = np.flatnonzero((boxes[:, 0] <= high[0]) & (boxes[:, 2] >= low[0])
-                              & (boxes[:, 1] <= high[1]) & (boxes[:, 3] >= low[1]))
-        subject = list(ink) + [others[k] for k in near.tolist()]
+        subject = list(ink) + [others[k] for k in _meeting(boxes, batch).tolist()]
         if subject:
             total += clip.area_nm2(clip.intersection(subject, batch))
     return total
+
+
+def _boxes(rings: list) -> np.ndarray:
+    """(x0, y0, x1, y1) of each ring."""
+    rings = [np.asarray(ring, dtype=np.int64) for ring in rings]
+    return np.array([[*ring.min(axis=0), *ring.max(axis=0)] for ring in rings]) \
+        if rings else np.zeros((0, 4), dtype=np.int64)
+
+
+def _meeting(boxes: np.ndarray, batch: list) -> np.ndarray:
+    """Indices of the boxes that meet the batch's box."""
+    low = np.min([ring.min(axis=0) for ring in batch], axis=0)
+    high = np.max([ring.max(axis=0) for ring in batch], axis=0)
+    return np.flatnonzero((boxes[:, 0] <= high[0]) & (boxes[:, 2] >= low[0])
+                          & (boxes[:, 1] <= high[1]) & (boxes[:, 3] >= low[1]))
 
 
 def island_batches(region: list, most_vertices: int = BATCH_VERTICES) -> list[list]:
@@ -110,11 +125,13 @@ def island_batches(region: list, most_vertices: int = BATCH_VERTICES) -> list[li
 
 
 def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
-                edge_margin_nm: int) -> PenFill:
+                edge_margin_nm: int, avoid: list) -> PenFill:
     radius = width_nm // 2
     spacing = max(int(round(width_nm * (1.0 - overlap))), 1)
     fill = PenFill(width_nm)
     centre_area = clip.offset(region, -(radius + edge_margin_nm), tolerance_nm)
+    if centre_area and avoid:
+        centre_area = clip.difference(centre_area, avoid)
     if not centre_area:
         return fill
     areas = _concentric(centre_area, spacing, tolerance_nm)

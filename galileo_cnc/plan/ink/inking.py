@@ -26,6 +26,8 @@ from galileo_cnc.plan.ink.arcs import fit_arcs, fit_paths
 from galileo_cnc.plan.ink.fill import (DEFAULT_OVERLAP, GAP_NM, PenFill, fill_region,
                                       inked_area_nm2)
 from galileo_cnc.plan.ink.geometry import DarkImage, dark_geometry
+from galileo_cnc.plan.ink.islands import (CLEARANCE_NM, ClosePlaces, Islands, close_places,
+                                         keep_back)
 from galileo_cnc.plan.ink.narrow import (Bridge, NarrowFeature, find_narrow,
                                         keep_islands_apart)
 from galileo_cnc.plan.ink.shapes import DEFAULT_TOLERANCE_NM
@@ -52,6 +54,7 @@ class InkPlan:
     narrow: list[NarrowFeature]
     bridges: list[Bridge]
     zero_size: int                        # objects of zero-size apertures (no copper)
+    close: ClosePlaces                    # where islands come too close for two inks
     copper_nm2: float
     filled_nm2: float                     # copper the fills cover
     inked_nm2: float                      # copper the fills and centre lines cover
@@ -80,6 +83,9 @@ def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
         raise ValueError("no pen: give at least one pen width above 0")
     copper = dark_geometry(program, tolerance_nm)
     region = copper.native
+    islands = Islands.of(region)
+    close = close_places(islands)
+    keep_out = keep_back(close, CLEARANCE_NM // 2, tolerance_nm)
     fills: list[PenFill] = []
     inked: list = []
     for number, width in enumerate(pens):
@@ -93,7 +99,8 @@ def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
             target = (clip.intersection(clip.offset(left, 2 * radius + edge_margin_nm,
                                                     tolerance_nm), region) if left else [])
         fill = fill_region(target, width, tolerance_nm, overlap=overlap,
-                           edge_margin_nm=edge_margin_nm) if target else PenFill(width)
+                           edge_margin_nm=edge_margin_nm,
+                           keep_out=keep_out) if target else PenFill(width)
         fills.append(fill)
         inked = clip.union(inked, fill.ink) if inked else list(fill.ink)
     filled = inked_area_nm2(fills, [], region)     # strip by strip, not one board-wide sweep
@@ -101,11 +108,11 @@ def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
     smallest = pens[-1]
     limit = smallest + 2 * edge_margin_nm + 4 * tolerance_nm
     narrow, zero_size = find_narrow(program, limit, smallest, tolerance_nm)
-    bridges = keep_islands_apart(narrow, region, smallest)
+    bridges = keep_islands_apart(narrow, islands, smallest)
     narrow_ink = clip.stroke([piece for f in narrow for piece in f.pieces], smallest // 2,
                              tolerance_nm)
     plan = InkPlan(_rows(program, pens, fills, narrow), pens, copper, fills, narrow, bridges,
-                   zero_size, clip.area_nm2(region), filled,
+                   zero_size, close, clip.area_nm2(region), filled,
                    inked_area_nm2(fills, narrow_ink, region) if narrow_ink else filled)
     plan.warnings = _warnings(program, plan)
     plan.program.warnings = list(program.warnings) + plan.warnings
@@ -195,6 +202,14 @@ def _warnings(program: Program, plan: InkPlan) -> list[ReaderWarning]:
             f"the centre line would join {other} at "
             f"{_xy(bridge.other_nm)}: left out for {mm_text(bridge.left_out_nm)} mm "
             f"from {_xy(bridge.at_nm)}")))
+    close = plan.close
+    if close.count:
+        found.append(ReaderWarning(SourcePos(program.source, 0, 0), (
+            f"{close.count} pair{'s' * (close.count != 1)} of copper islands come within "
+            f"{mm_text(CLEARANCE_NM)} mm of each other, the closest "
+            f"{close.closest_nm / NM_PER_MM:.3f} mm apart at {_xy(close.at_nm)} and "
+            f"{_xy(close.other_nm)}: the ink keeps {mm_text(CLEARANCE_NM // 2)} mm behind "
+            "the copper's edge there, so the islands stay apart on paper")))
     if plan.zero_size:
         found.append(ReaderWarning(SourcePos(program.source, 0, 0), (
             f"{plan.zero_size} draw{'s' * (plan.zero_size != 1)} with zero-size apertures "

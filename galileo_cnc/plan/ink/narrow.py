@@ -11,7 +11,8 @@ the wall and spills into the hole, which the drill takes away.
 
 Ink must never join two copper islands the artwork keeps apart, and a gap of a few
 um between two inks is no gap on a real pen (ink bleeds; the stepped path strays up
-to 4.4 um). So the ink of different islands keeps CLEARANCE_NM apart:
+to 4.4 um). So the ink of different islands keeps CLEARANCE_NM apart (islands.py;
+the fills keep it there too):
 
 - a centre line keeps its centre pen radius + CLEARANCE_NM from every other
   island's copper (the copper's own fill ink stays inside it);
@@ -33,16 +34,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from galileo_cnc.errors import SourcePos
-from galileo_cnc.plan.ink import clip, shapes
+from galileo_cnc.plan.ink import shapes
 from galileo_cnc.plan.ink.edges import EdgeIndex, point_to_edges, points_to_edges
+from galileo_cnc.plan.ink.islands import CLEARANCE_NM, Islands
 from galileo_cnc.program.extents import dark_mask, region_mask, start_points
 from galileo_cnc.program.ops import (COL, I, J, KIND, LINE, NO_TOOL, TOOL, X, Y,
                                      Aperture, OpKind, Program)
 
-#: Gap kept between the ink of different islands: ink bleeds, the stepped path strays
-#: up to ~0.7 step (4.4 um) from the planned one, and two inks a few um apart are one
-#: line on the board (bench_ink's 25 um raster cannot part them below ~36 um either).
-CLEARANCE_NM = 50_000
 #: Spacing of the samples along a centre line where it comes near other copper.
 SAMPLE_NM = 5_000
 
@@ -268,21 +266,13 @@ def _centre_line(row: list[int], start: tuple[int, int], aperture: Aperture, pen
     return np.array(ends if half else ends[:1], dtype=np.int64)
 
 
-def keep_islands_apart(features: list[NarrowFeature], copper: list,
+def keep_islands_apart(features: list[NarrowFeature], islands: Islands,
                        pen_nm: int) -> list[Bridge]:
     """Cut every centre line where its ink would come near another island's copper or
     another island's centre-line ink (module doc); the cuts, each with both places."""
-    if not features:
+    if not features or not islands.rings:
         return []
-    islands = clip.components(copper)
-    rings, owner = [], []
-    for number, (outer, holes) in enumerate(islands):
-        for ring in [outer, *holes]:
-            rings.append(ring)
-            owner.append(number)
-    if not rings:
-        return []
-    owner_of_ring = np.array(owner, dtype=np.int64)
+    rings, owner_of_ring = islands.rings, islands.owner
     radius = pen_nm // 2
     # samples lie SAMPLE_NM apart: the line between two kept ones may pass half a
     # sample spacing nearer than either
