@@ -46,7 +46,8 @@ machine starts (Z = 0 is pen-down) is not a dot.
 - bridges: components (8-connected) of ink | copper that hold 2 or more copper
   islands (components of the reference copper, with the pieces of one island of our
   exact geometry joined: copper thinner than a pixel, a fiducial's 10 um ring,
-  samples as separate dots); "merged" adds up islands - 1; the
+  samples as separate dots; and islands under the planner's TOUCH_NM apart, 5 um,
+  joined, as copper that meets at a vertex is one); "merged" adds up islands - 1; the
   report says where (boxes round the ink outside the copper that touches 2+ islands,
   and in the --json records `bridge_touches_mm`: per box, one point of that ink next
   to each island it touches, to look the islands up in the planner's geometry);
@@ -138,6 +139,15 @@ TARGET_PLAN_S = 5.0          # largest copper layer
 
 
 # ---- planning --------------------------------------------------------------------------------
+
+def touch_nm() -> float:
+    """Islands closer than this are one to the planner (0 in checkouts before it)."""
+    try:
+        from galileo_cnc.plan.ink.islands import TOUCH_NM
+    except ImportError:
+        return 0.0
+    return float(TOUCH_NM)
+
 
 def plan_options_class():
     """PlanOptions when the checkout has it (ink mode), else None."""
@@ -442,7 +452,8 @@ def measure_file(path: Path, opts: dict) -> dict:
     record["copper_px"] = int(np.count_nonzero(copper))
     copper_runs, copper_labels, record["raster_islands"] = R.islands(copper)
     if dark_polygons is not None:
-        copper_labels = R.join_by_outline(copper_runs, copper_labels, grid, dark_polygons)
+        copper_labels = R.join_by_outline(copper_runs, copper_labels, grid, dark_polygons,
+                                          touch_nm=touch_nm())
     del dark_polygons
     record["islands"] = int(len(np.unique(copper_labels)))
     record["reference_s"] = time.perf_counter() - start

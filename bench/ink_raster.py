@@ -367,12 +367,15 @@ def islands(copper: np.ndarray) -> tuple[Runs, np.ndarray, int]:
     return runs, labels, int(len(np.unique(labels)))
 
 
-def join_by_outline(runs: Runs, labels: np.ndarray, grid: Grid, polygons) -> np.ndarray:
+def join_by_outline(runs: Runs, labels: np.ndarray, grid: Grid, polygons,
+                    touch_nm: float = 0.0) -> np.ndarray:
     """Labels with the raster islands of one exact island joined: copper thinner than a
     pixel (a 10 um fiducial ring at 25 um a pixel) samples as a row of dots, each its
     own 8-connected island, and ink over it would count as a bridge between them.
     `polygons`: the exact copper as (shell, [holes]) in program nm, one per island; a
-    raster island takes the island nearest its first pixel's centre (within a pixel)."""
+    raster island takes the island nearest its first pixel's centre (within a pixel).
+    Exact islands less than `touch_nm` apart are one (the planner's islands.TOUCH_NM:
+    copper that meets at a vertex, gaps under a step)."""
     import shapely
 
     if not len(runs) or not polygons:
@@ -380,8 +383,12 @@ def join_by_outline(runs: Runs, labels: np.ndarray, grid: Grid, polygons) -> np.
     first = np.unique(labels)                       # a label is its first run's index
     points = shapely.points(grid.left_nm + (runs.start[first] + 0.5) * grid.pitch_nm,
                             grid.top_nm - (runs.row[first] + 0.5) * grid.pitch_nm)
-    tree = shapely.STRtree([shapely.Polygon(shell, holes) for shell, holes in polygons])
+    shapes = [shapely.Polygon(shell, holes) for shell, holes in polygons]
+    tree = shapely.STRtree(shapes)
     which, island = tree.query_nearest(points, max_distance=grid.pitch_nm, all_matches=False)
+    if touch_nm > 0:
+        a, b = tree.query(shapes, predicate="dwithin", distance=touch_nm)
+        island = _components(len(shapes), a, b)[island]
     # one edge from every raster island to the first raster island of its exact island
     order = np.argsort(island, kind="stable")
     which, island = which[order], island[order]
