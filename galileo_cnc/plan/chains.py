@@ -11,8 +11,8 @@ and Hierholzer's walk (with a virtual node tied to every odd node) draws it in
 exactly that many: at a junction every arriving path leaves by another, not only the
 first one found. Where a set has more than two odd nodes, a short stretch between
 two of them may be drawn twice instead (plan/retrace.py): one stroke fewer, the same
-ink. A joined path keeps its own first end point (the gap is under
-`join_nm`); an arc keeps its centre. A trail is drawn the way its first piece in the
+ink. A joined path starts from the previous end (the gap is under
+`join_nm`); an arc keeps its own ends, after a line across the gap. A trail is drawn the way its first piece in the
 file is drawn.
 """
 
@@ -20,9 +20,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from galileo_cnc.plan.pieces import CCW, CW, MOVE, Piece, Point, with_kind
+from galileo_cnc.plan.pieces import CCW, CW, LINE, MOVE, Piece, Point, with_kind
 from galileo_cnc.plan.retrace import retrace_cost, retraced_edges
-from galileo_cnc.program.ops import I, J, KIND, X, Y
+from galileo_cnc.program.ops import KIND, X, Y
 
 def chain(pieces: list[Piece], join_nm: int, retrace: bool = True) -> list[Piece]:
     """Join paths whose ends meet within `join_nm` into as few chains as the ends
@@ -289,18 +289,16 @@ def _degrees(edges: list[tuple[int, int]], nodes: int) -> list[int]:
 
 def join_all(parts: list[Piece]) -> Piece:
     """The parts drawn one after another without a lift: each part's rows without its
-    MOVE; an arc whose part starts off the previous end (under a step) keeps its
-    centre."""
+    MOVE. A part that starts off the previous end (under a step) starts with a line
+    across the gap when it begins with an arc: moved to the previous end, an arc
+    whose ends are that close (LimeSDR's 0.4 um arcs) would start where it ends, a
+    whole circle, and a whole circle would start off its end, a sliver."""
     rows = list(parts[0].rows)
     for then in parts[1:]:
         end = rows[-1][1]
-        gap = (then.start[0] - end[X], then.start[1] - end[Y])
-        index, row = then.rows[1]
-        if row[KIND] in (CW, CCW) and gap != (0, 0):
-            row = list(row)
-            row[I], row[J] = row[I] + gap[0], row[J] + gap[1]
-        rows.append((index, row))
-        rows.extend(then.rows[2:])
+        if then.rows[1][1][KIND] in (CW, CCW) and then.start != (end[X], end[Y]):
+            rows.append(with_kind(then.rows[1], LINE, then.start))
+        rows.extend(then.rows[1:])
     return Piece(rows)
 
 

@@ -9,13 +9,15 @@ from pathlib import Path
 
 import pytest
 
-from galileo_cnc.job import Rapid
+from galileo_cnc.config.machine import MachineConfig
+from galileo_cnc.job import ArcTo, Rapid
+from galileo_cnc.machine import simulate
 from galileo_cnc.plan import paths
 from galileo_cnc.plan.offsets import proposed_offset
 from galileo_cnc.plan.order import group_by_aperture, optimised_order
 from galileo_cnc.plan.pipeline import plan_file
 from galileo_cnc.plan.planner import plan_program
-from galileo_cnc.program.ops import I, J, KIND, X, Y, OpKind
+from galileo_cnc.program.ops import I, J, KIND, NO_TOOL, X, Y, OpKind, ProgramBuilder
 from galileo_cnc.readers import read_file
 
 from corpus import CORPUS
@@ -58,7 +60,8 @@ def segments(rows):
 
 def assert_same_drawing(original, reordered, join_nm: int = STEP):
     """Every segment drawn, in either direction: one end exact, the other within
-    join_nm (a chain joined across a gap under a step), arcs round the same centre;
+    join_nm (a chain joined across a gap under a step; before an arc the gap is a
+    line of its own), arcs round the same centre;
     an original left out only where the same segment is drawn (a repeat, drawn once:
     plan/repeats.py) or, for a dot, where a drawn segment ends."""
     originals = segments(original)
@@ -80,6 +83,8 @@ def assert_same_drawing(original, reordered, join_nm: int = STEP):
                 left.discard(match)
                 break
         else:
+            if centre is None and math.dist(a, b) <= join_nm and b in by_end:
+                continue                  # the line across a gap, into an arc's own start
             raise AssertionError(f"segment {a} -> {b} (centre {centre}) is not in the original")
 
     def key(k):
@@ -141,13 +146,30 @@ def test_a_shuffled_nineteen_entity_outline_becomes_one_chain_and_a_circle():
                         [r for c in chains for r in c.rows], 0)
 
 
-def test_a_gap_under_a_step_joins_and_the_arc_keeps_its_centre():
+def test_a_gap_under_a_step_joins_and_the_arc_keeps_its_own_ends():
     a = path((0, 0), (10 * MM, 0))
     b = path((10 * MM + 4000, 0), (20 * MM, 0, 5 * MM - 4000, 0, True))   # 4 um away
     (joined,) = paths.chain([a, b], STEP)
-    arc = joined.rows[-1][1]
+    bridge, arc = joined.rows[-2][1], joined.rows[-1][1]
+    assert (bridge[KIND], bridge[X], bridge[Y]) == (LINE, 10 * MM + 4000, 0)   # the gap
     assert (arc[X], arc[Y]) == (20 * MM, 0)
-    assert (10 * MM + arc[I], arc[J]) == (15 * MM, 0)                  # the same centre
+    assert (10 * MM + 4000 + arc[I], arc[J]) == (15 * MM, 0)           # the same centre
+
+
+def test_a_sliver_arc_joined_at_its_own_end_stays_a_sliver():
+    # LimeSDR: a 0.4 um arc (0.88 mm radius) whose end is another trace's end. Moved to
+    # that end, its start was its end: a whole 1.76 mm circle of ink over other copper.
+    config = MachineConfig()
+    trace = path((0, 0), (10 * MM + 400, 0))
+    sliver = path((10 * MM, 0), (10 * MM + 400, 0, 200, 881_200, False))
+    (joined,) = paths.chain([trace, sliver], STEP)
+    assert_same_drawing([r for p in (trace, sliver) for r in p.rows], joined.rows)
+    program = ProgramBuilder("sliver.gbr")
+    for _index, r in joined.rows:
+        program.emit(*r[:5], tool=NO_TOOL)
+    job = plan_program(program.build("gerber", "mm"), config, (0, 0))
+    assert not [c for c in job.commands if isinstance(c, ArcTo)]
+    assert simulate(job.commands, config).steps_per_axis()[:2].sum() == 1600   # the trace
 
 
 def _sample_rows():
