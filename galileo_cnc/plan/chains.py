@@ -11,9 +11,9 @@ and Hierholzer's walk (with a virtual node tied to every odd node) draws it in
 exactly that many: at a junction every arriving path leaves by another, not only the
 first one found. Where a set has more than two odd nodes, a short stretch between
 two of them may be drawn twice instead (plan/retrace.py): one stroke fewer, the same
-ink. A joined path starts from the previous end (the gap is under
-`join_nm`); an arc keeps its own ends, after a line across the gap. A trail is drawn the way its first piece in the
-file is drawn.
+ink. A joined path starts from the previous end (the gap is under `join_nm`); an arc
+keeps its own ends, after a line across the gap. A trail is drawn the way its first
+piece in the file is drawn.
 """
 
 from __future__ import annotations

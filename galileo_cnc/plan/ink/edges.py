@@ -83,6 +83,36 @@ class EdgeIndex:
         found = [self._members[s:e] for s, e in zip(lo.tolist(), hi.tolist()) if e > s]
         return np.unique(np.concatenate(found)) if found else np.zeros(0, dtype=np.int64)
 
+    def around_vertices(self, group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(vertex, edge) pairs of different groups (`group[k]`: edge k's and vertex
+        k's), each once: every vertex (edge k starts at vertex k) against the edges
+        entered in its cell and the eight around it, so every edge within a cell of
+        the vertex (and some farther)."""
+        # vertices crowd round curves: look each occupied cell up once
+        cells, cell_of = np.unique(np.floor_divide(self.a, self.cell), axis=0,
+                                   return_inverse=True)
+        cell_of = cell_of.ravel()
+        by_cell = np.argsort(cell_of, kind="stable")
+        in_cell = np.bincount(cell_of, minlength=len(cells))
+        vertices, edges = [], []
+        for dx in (-1, 0, 1):
+            for dy in (-1, 0, 1):
+                keys = self._key(cells + np.array([dx, dy]))
+                first = np.searchsorted(self._keys, keys, "left")
+                count = np.searchsorted(self._keys, keys, "right") - first
+                # (cell, edge) pairs, then each of the cell's vertices with the edge
+                cell = np.repeat(np.arange(len(cells)), count)
+                rank = np.arange(len(cell)) - np.repeat(np.cumsum(count) - count, count)
+                per = in_cell[cell]
+                vertex = by_cell[np.repeat(np.cumsum(in_cell)[cell] - per, per)
+                                 + np.arange(per.sum()) - np.repeat(np.cumsum(per) - per, per)]
+                edge = np.repeat(self._members[first[cell] + rank], per)
+                apart = group[vertex] != group[edge]
+                vertices.append(vertex[apart])
+                edges.append(edge[apart])
+        pairs = np.unique(np.stack([np.concatenate(vertices), np.concatenate(edges)]), axis=1)
+        return pairs[0], pairs[1]
+
     def nearest(self, point: tuple[int, int], search_nm: int) -> tuple[int, float, float] | None:
         """(edge index, t along it, distance) of the outline point nearest to `point`,
         searching ever wider from `search_nm`; None when there are no edges."""

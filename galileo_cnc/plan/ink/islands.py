@@ -10,7 +10,7 @@ islands:
   CLEARANCE_NM of that edge (pads 30 um apart on ekf2's power planes, 33 um on the
   led-display's pad grid) both sides are cut back: `close_places` finds the stretches
   of outline that near another island, and the fill keeps its ink half the clearance
-  behind them (`fill_region(keep_back=...)`), so the two inks end at least the
+  behind them (`fill_region(keep_out=...)`), so the two inks end at least the
   clearance plus the copper's own gap apart.
 
 Two segments that do not cross are nearest at an end of one of them, so every close
@@ -74,7 +74,8 @@ def close_places(islands: Islands, clearance_nm: int = CLEARANCE_NM) -> ClosePla
         return none
     index = EdgeIndex(islands.rings, cell_nm=clearance_nm)
     owner = islands.owner[index.ring]
-    vertex, edge = _vertex_edge_pairs(index, owner)
+    # a cell is the clearance: every other island's edge that near a vertex is found
+    vertex, edge = index.around_vertices(owner)
     if not len(vertex):
         return none
     _t, gap = point_to_edges(index.a[vertex].astype(np.float64), index.a[edge], index.b[edge])
@@ -99,7 +100,8 @@ def close_places(islands: Islands, clearance_nm: int = CLEARANCE_NM) -> ClosePla
         stretches.append(np.rint(ends).astype(np.int64))
     # a stretch is found from each vertex near it: keep one of each
     stretches = list(np.unique(np.concatenate(stretches).reshape(-1, 4), axis=0).reshape(-1, 2, 2))
-    pairs = {tuple(sorted(p)) for p in zip(owner[vertex].tolist(), owner[edge].tolist())}
+    pairs = {tuple(sorted(p)) for p in zip(joined[owner[vertex]].tolist(),
+                                           joined[owner[edge]].tolist())}
     best = int(np.argmin(gap))
     t, _d = point_to_edges(index.a[vertex[best]].astype(np.float64),
                            index.a[edge[best]:edge[best] + 1], index.b[edge[best]:edge[best] + 1])
@@ -128,37 +130,6 @@ def _joined(count: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     for x, y in zip(a.tolist(), b.tolist()):
         parent[root(x)] = root(y)
     return np.array([root(n) for n in range(count)], dtype=np.int64)
-
-
-def _vertex_edge_pairs(index: EdgeIndex, owner: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(vertex, edge) pairs: every outline vertex (edge k starts at vertex k) against
-    the edges of other islands in its cell and the eight around it (a cell is the
-    clearance, so nothing nearer is missed)."""
-    # vertices crowd round curves: look each occupied cell up once, in key order
-    cells, cell_of = np.unique(np.floor_divide(index.a, index.cell), axis=0,
-                               return_inverse=True)
-    cell_of = cell_of.ravel()
-    by_cell = np.argsort(cell_of, kind="stable")
-    in_cell = np.bincount(cell_of, minlength=len(cells))
-    vertices, edges = [], []
-    for dx in (-1, 0, 1):
-        for dy in (-1, 0, 1):
-            keys = index._key(cells + np.array([dx, dy]))
-            first = np.searchsorted(index._keys, keys, "left")
-            count = np.searchsorted(index._keys, keys, "right") - first
-            # (cell, edge) pairs, then each cell's vertices against each of its edges
-            cell = np.repeat(np.arange(len(cells)), count)
-            rank = np.arange(len(cell)) - np.repeat(np.cumsum(count) - count, count)
-            edge = index._members[first[cell] + rank]
-            per = in_cell[cell]
-            vertex = by_cell[np.repeat(np.cumsum(in_cell)[cell] - per, per)
-                             + np.arange(per.sum()) - np.repeat(np.cumsum(per) - per, per)]
-            edge = np.repeat(edge, per)
-            other = owner[edge] != owner[vertex]
-            vertices.append(vertex[other])
-            edges.append(edge[other])
-    pairs = np.unique(np.stack([np.concatenate(vertices), np.concatenate(edges)]), axis=1)
-    return pairs[0], pairs[1]
 
 
 def _edge_before(index: EdgeIndex, vertex: np.ndarray) -> np.ndarray:
