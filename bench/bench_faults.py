@@ -8,7 +8,9 @@ the n-th line. Each session ends as one of:
     finished  the job completed and the machine stepped the fault-free trace
     stopped   it stopped with a message; then resumed over a clean cable to the
               fault-free drawing (`resumed`), or resuming was refused with a message
-              (`refused`: a reset machine lost its position)
+              (`refused`: a reset machine lost its position). Reset sessions run homed
+              (`plot --home`), so a reset is resumed by homing again; the machine in
+              simavr cannot be reset by the bench
     hang      no end within the session's time limit
     wrong     it completed (or resumed) with steps other than the fault-free trace:
               a silent loss, a repeated move, a move that should not have run
@@ -18,6 +20,8 @@ The fault-free trace on sim:// (instant clock) is the reference's to the tick; o
 firmware, whose timing depends on the pauses faults cause, it is the same steps in the
 same order and the same final position. A resumed job retraces part of a command and
 travels back to it pen up, so it is judged by the points it inked and where it ends.
+A reset restarts sim://'s trace: the points inked before it and after it are taken in
+the simulated world's frame, and their union must be the homed fault-free run's.
 
     python3 bench/bench_faults.py                     # 1,000 on sim://, 1,000 on simavr
     python3 bench/bench_faults.py --sim 200 --simavr 0 --seed 7
@@ -45,11 +49,13 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "tests"))
 
 from galileo_cnc.errors import GalileoError  # noqa: E402
+from galileo_cnc.job import Home, PenUp  # noqa: E402
 from galileo_cnc.machine import simulate  # noqa: E402
 from galileo_cnc.plan.offsets import proposed_offset  # noqa: E402
 from galileo_cnc.plan.planner import plan_program  # noqa: E402
 from galileo_cnc.readers import read_file  # noqa: E402
 from galileo_cnc.sim.simulator import forget_named_machines  # noqa: E402
+from galileo_cnc.stream.homing import home  # noqa: E402
 from galileo_cnc.stream.journal import Journal  # noqa: E402
 from galileo_cnc.stream.resume import resume_job  # noqa: E402
 from galileo_cnc.stream.streamer import JobStreamer  # noqa: E402
@@ -143,19 +149,30 @@ class SimTarget:
 
     def __init__(self):
         self._n = 0
+        self.before_reset = None        # the trace a reset ended
 
     def session(self):
         """(open a port, the fault-free trace of what ran, reset, close) for one session."""
         self._n += 1
         url = f"sim://bench{self._n}?speed=0"
         from galileo_cnc.sim.simulator import named_machine
+        self.before_reset = None
 
         def trace():
             return named_machine(f"bench{self._n}").trace()
 
         def reset():
-            named_machine(f"bench{self._n}").reset()
+            self.before_reset = named_machine(f"bench{self._n}").reset()
         return url, (lambda: open_port(url, timeout=0.1)), trace, reset, forget_named_machines
+
+    def pen_to_z_origin(self) -> tuple[int, int, int]:
+        """The user after a reset: the pen turned back to its Z origin (Z has no end
+        stop); where the head then stands in the simulated world."""
+        from galileo_cnc.sim.simulator import named_machine
+        machine = named_machine(f"bench{self._n}")
+        x, y, _ = machine.physical_position()
+        machine.move_by_hand((x, y, 0))
+        return x, y, 0
 
     @staticmethod
     def same(trace, ref) -> bool:
@@ -166,6 +183,7 @@ class SimavrTarget:
     name = "simavr"
     hang_s = 180.0
     timeouts = dict(status_retry_s=0.3, reply_s=1.0, stall_s=1.0)
+    before_reset = None                 # the bench cannot reset the board in simavr
 
     def __init__(self):
         from firmware_support import ELF, build_firmware, build_harness
@@ -223,11 +241,14 @@ def session(target, job, program, fault: Fault, seed: int, tmp: Path, log=None) 
     url, opener, trace_of, reset, close = target.session()
     journal = Journal(tmp / f"journal-{seed}.json")
     journal.path.unlink(missing_ok=True)
+    homed = bool(fault.reset_after)     # a reset is resumable only in the homed frame
     try:
         port = NoisyPort(opener(), fault, seed, reset)
         link = _attach(target, port, url)
+        if homed:
+            home(link)                  # as `plot --home`, before the faults begin
         port.enabled = True
-        streamer = JobStreamer(link, job, program, journal=journal)
+        streamer = JobStreamer(link, job, program, journal=journal, homed=homed)
         streamer.stall_s = target.timeouts["stall_s"]
         messages = []
         link.on_message = messages.append
@@ -237,7 +258,7 @@ def session(target, job, program, fault: Fault, seed: int, tmp: Path, log=None) 
         link.close()
         if log:
             log(f"{fault.label()} seed {seed}: {value!r}; {len(messages)} messages")
-        ref = simulate(job.commands)
+        ref = simulate(([PenUp(), Home()] if homed else []) + job.commands)
         if isinstance(value, BaseException) and not isinstance(value, GalileoError):
             if log:
                 log("".join(traceback.format_exception(value)))
@@ -249,6 +270,9 @@ def session(target, job, program, fault: Fault, seed: int, tmp: Path, log=None) 
         # stopped with a message: resume over a clean cable where it is possible
         if reset is None and fault.reset_after:
             return "refused"
+        resumed_from = (0, 0, 0)
+        if target.before_reset is not None:
+            resumed_from = target.pen_to_z_origin()
         link = _attach(target, opener(), url)
         done, resumed = _run(target, lambda: resume_job(link, journal), log)
         link.close()
@@ -261,8 +285,10 @@ def session(target, job, program, fault: Fault, seed: int, tmp: Path, log=None) 
         if isinstance(resumed, BaseException) or not resumed.completed:
             return "crash"
         trace = trace_of()
-        same = (inked_points(trace) == inked_points(ref)
-                and trace.final_position == ref.final_position)
+        drawn = inked_points(trace, start=resumed_from)
+        if target.before_reset is not None:
+            drawn |= inked_points(target.before_reset)
+        same = drawn == inked_points(ref) and trace.final_position == ref.final_position
         return "resumed" if same else "wrong"
     finally:
         close()

@@ -101,10 +101,17 @@ def _run_plot(args: argparse.Namespace) -> int:
     from galileo_cnc.transport.discovery import GRBL, open_board
     from galileo_cnc.transport.port import SIM_URL
 
+    from galileo_cnc.stream.homing import check_homeable
+
     plan = _plan_options(args)             # contradictory options refused before connecting
     check_output(args.preview, "--preview")
     check_output(args.trace, "--trace")
     profile = _profile(args)
+    if args.home:                           # refused before anything is opened or moves
+        if args.resume:
+            raise GalileoError("plot --home --resume: a job resumed after a reset is homed "
+                               "anyway, any other continues where the machine stands")
+        check_homeable(profile.config)
     # the probed port stays open for the link: an Uno resets each time it is opened
     device, kind, handle = open_board(profile.port, profile.baud)
     try:
@@ -121,7 +128,7 @@ def _run_plot(args: argparse.Namespace) -> int:
                               preview=args.preview, trace=args.trace, resume=args.resume,
                               group=not args.file_order, mode=args.mode,
                               layers=_layers(args), units=args.units, optimize=args.optimize,
-                              handle=handle)
+                              home=args.home, handle=handle)
         return run_plot(options)
     finally:
         if handle is not None:
@@ -137,6 +144,9 @@ def _run_grbl_plot(args: argparse.Namespace, profile, port: str, plan, handle=No
     if args.trace:
         raise GalileoError("plot --trace: a GRBL board cannot report its steps "
                            "(--preview draws the plan)")
+    if args.home:
+        raise GalileoError("plot --home: on a GRBL board, home with `home` ($H) in the "
+                           "console; GRBL keeps the work offset (G54) from its switches")
     return run_grbl_plot(GrblPlotOptions(
         args.file, profile, port, plan, offset=args.offset,
         margin_nm=round(args.margin * NM_PER_MM), yes=args.yes, check=args.check,
@@ -306,8 +316,19 @@ def build_parser() -> argparse.ArgumentParser:
                       help="announce pen changes instead of waiting for Enter")
     plot.add_argument("--preview", metavar="PNG", help="write a preview of what was plotted")
     plot.add_argument("--trace", metavar="NPZ", help="write the step trace (tick, axis, dir)")
+    plot.add_argument("--home", action="store_true",
+                      help="home the machine (X and Y end stops, Z too if it has one) before "
+                      "the job: its frame is then the homed one, so the job can be resumed "
+                      "even after the board is reset")
     plot.add_argument("--resume", action="store_true",
-                      help="continue the interrupted job of FILE after its last confirmed line")
+                      help="continue the interrupted job of FILE: after a lost port where the "
+                      "machine stands, after the last line it accepted; after a stop from "
+                      "the command it stopped in; after a reset of a job planned with "
+                      "--home, it homes the machine (without a Z end stop, put the pen at "
+                      "its Z origin first) and redraws from the first command that may "
+                      "not have finished: lines the machine confirmed may still have been "
+                      "queued (up to 9 commands), so a few are drawn twice. A reset job "
+                      "without --home cannot be resumed")
     plot.add_argument("--check", action="store_true",
                       help="GRBL only: run the job through GRBL's check mode ($C), moving "
                       "nothing, and list every line GRBL rejects (exit 1 if any)")

@@ -6,8 +6,11 @@ mm), plans, streams with a one-line progress display, announces pen changes
 `--trace` writes the steps the machine reports where it can (sim://: its reference's own
 stepper; simavr://: the step pins the harness recorded) and says so; from a real board,
 which cannot report its steps, it writes the reference's trace of the job and says that.
-Exit codes: 0 done, 1 bad input or refused job, 3 port lost (resume with
---resume), 130 stopped with Ctrl-C (the machine ramped down).
+`--home` homes the machine before the job, so that a reset mid-job can be resumed:
+`--resume` then homes again (stream/homing.py) and redraws from the first command
+that may not have finished (stream/resume.py).
+Exit codes: 0 done, 1 bad input or refused job, 3 port lost or a homed job's machine
+reset (resume with --resume), 130 stopped with Ctrl-C (the machine ramped down).
 """
 
 from __future__ import annotations
@@ -27,9 +30,11 @@ from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
 from galileo_cnc.plan.ink.inking import mm_text
 from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, PlanOptions, plan_file
 from galileo_cnc.program.ops import NM_PER_MM, Program
+from galileo_cnc.stream.homing import check_homeable, home, home_after_reset, z_has_end_stop
 from galileo_cnc.stream.journal import Journal
 from galileo_cnc.stream.resume import plan_resume
-from galileo_cnc.stream.streamer import JobStreamer, PenChange, Progress, StreamResult
+from galileo_cnc.stream.streamer import (JobStreamer, MachineReset, PenChange, Progress,
+                                         StreamResult)
 from galileo_cnc.transport.link import MachineLink, PortGone
 from galileo_cnc.transport.port import SIM_URL, with_step_trace
 
@@ -88,6 +93,7 @@ class PlotOptions:
     layers: tuple[str, ...] = ()
     units: str | None = None
     optimize: bool = False          # reorder pen-drawing G-code too (plan/gcode_order.py)
+    home: bool = False              # home before the job: a reset mid-job is resumable
     #: the board's port, already open and probed (discovery.open_identified): the
     #: link greets over it instead of opening `profile.port` again
     handle: Any = None
@@ -100,6 +106,8 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
     journal = Journal.default()
     progress = TextProgress(out)
     planned = None
+    if options.home:
+        check_homeable(profile.config)      # before anything is planned, opened or moved
     if not options.resume:              # a resumed job is planned from its journal
         planned = plan_file(options.file, profile.config, options.offset,
                             margin_nm=options.margin_nm, on_progress=progress.planning,
@@ -122,7 +130,7 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
         found = " (no board found)" if profile.port is None and link.simulated else ""
         out.write(link.describe() + found + "\n")
         link.check_config()                 # before any plan is shown: no job for it
-        start, lead_in, job_start = 0, (), None
+        start, lead_in, job_start, homed = 0, (), None, options.home
         if planned is not None:
             job, artwork, offset = planned.job, planned.artwork, planned.offset_nm
             plotted = planned.plotted
@@ -134,16 +142,24 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
                 raise GalileoError(f"no interrupted job of {options.file} to resume")
             point = plan_resume(link, entry)
             job, artwork, start, lead_in = point.job, point.artwork, point.start, point.lead_in
-            job_start, plotted = point.job_start, point.program
+            job_start, plotted, homed = point.job_start, point.program, point.homed
             offset = job.offset_nm                  # the interrupted job's, not --offset
+            if point.home:
+                _home_after_reset(link, entry.confirmed + 1 - start, options.yes, progress)
             out.write(f"resuming at command {start + 1} of {len(job)}\n")
         program, box = artwork.program, artwork.drawn_box_nm     # found while reading
         if box is not None:
             out.write(f"{program.source}: minimum X {box[0] / NM_PER_MM:.3f} mm, "
                       f"Y {box[1] / NM_PER_MM:.3f} mm; offset {offset[0] / NM_PER_MM:.3f}, "
                       f"{offset[1] / NM_PER_MM:.3f} mm\n")
+        if options.home and planned is not None:
+            progress.message("homing: the job's frame is the homed one (a reset can be "
+                             "resumed)")
+            status = home(link)
+            progress.message(f"homed: X {status.x_steps / profile.config.steps_per_mm:.3f} "
+                             f"Y {status.y_steps / profile.config.steps_per_mm:.3f} mm")
         streamer = JobStreamer(link, job, plotted, journal=journal, start=start,
-                               lead_in=lead_in, job_start=job_start)
+                               lead_in=lead_in, job_start=job_start, homed=homed)
         out.write(f"{len(job) - start} commands, about "
                   f"{duration_text(streamer.timing.seconds_between(start, len(job)))} "
                   f"of machine time\n")
@@ -161,6 +177,12 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
             progress.message(f"galileo-cnc: {gone}")
             progress.message(f"the job can continue: galileo-cnc plot {options.file} --resume")
             return EXIT_PORT_LOST
+        except MachineReset as reset:
+            progress.message(f"galileo-cnc: {reset}")
+            if not homed:
+                return EXIT_FAILED
+            progress.message(f"the job can continue: galileo-cnc plot {options.file} --resume")
+            return EXIT_PORT_LOST
         if not result.completed:
             progress.message(f"stopped: {result.reason}; the machine ramped down "
                              f"({result.confirmed} of {result.total} commands confirmed)")
@@ -173,6 +195,25 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
     if outputs is not None:             # after closing: simavr's pin record is complete then
         _write_outputs(options, link, steps, *outputs, out=out)
     return EXIT_OK
+
+
+def _home_after_reset(link: MachineLink, unsure: int, yes: bool,
+                      progress: TextProgress) -> None:
+    """A reset lost the position: home (Z without an end stop: the user puts the pen at
+    its Z origin first), saying how many confirmed commands are drawn again."""
+    progress.message(f"the machine was reset during the job: homing finds the job's frame "
+                     f"again; the last {unsure} commands it confirmed may not have run, "
+                     f"so they are drawn again")
+    if not z_has_end_stop(link.config):
+        progress.message("\aZ has no end stop, so the reset lost the pen's height: turn the "
+                         "pen back to its Z origin (where Z 0 was set; with the default pen "
+                         "heights, touching the paper)"
+                         + (": --yes takes the pen as standing there" if yes
+                            else ", then press Enter"))
+        if not yes:
+            sys.stdin.readline()
+    home_after_reset(link)
+    progress.message("homed")
 
 
 def _say_ink(ink, out: TextIO) -> None:

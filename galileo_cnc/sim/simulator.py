@@ -101,12 +101,22 @@ class SimulatedMachine:
         self._retired: Snapshot = self._snapshot()   # state after the last finished block
 
     # ---- host side ----------------------------------------------------------------
-    def reset(self) -> None:
-        """Power-on: fresh machine, banner."""
+    def reset(self) -> Trace:
+        """Power-on: fresh machine, banner. The head stays where it physically stands:
+        its position restarts at 0 there, the end stops do not move (homing finds them).
+        Returns the steps executed since the previous power-on (the trace it ends)."""
         with self._lock:
+            self._service()
+            now = self._clock.now()         # one instant for both: the clock runs on
+            before = self._trace(now)
+            position, _, phys = self._position(now)
+            physical = tuple(p + o for p, o in zip(position, phys))
             self._power_on()
+            self.machine.phys_offset = list(physical)
+            self._retired = self._snapshot()
             self._emit(self._banner().text())
             self._wake.notify_all()
+            return before
 
     def attach(self, output: Callable[[bytes], None]) -> bool:
         """Plug a host in (False if another one is); replies go to `output`."""
@@ -161,17 +171,38 @@ class SimulatedMachine:
             self._service()
             return self._status(self._clock.now())
 
+    def physical_position(self) -> tuple[int, int, int]:
+        """Where the head stands in the simulated world, in steps from the first
+        power-on's position (what a reset keeps, and the end stops are placed in)."""
+        with self._lock:
+            position, _, phys = self._position(self._clock.now())
+            return tuple(p + o for p, o in zip(position, phys))
+
+    def move_by_hand(self, physical: tuple[int, int, int]) -> None:
+        """The user turns the lead screws of the standing machine until the head is at
+        `physical`: it does not know (its position stays), the world moved."""
+        with self._lock:
+            self._service()
+            if self._queue:
+                raise ValueError("the machine is moving")
+            position, origin, _ = self._retired
+            phys = tuple(p - q for p, q in zip(physical, position))
+            self.machine.phys_offset = list(phys)
+            self._retired = (position, origin, phys)
+
     def trace(self) -> Trace:
         """Every step executed since power-on, up to the machine's clock."""
         with self._lock:
             self._service()
-            now = self._clock.now()
-            tick, axis, direction = self._timeline.steps(now)
-            position, origin, _ = self._position(now)
-            work = tuple(p - o for p, o in zip(position, origin))
-            end = self._timeline.end if now is None else min(self._timeline.end, now)
-            return Trace(tick, axis.astype(np.int8, copy=False),
-                         direction.astype(np.int8, copy=False), work, end)
+            return self._trace(self._clock.now())
+
+    def _trace(self, now: int | None) -> Trace:
+        tick, axis, direction = self._timeline.steps(now)
+        position, origin, _ = self._position(now)
+        work = tuple(p - o for p, o in zip(position, origin))
+        end = self._timeline.end if now is None else min(self._timeline.end, now)
+        return Trace(tick, axis.astype(np.int8, copy=False),
+                     direction.astype(np.int8, copy=False), work, end)
 
     # ---- time: the queue follows the clock ---------------------------------------------
     def _run_waker(self) -> None:

@@ -31,8 +31,8 @@ JOURNAL_NAME = "journal.json"
 #: Write at most this often while streaming (and always when the job stops).
 WRITE_INTERVAL_S = 0.25
 
-RUNNING, INTERRUPTED, FINISHED, ABORTED, FAILED = (
-    "running", "interrupted", "finished", "aborted", "failed")
+RUNNING, INTERRUPTED, FINISHED, ABORTED, FAILED, RESET = (
+    "running", "interrupted", "finished", "aborted", "failed", "reset")
 
 
 def file_digest(path: str | os.PathLike) -> str:
@@ -68,6 +68,9 @@ class JournalEntry:
     #: DXF: the layers read (empty: all) and the units given instead of $INSUNITS
     layers: tuple = ()
     units: str | None = None
+    #: the job's frame is the homed one (`plot --home` homed the machine before it,
+    #: so homing again finds it after a reset); older journals: not
+    homed: bool = False
 
     def index_of_seq(self, seq: int) -> int | None:
         """The command a sequence number of this session would belong to (the
@@ -107,8 +110,8 @@ _FIELD_CHECKS = {
     "confirmed": (_integer, "an integer"),
     "first_index": (_integer, "an integer"),
     "first_seq": (_integer, "an integer"),
-    "state": (lambda v: v in (RUNNING, INTERRUPTED, FINISHED, ABORTED, FAILED),
-              "one of running, interrupted, finished, aborted, failed"),
+    "state": (lambda v: v in (RUNNING, INTERRUPTED, FINISHED, ABORTED, FAILED, RESET),
+              "one of running, interrupted, finished, aborted, failed, reset"),
     "reason": (lambda v: isinstance(v, str), "text"),
     "updated": (lambda v: (_integer(v) or isinstance(v, float)), "a number"),
     "start_position": (_integers(3), "a list of 3 integers"),
@@ -118,6 +121,7 @@ _FIELD_CHECKS = {
     "layers": (lambda v: isinstance(v, list) and all(isinstance(x, str) for x in v),
                "a list of layer names"),
     "units": (lambda v: v is None or v in ("mm", "in"), "null, mm or in"),
+    "homed": (lambda v: isinstance(v, bool), "true or false"),
 }
 _REQUIRED = ("source", "digest", "offset_nm", "profile", "group", "total", "confirmed",
              "first_index", "first_seq")
@@ -157,7 +161,7 @@ class Journal:
 
     def pending(self) -> JournalEntry | None:
         """The last job if it did not finish (running when the port or host died,
-        interrupted, failed or aborted), else None."""
+        interrupted, failed, aborted or reset), else None."""
         entry = self.load()
         return entry if entry is not None and entry.state != FINISHED else None
 

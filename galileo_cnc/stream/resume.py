@@ -13,8 +13,14 @@ left it:
   The part of the command drawn before the stop is drawn again, which a pen
   does not mind.
 
-A changed file, another profile or a machine that was reset or moved (it stands
-nowhere on the job's path near where it stopped) is refused, saying why.
+- after a reset (journal `reset`) the position is lost. A job whose frame is the
+  homed one (`plot --home`) is found again by homing; which commands ran is not
+  exactly known (lines confirmed by `ok` may still have been queued), so it
+  continues from the earliest command that may not have finished, after the same
+  kind of lead-in. A job without a homed frame is refused: it must start again.
+
+A changed file, another profile or a machine that was moved (it stands nowhere on
+the job's path near where it stopped) is refused, saying why.
 """
 
 from __future__ import annotations
@@ -31,13 +37,17 @@ from galileo_cnc.job import Command, Job, PenDown, Rapid, SetFeed
 from galileo_cnc.machine import ReferenceMachine
 from galileo_cnc.plan.pipeline import Artwork, PlanOptions, plan_file
 from galileo_cnc.program.ops import Program
-from galileo_cnc.stream.journal import ABORTED, Journal, JournalEntry, file_digest
-from galileo_cnc.stream.streamer import JobStreamer, StreamResult
+from galileo_cnc.stream.homing import home_after_reset
+from galileo_cnc.stream.journal import ABORTED, RESET, Journal, JournalEntry, file_digest
+from galileo_cnc.stream.streamer import JobStreamer, StreamResult, after_reset_text
 from galileo_cnc.transport.link import MachineLink
 
 #: lines that can be accepted but not yet confirmed when a job stops (the receive
 #: buffer holds this many of the shortest command lines)
 _IN_FLIGHT_LINES = P.RX_BUFFER_BYTES // 8
+#: commands with steps that can be confirmed but unfinished when the machine is reset:
+#: one per queue block at least, and the one the stepper runs
+_UNFINISHED_COMMANDS = P.QUEUE_BLOCKS + 1
 
 
 class ResumeError(GalileoError):
@@ -54,6 +64,9 @@ class ResumePoint:
     lead_in: tuple[Command, ...] = ()
     job_start: tuple[int, int, int] = (0, 0, 0)    # where the job's first move began
     plotted: Program | None = None     # what the job was planned from (the ink, in ink mode)
+    #: the machine was reset: home it (home_after_reset) before the lead-in
+    home: bool = False
+    homed: bool = False                # the job's frame is the homed one
 
     @property
     def program(self) -> Program:
@@ -81,11 +94,52 @@ def stopped_inside(job: Job, config: MachineConfig, here: tuple[int, int, int],
         feed = machine.feed_steps_per_s
         trace = machine.run([job.commands[k]])
         if here == begin or _passes_through(trace, begin, here):
-            lead_in: list[Command] = [Rapid(begin[0], begin[1]), SetFeed(feed)]
-            if begin[2] == config.pen_down_z_steps:
-                lead_in.append(PenDown())
-            return k, tuple(lead_in)
+            return k, _lead_in(begin, feed, config)
     return None
+
+
+def _lead_in(begin: tuple[int, int, int], feed: int, config: MachineConfig
+             ) -> tuple[Command, ...]:
+    """Back to where a command begins: travel there pen up, the feed in force, and the
+    pen down again if it was."""
+    lead_in: list[Command] = [Rapid(begin[0], begin[1]), SetFeed(feed)]
+    if begin[2] == config.pen_down_z_steps:
+        lead_in.append(PenDown())
+    return tuple(lead_in)
+
+
+def first_unfinished(job: Job, config: MachineConfig, confirmed: int, floor: int,
+                     job_start: tuple[int, int, int] = (0, 0, 0)) -> int:
+    """The earliest command that may not have finished when the machine was reset after
+    confirming command `confirmed`: the machine queues what it confirms, and its queue
+    can hold the last commands with steps (one block each at least) and the one
+    running. Before a pen change the machine stood still with every line run, so
+    never before the last one up to `confirmed`, nor before `floor` (the session's
+    first command)."""
+    changes = [k for k in job.pen_changes if k <= confirmed + 1]
+    floor = max(floor, max(changes, default=0), 0)
+    machine = ReferenceMachine(config, job_start)
+    machine.plan(job.commands[:floor])
+    steps = [bool(machine.plan([command])) for command in job.commands[floor:confirmed + 1]]
+    start, counted = confirmed + 1, 0
+    while start > floor and counted < _UNFINISHED_COMMANDS:
+        start -= 1
+        counted += steps[start - floor]
+    return start
+
+
+def _after_reset(job: Job, artwork: Artwork, entry: JournalEntry, config: MachineConfig,
+                 plotted: Program | None) -> ResumePoint:
+    """A reset job continues, homed, from the first command that may not have finished."""
+    if not entry.homed:
+        raise ResumeError(f"the machine was reset during the job, and its frame was not the "
+                          f"homed one: {after_reset_text(False)}")
+    begun = entry.start_position
+    start = first_unfinished(job, config, entry.confirmed, entry.first_index, begun)
+    machine = ReferenceMachine(config, begun)
+    machine.plan(job.commands[:start])
+    lead_in = _lead_in(machine.work_position, machine.feed_steps_per_s, config)
+    return ResumePoint(job, artwork, start, lead_in, begun, plotted, home=True, homed=True)
 
 
 def _passes_through(trace, begin: tuple[int, int, int], here: tuple[int, int, int]) -> bool:
@@ -114,6 +168,8 @@ def plan_resume(link: MachineLink, entry: JournalEntry) -> ResumePoint:
     job, artwork = planned.job, planned.artwork
     if len(job) != entry.total:
         raise ResumeError("the replanned job differs from the interrupted one")
+    if entry.state == RESET:                # where the machine stands means nothing now
+        return _after_reset(job, artwork, entry, config, planned.plotted)
     status = link.wait_idle()
     here = (status.x_steps, status.y_steps, status.z_steps)
     candidates = [entry.confirmed]
@@ -123,13 +179,15 @@ def plan_resume(link: MachineLink, entry: JournalEntry) -> ResumePoint:
     begun = entry.start_position
     for confirmed in candidates:
         if position_after(job, confirmed + 1, config, begun) == here:
-            return ResumePoint(job, artwork, confirmed + 1, (), begun, planned.plotted)
+            return ResumePoint(job, artwork, confirmed + 1, (), begun, planned.plotted,
+                               homed=entry.homed)
     if entry.state == ABORTED:
         first = max(entry.first_index, entry.confirmed - P.QUEUE_BLOCKS)
         found = stopped_inside(job, config, here, first, entry.confirmed + _IN_FLIGHT_LINES,
                                begun)
         if found is not None:
-            return ResumePoint(job, artwork, found[0], found[1], begun, planned.plotted)
+            return ResumePoint(job, artwork, found[0], found[1], begun, planned.plotted,
+                               homed=entry.homed)
     expected = position_after(job, entry.confirmed + 1, config, begun)
     raise ResumeError(
         f"the machine stands at {_mm_text(here, config)}, but the job stopped at "
@@ -143,10 +201,14 @@ def _mm_text(position: tuple[int, int, int], config: MachineConfig) -> str:
 
 
 def resume_job(link: MachineLink, journal: Journal, **callbacks) -> StreamResult:
-    """Continue the journal's interrupted or stopped job where the machine left it."""
+    """Continue the journal's interrupted or stopped job where the machine left it (a
+    reset one after homing: without a Z end stop, the pen must stand at its Z origin)."""
     entry = journal.pending()
     if entry is None:
         raise ResumeError("no interrupted job to resume")
     point = plan_resume(link, entry)
+    if point.home:
+        home_after_reset(link)
     return JobStreamer(link, point.job, point.program, journal=journal, start=point.start,
-                       lead_in=point.lead_in, job_start=point.job_start).run(**callbacks)
+                       lead_in=point.lead_in, job_start=point.job_start,
+                       homed=point.homed).run(**callbacks)

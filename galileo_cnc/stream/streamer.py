@@ -21,7 +21,9 @@
   refusal still stops the job.
 - The machine in hold or abort without our asking (noise), or reset (its banner, or an
   `N` outside the window): the job stops with a message; after a hold or abort it can
-  be resumed (journal `aborted`: the machine ramped down inside a command).
+  be resumed (journal `aborted`: the machine ramped down inside a command); after a
+  reset (journal `reset`: the position is lost) only when the job's frame is the homed
+  one (`plot --home`), by homing again.
 - Pen changes: before the command where the planner put one, the streamer
   waits until the machine stands still (pen up), then asks (`on_pen_change`).
 - Abort (`abort()`, `q` in the console, Ctrl-C): the machine ramps down and
@@ -47,8 +49,8 @@ from galileo_cnc.errors import GalileoError, SourcePos
 from galileo_cnc.job import NO_OP, Command, Job
 from galileo_cnc.machine.timing import JobTiming, job_timing
 from galileo_cnc.program.ops import COL, LINE, Program
-from galileo_cnc.stream.journal import (ABORTED, FAILED, FINISHED, INTERRUPTED, Journal,
-                                        JournalEntry, file_digest)
+from galileo_cnc.stream.journal import (ABORTED, FAILED, FINISHED, INTERRUPTED, RESET,
+                                        Journal, JournalEntry, file_digest)
 from galileo_cnc.transport.link import (LinkError, MachineLink, MachineStopped, PortGone,
                                         previous_seq)
 
@@ -68,6 +70,16 @@ class StreamAborted(GalileoError):
 
 class MachineReset(LinkError):
     """The machine's line count no longer matches the job's: it was reset mid-job."""
+
+
+def after_reset_text(homed: bool) -> str:
+    """What a reset mid-job leaves the user to do."""
+    if homed:
+        return ("the job's frame is the homed one: `galileo-cnc plot --resume` (or "
+                "`resume` in the console) homes the machine and continues")
+    return ("its position is lost, so the job cannot continue and must be started "
+            "again; `galileo-cnc plot --home` homes the machine before a job, which "
+            "makes a reset resumable next time")
 
 
 @dataclass
@@ -118,7 +130,7 @@ class JobStreamer:
     def __init__(self, link: MachineLink, job: Job, program: Program | None = None, *,
                  journal: Journal | None = None, start: int = 0,
                  timing: JobTiming | None = None, lead_in: Sequence[Command] = (),
-                 job_start: tuple[int, int, int] | None = None):
+                 job_start: tuple[int, int, int] | None = None, homed: bool = False):
         self.link = link
         self.job = job
         self.program = program
@@ -129,6 +141,8 @@ class JobStreamer:
         self.lead_in = tuple(lead_in)
         #: where the job's first command started (a resumed job's, from its journal)
         self.job_start = job_start
+        #: the job's frame is the homed one (journalled: a reset is then resumable)
+        self.homed = homed
         self.timing = timing or job_timing(job.commands, link.config)
         self._abort = threading.Event()
         self._rx_bytes = link.banner.rx_buffer_bytes if link.banner else P.RX_BUFFER_BYTES
@@ -188,6 +202,11 @@ class JobStreamer:
         except PortGone as gone:
             self._journal_end(INTERRUPTED, str(gone))
             raise
+        except MachineReset as reset:
+            self._stop_machine()            # a fresh machine: nothing queued, unlocked
+            told = MachineReset(f"{reset}; {after_reset_text(self.homed)}")
+            self._journal_end(RESET, str(told))
+            raise told from None
         except LinkError as refused:
             self._stop_machine()
             self._journal_end(FAILED, str(refused))
@@ -278,8 +297,7 @@ class JobStreamer:
     def _check_reset(self) -> None:
         if self.link.resets != self._resets:
             raise MachineReset(f"{self.link.port_name}: the machine was reset during the "
-                               f"job (its banner arrived): its position is lost; home it "
-                               f"and start the job again")
+                               f"job (its banner arrived)")
 
     def _settle_by_status(self, last_seq: int) -> bool:
         """Nothing is in flight: lines up to the machine's `N` were accepted, the
@@ -300,8 +318,7 @@ class JobStreamer:
             return False
         else:
             raise MachineReset(f"{self.link.port_name}: the machine's last line is N{last_seq}, "
-                               f"which this job never sent: it was reset; home it and "
-                               f"start the job again")
+                               f"which this job never sent: it was reset")
         self._rewind(after)
         return not after
 
@@ -450,7 +467,7 @@ class JobStreamer:
             self.job.grouped, len(self.job), self.start - 1, self.start, first_seq,
             start_position=self.job_start, mode=self.job.mode, ordered=self.job.ordered,
             pens_nm=tuple(self.job.pens_nm), layers=tuple(self.job.layers),
-            units=self.job.units))
+            units=self.job.units, homed=self.homed))
 
     def _journal_end(self, state: str, reason: str = "") -> None:
         if self.journal is not None and self.journal.entry is not None:

@@ -29,6 +29,17 @@ def test_a_good_entry_reads_back(tmp_path):
     assert entry.confirmed == 20 and entry.state == "interrupted"
 
 
+def test_a_journal_from_before_homing_reads_as_not_homed_and_a_reset_is_pending(tmp_path):
+    path = tmp_path / "journal.json"
+    older = good_entry()
+    del older["homed"]                          # written before `plot --home` existed
+    path.write_text(json.dumps(older))
+    assert Journal(path).load().homed is False
+    path.write_text(json.dumps({**good_entry(), "state": "reset", "homed": True}))
+    entry = Journal(path).pending()
+    assert entry is not None and entry.state == "reset" and entry.homed is True
+
+
 def test_no_journal_is_no_job(tmp_path):
     assert Journal(tmp_path / "journal.json").pending() is None
 
@@ -49,6 +60,8 @@ def test_no_journal_is_no_job(tmp_path):
     (dict(confirmed=-2), "confirmed command -2 is outside"),
     (dict(speed=3), "unknown key 'speed'"),
     (dict(source=None), "source must be text, got null"),
+    (dict(homed="yes"), "homed must be true or false"),
+    (dict(homed=1), "homed must be true or false"),
 ])
 def test_damaged_fields_are_named(tmp_path, change, expected):
     data = {**good_entry(), **change}
