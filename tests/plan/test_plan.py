@@ -277,3 +277,47 @@ def test_what_the_wire_cannot_carry_is_refused_while_planning_with_its_line(tmp_
     assert refused.value.pos.line == 3
     path.write_text("G21 G90\nG1 X1 F100\nG4 P2000\nG1 X2\nM2\n")     # 2000 s: the limit
     assert plan_file(path, MachineConfig()).job
+
+
+def test_the_quick_travel_check_never_passes_a_job_the_machine_refuses():
+    # check_job skips stepping the reference machine when every point and every arc's
+    # circle lies inside the travel (planner._surely_inside): on random jobs of lines
+    # and arcs (ends on and off their circles) near the travel's edges, whenever it
+    # says inside, the machine must agree; and it must say inside often enough to matter
+    import random
+
+    from galileo_cnc.job import MachineError
+    from galileo_cnc.machine import ReferenceMachine
+    from galileo_cnc.plan.planner import _surely_inside
+
+    rng = random.Random(7)
+    (x_min, y_min, _), (x_max, y_max, _) = CFG.travel_min_steps, CFG.travel_max_steps
+    quick = 0
+    for _ in range(400):
+        x = y = 0
+        commands = []
+        for _ in range(6):
+            if rng.random() < 0.5:
+                x = rng.randint(x_min, x_max)
+                y = rng.choice([rng.randint(y_min, y_max), rng.randint(y_min, y_min + 40),
+                                rng.randint(y_max - 40, y_max)])
+                commands.append(LineTo(x, y))
+            else:
+                r = rng.randint(1, 60)
+                cx = rng.randint(x - 2 * r, x + 2 * r)
+                cy = rng.randint(y - 2 * r, y + 2 * r)
+                angle = rng.uniform(0, 2 * math.pi)
+                radius = math.hypot(x - cx, y - cy) + rng.choice([0, 0, 1, -1, 3])
+                end = (round(cx + radius * math.cos(angle)), round(cy + radius * math.sin(angle)))
+                commands.append(ArcTo(end[0], end[1], cx - x, cy - y, cw=rng.random() < 0.5))
+                x, y = end
+        commands = [PenDown(), *commands, *END]
+        if not _surely_inside(commands, CFG):
+            continue
+        quick += 1
+        try:
+            ReferenceMachine(CFG).plan(commands)
+        except MachineError as problem:
+            raise AssertionError(f"passed quickly, refused by the machine: {problem}; "
+                                 f"{commands}") from None
+    assert quick > 50
