@@ -40,7 +40,9 @@ closed path is drawn from points[0] and back, so an arc through points[0] is cut
 there (a remainder shorter than `min_edges` stays lines).
 
 `fit_paths` does the same for all pen paths of a fill in one pass (same answers):
-the paths lie end to end in one array and each numpy step runs once for all.
+the paths lie end to end in one array and each numpy step runs once for all. It
+can hold each vertex to a tolerance of its own (an arc to the smallest of its
+vertices'): the fill's inner rings are offset with a coarser one (fill.py).
 
 Floats are used only to decide (coordinates are exact in them below 2^53 nm);
 every returned coordinate is an input vertex and every centre an integer offset
@@ -82,20 +84,27 @@ def fit_arcs(points: np.ndarray, tolerance_nm: int = 1000, closed: bool = False,
 
 
 def fit_paths(paths: list[np.ndarray], tolerance_nm: int = 1000,
-              min_edges: int = 4) -> list[list[Segment] | None]:
+              min_edges: int = 4, coarse: list[np.ndarray] | None = None
+              ) -> list[list[Segment] | None]:
     """`fit_arcs` for many pen paths at once, with the same answers: a path of one
     point is a dot (None), one of more than 3 points that ends where it starts is
     closed. All paths go through each numpy step together (a fill's thousands of
-    short paths would otherwise cost a few dozen numpy calls each)."""
+    short paths would otherwise cost a few dozen numpy calls each). `coarse`: per
+    path, a tolerance per vertex (nm, at least `tolerance_nm`: the one its ring was
+    offset with); an arc is held to the smallest of its vertices'."""
     _check_options(tolerance_nm, min_edges)
     found: list[list[Segment] | None] = [None] * len(paths)
     drawn = [k for k, path in enumerate(paths) if len(path) != 1]
-    opened = []
+    opened, tolerances = [], []
     for k in drawn:
         path = np.asarray(paths[k], dtype=np.int64)
         closed = len(path) > 3 and np.array_equal(path[0], path[-1])
         opened.append(_open_path(path[:-1] if closed else path, closed))
-    for k, segments in zip(drawn, _fit_many(opened, tolerance_nm, min_edges)):
+        if coarse is not None:
+            tol = np.maximum(np.asarray(coarse[k], dtype=np.float64), tolerance_nm)
+            tolerances.append(np.concatenate([tol[:-1], tol[:1]]) if closed else tol)
+    for k, segments in zip(drawn, _fit_many(opened, tolerance_nm, min_edges,
+                                            tolerances if coarse is not None else None)):
         found[k] = segments
     return found
 
@@ -119,7 +128,8 @@ def _open_path(points: np.ndarray, closed: bool) -> np.ndarray:
     return np.concatenate([path, path[:1]]) if closed else path
 
 
-def _fit_many(paths: list[np.ndarray], tol: int, min_edges: int) -> list[list[Segment]]:
+def _fit_many(paths: list[np.ndarray], tol: int, min_edges: int,
+              tolerances: list[np.ndarray] | None = None) -> list[list[Segment]]:
     """The segments of each open path. The paths are laid end to end in one array of
     complex points (exact: integers below 2^53), a NaN between neighbours: no triple
     through a NaN is usable, so no chain crosses from one path into the next."""
@@ -131,6 +141,11 @@ def _fit_many(paths: list[np.ndarray], tol: int, min_edges: int) -> list[list[Se
     for path, at in zip(paths, offsets.tolist()):
         z[at:at + len(path)] = np.ascontiguousarray(path, dtype=np.float64).view(
             np.complex128).ravel()
+    if tolerances is not None:          # per vertex (NaN gaps: the base tolerance)
+        each = np.full(len(z), float(tol))
+        for t, at in zip(tolerances, offsets.tolist()):
+            each[at:at + len(t)] = t
+        tol = each
     arcs = _arcs(z, tol, min_edges, offsets, sizes)
     # each path's arcs, in its own vertex numbers
     owner = np.searchsorted(offsets, [arc[0] for arc in arcs], "right") - 1
@@ -141,7 +156,7 @@ def _fit_many(paths: list[np.ndarray], tol: int, min_edges: int) -> list[list[Se
     return [_segments(path, found) for path, found in zip(paths, mine)]
 
 
-def _arcs(z: np.ndarray, tol: int, min_edges: int, offsets: np.ndarray,
+def _arcs(z: np.ndarray, tol: int | np.ndarray, min_edges: int, offsets: np.ndarray,
           sizes: np.ndarray) -> list[Arc]:
     """The arcs of the paths laid out in z (see `_fit_many`), in order."""
     starts, ends = _pieces(z, tol, min_edges, offsets, sizes)
@@ -169,7 +184,7 @@ def _circumcentre(a: np.ndarray, b: np.ndarray) -> np.ndarray:
             2j * (a.conj() * b).imag)
 
 
-def _pieces(z: np.ndarray, tol: int, min_edges: int, offsets: np.ndarray,
+def _pieces(z: np.ndarray, tol: int | np.ndarray, min_edges: int, offsets: np.ndarray,
             sizes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(start, end) point indices of the candidate arcs: chains of triples on one
     circle, cut into pieces of at most about `_PIECE_SWEEP`."""
@@ -191,6 +206,8 @@ def _pieces(z: np.ndarray, tol: int, min_edges: int, offsets: np.ndarray,
     # link neighbouring triples: same turn, and the fourth point on the first's circle
     with np.errstate(invalid="ignore"):
         off = np.abs(np.abs(z[3:] - z[1:-2] - centre[:-1]) - radius[:-1])
+    if not np.isscalar(tol):            # the smallest of the four points' tolerances
+        tol = np.minimum(np.minimum(tol[:-3], tol[1:-2]), np.minimum(tol[2:-1], tol[3:]))
     link = good[:-1] & good[1:] & ((ab.imag[:-1] > 0) == (ab.imag[1:] > 0)) & (off <= tol)
     # chains: maximal runs of linked triples [first, stop); triple t is vertex t + 1,
     # so a chain covers points first .. stop + 1
@@ -224,7 +241,7 @@ def _pieces(z: np.ndarray, tol: int, min_edges: int, offsets: np.ndarray,
 
 
 def _check(z: np.ndarray, start: np.ndarray, end: np.ndarray,
-           tol: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+           tol: int | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """For each piece start[k] .. end[k]: (does its circle fit within the guarantees
     but for curvature, is its sagitta above the tolerance, is it counter-clockwise,
     its integer centre relative to its start as (i, j)). An arc needs both of the
@@ -251,6 +268,8 @@ def _check(z: np.ndarray, start: np.ndarray, end: np.ndarray,
     ccw = np.minimum.reduceat(w.imag, first) > 0
     cw = np.maximum.reduceat(w.imag, first) < 0
     sweep = np.abs(np.add.reduceat(np.angle(w), first))
+    if not np.isscalar(tol):            # the smallest of the piece's vertices' tolerances
+        tol = np.minimum.reduceat(np.minimum(tol[edge], tol[edge + 1]), first)
     # the arc's sagitta over its whole sweep: real curvature, not a noisy straight run
     sagitta = 2.0 * r_start * np.sin(sweep / 4.0) ** 2
     fits = (finite & (ccw | cw) & (np.minimum.reduceat(w.real, first) > 0)
@@ -259,7 +278,7 @@ def _check(z: np.ndarray, start: np.ndarray, end: np.ndarray,
     return fits, sagitta > tol, ccw, ij
 
 
-def _regrow(z: np.ndarray, s0: np.ndarray, e0: np.ndarray, tol: int,
+def _regrow(z: np.ndarray, s0: np.ndarray, e0: np.ndarray, tol: int | np.ndarray,
             min_edges: int) -> list[list[Arc]]:
     """Arcs within each piece s0[k] .. e0[k] that failed the check, greedily: from
     each start whose `min_edges` fit a circle, the longest run that fits (`_BATCH`

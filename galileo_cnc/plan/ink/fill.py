@@ -42,6 +42,11 @@ GAP_NM = 5_000
 JOIN_SAMPLES, JOIN_EVERY, JOIN_MOST = 12, 8, 256
 #: Outline vertices per batch of islands filled together (fill_region).
 BATCH_VERTICES = 4_000
+#: The rings inside E0 and the gap tests are offset with this many times the tolerance
+#: (E0 keeps it: it runs along the copper's edge), and those rings' arcs are fitted to
+#: it: hellboard's fill 11 -> 7 s CPU and 344k -> 140k rows, every corpus layer
+#: measured inked to the same share within 0.01 %.
+DEEP_TOLERANCE = 4
 
 
 @dataclass
@@ -54,6 +59,7 @@ class PenFill:
     gap_strokes: int = 0
     ink: list = field(default_factory=list)                 # polygon set the pen covers
     parts: list = field(default_factory=list)   # (batch of the region, its ink), see inked_area_nm2
+    coarse: list = field(default_factory=list)  # per path: each vertex's tolerance (nm)
 
 
 def fill_region(region: list, width_nm: int, tolerance_nm: int, *,
@@ -73,6 +79,7 @@ def fill_region(region: list, width_nm: int, tolerance_nm: int, *,
         near = [avoid[k] for k in _meeting(boxes, batch).tolist()]
         part = _fill_batch(batch, width_nm, tolerance_nm, overlap, edge_margin_nm, near)
         fill.paths.extend(part.paths)
+        fill.coarse.extend(part.coarse)
         fill.rings += part.rings
         fill.gap_strokes += part.gap_strokes
         fill.ink.extend(part.ink)       # disjoint: each batch's ink stays in its islands
@@ -134,10 +141,10 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
         centre_area = clip.difference(centre_area, avoid)
     if not centre_area:
         return fill
-    areas = _concentric(centre_area, spacing, tolerance_nm)
+    areas = _concentric(centre_area, spacing, tolerance_nm * DEEP_TOLERANCE)
     depths = [clip.rings_as_arrays(area) for area in areas]
     fill.rings = sum(len(rings) for rings in depths)
-    gaps = _gaps(areas, radius, tolerance_nm)
+    gaps = _gaps(areas, radius, tolerance_nm * DEEP_TOLERANCE)
     reach = clip.offset(centre_area, radius, tolerance_nm, cleaned=True)
     fill.ink = clip.difference(reach, gaps)
     gaps = clip.opening(gaps, GAP_NM, tolerance_nm)
@@ -146,7 +153,18 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     if strokes:
         fill.ink = clip.union(fill.ink, clip.stroke(strokes, radius, tolerance_nm))
     fill.paths = _tours(depths, strokes, spacing)
+    # the arcs of a ring inside E0 may stray as far as its chords (fit_paths)
+    if fill.paths:
+        outer = np.concatenate([_points(ring) for ring in depths[0]])
+        every = np.concatenate([_points(path) for path in fill.paths])
+        tol = np.where(np.isin(every, outer), tolerance_nm, tolerance_nm * DEEP_TOLERANCE)
+        fill.coarse = np.split(tol, np.cumsum([len(path) for path in fill.paths])[:-1])
     return fill
+
+
+def _points(path: np.ndarray) -> np.ndarray:
+    """The vertices as complex numbers (exact: nm below 2^53), one per vertex."""
+    return np.ascontiguousarray(path, dtype=np.float64).view(np.complex128).ravel()
 
 
 def _concentric(centre_area: list, spacing: int, tolerance_nm: int) -> list[list]:

@@ -129,7 +129,8 @@ def _rows(program: Program, pens: tuple[int, ...], fills: list[PenFill],
         if not fill.paths and not drawn:
             continue
         out.emit(_SELECT, tool=key)
-        for path, segments in zip(fill.paths, fit_paths(fill.paths)):   # all paths at once
+        coarse = fill.coarse if len(fill.coarse) == len(fill.paths) else None
+        for path, segments in zip(fill.paths, fit_paths(fill.paths, coarse=coarse)):  # at once
             _emit_path(out, path, key, 0, 0, segments)
         for feature in drawn:
             _emit_feature(out, feature, key)
