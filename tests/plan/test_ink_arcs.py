@@ -322,3 +322,23 @@ def test_fit_paths_rejects_what_fit_arcs_rejects():
     with pytest.raises(ValueError, match="shape"):
         fit_paths([np.array([0, 1, 2])])
     assert fit_paths([]) == []
+
+
+def test_per_vertex_tolerances_hold_each_arc_to_its_finest_vertex():
+    # a 2 mm circle made with 4 um chords (as the fill's inner rings are): at 1 um it
+    # is lines, at its own 4 um it is arcs within 4 um; one vertex held to 1 um keeps
+    # every arc through it within 1 um, i.e. lines there
+    radius, coarse = 2 * MM, 4 * TOL
+    n = circle_segments(radius, coarse)
+    ring = rounded(arc_vertices(0, 0, radius, 0.1, 2 * math.pi, n)[:-1])
+    path = np.vstack([ring, ring[:1]])
+    fine, = fit_paths([path])
+    assert all(s[0] == LINE for s in fine)
+    every = np.full(len(path), coarse)
+    loose, = fit_paths([path], coarse=[every])
+    arcs = walk(ring, loose, tol=coarse, closed=True)
+    assert arcs and all(math.dist(a["centre"], (0, 0)) <= coarse for a in arcs)
+    every[5] = TOL
+    mixed, = fit_paths([path], coarse=[every])
+    arcs = walk(ring, mixed, tol=coarse, closed=True)
+    assert arcs and not any(a["first"] < 5 < a["last"] for a in arcs)
