@@ -11,7 +11,9 @@ bench_ink.py measures the steps), pen lifts, narrow features and bridges avoided
 `--stages` adds the CPU seconds of each stage (the planner's functions are wrapped
 with timers for the run; nested stages are also counted in the stage around them).
 `--digest` adds a hash of the ink program's rows: equal hashes before and after a
-speed change mean the planner's output did not change, row for row.
+speed change mean the planner's output did not change, row for row. `--whole` times
+the whole plan instead (`plan_file`: the ink, then path order, the steps and the
+travel check, on a machine with 2 m of travel as bench_ink.py's), with its stages.
 Numbers are printed, never asserted.
 """
 
@@ -22,6 +24,7 @@ import hashlib
 import time
 from pathlib import Path
 
+from galileo_cnc.plan import pipeline, planner
 from galileo_cnc.plan.ink import clip, fill, inking
 from galileo_cnc.plan.ink.inking import ink_program
 from galileo_cnc.readers import read_file
@@ -33,6 +36,10 @@ BIGGEST = ["geda-pcb/hellboard/hellboard.group1.gbr", "altium/limesdr-qpcie/Lime
 
 #: (label, module, function name): the stages `--stages` times, outermost first.
 STAGES = [
+    ("ink (ink_program)", pipeline, "ink_program"),
+    ("steps (plan_program)", pipeline, "plan_program"),
+    ("  path order (plotting_order)", planner, "plotting_order"),
+    ("  travel check (check_job)", planner, "check_job"),
     ("copper (dark_geometry)", inking, "dark_geometry"),
     ("fill (fill_region)", inking, "fill_region"),
     ("  fill: rings (_concentric)", fill, "_concentric"),
@@ -67,12 +74,25 @@ def timed_stages() -> dict[str, float]:
     return spent
 
 
+def whole_plan(path: Path, pens: tuple[int, ...]):
+    """plan_file in ink mode as bench_ink.py runs it; its InkPlan."""
+    import dataclasses
+
+    from galileo_cnc.config.machine import MachineConfig
+    from galileo_cnc.plan.pipeline import PlanOptions, plan_file
+
+    config = dataclasses.replace(MachineConfig(), x_travel_mm=2000.0, y_travel_mm=2000.0)
+    return plan_file(path, config, "auto", options=PlanOptions(mode="ink", pens_nm=pens)).ink
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("files", nargs="*", help="Gerber files (default: the biggest layers)")
     parser.add_argument("--pens", default="0.3", help="pen widths in mm, e.g. 0.3,0.8")
     parser.add_argument("--stages", action="store_true", help="CPU seconds per stage")
     parser.add_argument("--digest", action="store_true", help="hash of the ink program's rows")
+    parser.add_argument("--whole", action="store_true",
+                        help="time the whole plan (plan_file), not the ink alone")
     args = parser.parse_args()
     pens = tuple(round(float(w) * 1_000_000) for w in args.pens.split(","))
     files = [Path(f) for f in args.files] or [CORPUS / f for f in BIGGEST]
@@ -83,11 +103,14 @@ def main() -> None:
         read_s = time.perf_counter() - began
         spent.clear()
         cpu = time.process_time()
-        plan = ink_program(program, pens)
+        if args.whole:
+            plan = whole_plan(path, pens)
+        else:
+            plan = ink_program(program, pens)
         cpu = time.process_time() - cpu
         share = 100 * plan.inked_nm2 / plan.copper_nm2 if plan.copper_nm2 else 100.0
-        print(f"{path.name}: read {read_s:.1f} s, ink {plan.seconds:.1f} s "
-              f"({cpu:.1f} s CPU), {len(plan.program)} rows, {share:.2f} % inked, "
+        print(f"{path.name}: read {read_s:.1f} s, {'whole plan' if args.whole else 'ink'} "
+              f"{cpu:.1f} s CPU, {len(plan.program)} rows, {share:.2f} % inked, "
               f"{plan.pen_lifts} pen lifts, {len(plan.narrow)} narrow, "
               f"{len(plan.bridges)} bridges avoided", flush=True)
         if args.digest:
