@@ -153,11 +153,15 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     if strokes:
         fill.ink = clip.union(fill.ink, clip.stroke(strokes, radius, tolerance_nm))
     fill.paths = _tours(depths, strokes, spacing)
-    # the arcs of a ring inside E0 may stray as far as its chords (fit_paths)
+    # the arcs of a ring inside E0 may stray as far as its chords (fit_paths); E0's
+    # own vertices and the ends of joins (on E0's outline too) keep the fine tolerance
     if fill.paths:
         outer = np.concatenate([_points(ring) for ring in depths[0]])
+        inner = np.concatenate([_points(ring) for rings in depths[1:] for ring in rings]
+                               or [np.zeros(0, np.complex128)])
         every = np.concatenate([_points(path) for path in fill.paths])
-        tol = np.where(np.isin(every, outer), tolerance_nm, tolerance_nm * DEEP_TOLERANCE)
+        fine = np.isin(every, outer) | ~np.isin(every, inner)
+        tol = np.where(fine, tolerance_nm, tolerance_nm * DEEP_TOLERANCE)
         fill.coarse = np.split(tol, np.cumsum([len(path) for path in fill.paths])[:-1])
     return fill
 
