@@ -44,8 +44,8 @@ JOIN_SAMPLES, JOIN_EVERY, JOIN_MOST = 12, 8, 256
 BATCH_VERTICES = 4_000
 #: The rings inside E0 and the gap tests are offset with this many times the tolerance
 #: (E0 keeps it: it runs along the copper's edge), and those rings' arcs are fitted to
-#: it: hellboard's fill 11 -> 7 s CPU and 344k -> 140k rows, every corpus layer
-#: measured inked to the same share within 0.01 %.
+#: it: hellboard's fill 11 -> 7 s CPU and 344k -> 140k rows; ten layers measured from
+#: the steps inked within 0.012 % of before (docs/ink.md, "Measured on the corpus").
 DEEP_TOLERANCE = 4
 
 
