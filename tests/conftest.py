@@ -17,3 +17,16 @@ def pytest_collection_modifyitems(config, items):
     if not (CORPUS / "MANIFEST.tsv").exists():
         if os.environ.get("CI"):
             raise pytest.UsageError(f"Gerber corpus not found at {CORPUS}")
+
+
+@pytest.fixture
+def fresh_sim(tmp_path, monkeypatch):
+    """A user's folders of the test's own, no port probed, and no sim:// machine
+    left powered from another test (named machines live as long as the process)."""
+    from galileo_cnc.sim.simulator import forget_named_machines
+
+    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path))
+    monkeypatch.setenv("GALILEO_CNC_NO_PROBE", "1")
+    forget_named_machines()
+    yield
+    forget_named_machines()

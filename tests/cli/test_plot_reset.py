@@ -13,20 +13,14 @@ from pathlib import Path
 import pytest
 
 from galileo_cnc.cli.main import main
-from galileo_cnc.sim.simulator import forget_named_machines, named_machine
+from galileo_cnc.sim.simulator import named_machine
 
 from inked import inked_points
 
 SAMPLE = str(Path(__file__).resolve().parents[2] / "samples" / "led-blinker.gbr")
 
 
-@pytest.fixture(autouse=True)
-def fresh(tmp_path, monkeypatch):
-    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path))
-    monkeypatch.setenv("GALILEO_CNC_NO_PROBE", "1")
-    forget_named_machines()
-    yield
-    forget_named_machines()
+pytestmark = pytest.mark.usefixtures("fresh_sim")     # tests/conftest.py
 
 
 class ResetButton:

@@ -108,6 +108,13 @@ def profile(tmp_path, monkeypatch):
     return str(path)
 
 
+def sample_options(profile: str, board) -> plot_grbl.GrblPlotOptions:
+    """`plot SAMPLE --mode centre --yes` on the board, as the first plot of a test."""
+    return plot_grbl.GrblPlotOptions(SAMPLE, load_profile(profile, port=board.port),
+                                     board.port, PlanOptions(mode="centre"),
+                                     margin_nm=DEFAULT_MARGIN_NM, yes=True)
+
+
 def test_resume_after_a_lost_port_homes_and_finishes_the_job(profile, capsys):
     lines = planned_gcode(profile)
     config = load_profile(profile).config
@@ -118,10 +125,8 @@ def test_resume_after_a_lost_port_homes_and_finishes_the_job(profile, capsys):
 
         # the first plot: its port dies in the middle of the job
         port = RecordingPort(serial.Serial(board.port, 115200, timeout=0.2), die_after=45)
-        options = plot_grbl.GrblPlotOptions(
-            SAMPLE, load_profile(profile, port=board.port), board.port,
-            PlanOptions(mode="centre"), margin_nm=DEFAULT_MARGIN_NM, yes=True)
-        assert plot_grbl.run_grbl_plot(options, port=port) == plot_grbl.EXIT_PORT_LOST
+        assert plot_grbl.run_grbl_plot(sample_options(profile, board),
+                                       port=port) == plot_grbl.EXIT_PORT_LOST
         out, _ = capsys.readouterr()
         assert f"galileo-cnc plot {SAMPLE} --resume" in out
         entry = plot_grbl.grbl_journal().load()
@@ -242,10 +247,8 @@ def test_ctrl_c_holds_then_resets_and_resume_finishes_the_job(profile, capsys):
         setup_end = settled_trace(board)
 
         port = CtrlCPort(serial.Serial(board.port, 115200, timeout=0.2), after=60)
-        options = plot_grbl.GrblPlotOptions(
-            SAMPLE, load_profile(profile, port=board.port), board.port,
-            PlanOptions(mode="centre"), margin_nm=DEFAULT_MARGIN_NM, yes=True)
-        assert plot_grbl.run_grbl_plot(options, port=port) == plot_grbl.EXIT_INTERRUPTED
+        assert plot_grbl.run_grbl_plot(sample_options(profile, board),
+                                       port=port) == plot_grbl.EXIT_INTERRUPTED
         out, _ = capsys.readouterr()
         assert "stopped: GRBL held the feed, then was reset" in out
         entry = plot_grbl.grbl_journal().load()

@@ -16,20 +16,14 @@ from galileo_cnc.job import Jog
 from galileo_cnc.machine import simulate
 from galileo_cnc.machine.trace import Trace
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
-from galileo_cnc.sim.simulator import forget_named_machines, named_machine
+from galileo_cnc.sim.simulator import named_machine
 from galileo_cnc.transport.link import MachineLink
 
 SQUARE = "samples/square-and-circle.nc"
 URL = "sim://plotted?speed=0"
 
 
-@pytest.fixture(autouse=True)
-def fresh(monkeypatch, tmp_path):
-    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path))
-    monkeypatch.setenv("GALILEO_CNC_NO_PROBE", "1")
-    forget_named_machines()
-    yield
-    forget_named_machines()
+pytestmark = pytest.mark.usefixtures("fresh_sim")     # tests/conftest.py
 
 
 def test_plot_trace_on_sim_writes_the_steps_the_machine_stepped(tmp_path, capsys):
