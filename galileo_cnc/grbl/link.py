@@ -26,6 +26,11 @@ JOG_CANCEL = b"\x85"
 #: boards run faster than the wall clock, real ones answer within ms).
 REPLY_TIMEOUT_S = 30.0
 READ_SLICE_S = 0.2
+#: Hard (1) and soft (2) limit alarms: GRBL blocks until a reset, after this line.
+CRITICAL_ALARMS = (1, 2)
+RESET_TO_CONTINUE = "[MSG:Reset to continue]"
+#: How long a reset waits for that line (it follows the ALARM line at once).
+CRITICAL_MESSAGE_WAIT_S = 3.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -55,6 +60,7 @@ class GrblLink:
         self.alarms: list[int] = []        # ALARM:N seen, in order
         self.messages: list[str] = []      # [MSG:...] and other push lines
         self.boot_lines: list[str] = []    # what came before the banner
+        self.critical_alarm = False        # ALARM:1/2 seen, its reset message not yet
         self._partial = b""
 
     # ---- lines ----------------------------------------------------------------
@@ -160,6 +166,7 @@ class GrblLink:
         if line.startswith("ALARM:"):
             code = int(line[6:])
             self.alarms.append(code)
+            self.critical_alarm = code in CRITICAL_ALARMS
             raise GrblError(alarm_text(code), code, alarm=True)
         if line.startswith("<"):
             self.tracker.update(parse_status(line))
@@ -168,6 +175,8 @@ class GrblLink:
             self.messages.append(line)
         elif line.startswith("[MSG:") or line.startswith(">"):
             self.messages.append(line)
+            if line == RESET_TO_CONTINUE:
+                self.critical_alarm = False
         return line
 
     def status(self, timeout_s: float = 5.0) -> Status:
@@ -218,7 +227,18 @@ class GrblLink:
     def soft_reset(self, timeout_s: float = 10.0) -> str:
         """0x18: GRBL stops at once, forgets its queue, prints its banner again.
         A reset while moving ends in ALARM:3 (position lost): unlocking with
-        `$X` is the caller's choice, after asking the user."""
+        `$X` is the caller's choice, after asking the user.
+
+        After a hard or soft limit alarm GRBL prints `[MSG:Reset to continue]` and
+        only then starts listening for the reset, forgetting one that came before
+        (protocol.c clears EXEC_RESET there): so the reset waits for that line."""
+        if self.critical_alarm:
+            deadline = time.monotonic() + CRITICAL_MESSAGE_WAIT_S
+            while self.critical_alarm and time.monotonic() < deadline:
+                line = self.read_line(max(0.05, deadline - time.monotonic()))
+                if line is not None and not line.startswith("ALARM:"):
+                    self.classify(line)
+            self.critical_alarm = False
         self.realtime(SOFT_RESET)
         self._partial = b""
         return self.wait_banner(timeout_s)
