@@ -163,14 +163,21 @@ int pins_attach(pins_t *p, avr_t *avr, FILE *trace, const uint8_t *traced, int n
 		p->pin[traced[i]].traced = trace != NULL;
 		hook(p, traced[i]);
 	}
+	/* Every end-stop takes its --axis-pins (which may come after --endstop) before
+	 * any home pin is driven: a home pin driven while another axis still counts on
+	 * its default step pin would count as that axis' step (GRBL's X switch, D9, is
+	 * our Y step pin: GRBL's Y switch then closed one step early). */
+	for (int a = 0; a < AXES; a++) {
+		endstop_t *e = &p->axis[a];
+		if (e->active && p->map_set) {
+			e->step_pin = p->map_step[a];
+			e->dir_pin = p->map_dir[a];
+		}
+	}
 	for (int a = 0; a < AXES; a++) {
 		endstop_t *e = &p->axis[a];
 		if (!e->active)
 			continue;
-		if (p->map_set) { /* --axis-pins may come after --endstop */
-			e->step_pin = p->map_step[a];
-			e->dir_pin = p->map_dir[a];
-		}
 		hook(p, e->step_pin);
 		hook(p, e->dir_pin);
 		hook(p, e->home_pin);

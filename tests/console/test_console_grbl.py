@@ -276,13 +276,12 @@ def test_an_evening_on_grbl(home):  # noqa: F811  (the fixture)
     assert text.count("ALARM:9") == 2                  # the alarm, then the unlock's cause
     assert "Traceback" not in text and "error:" not in text
     # GRBL's pins: its machine position, counted from power-up, is the switches'
-    # trip points away from the one homing set (homed at trip - 1 mm = -1 mm). Y ends
-    # one step short of that in every run so far (X and Z exact): not yet explained
-    # (homing's locate against the harness's switch, or the reset after the q stop,
-    # which docs/grbl.md says can leave GRBL a step ahead of its pins)
+    # trip points away from the one homing set (homed at trip - 1 mm = -1 mm),
+    # exactly on every axis (Y was one step off until the harness stopped counting
+    # X's switch as a Y step at power-up: test_grbl_simavr.py's homing test)
     pins = tuple(int(v) for v in positions(board)[-1])
     off = [p - (m + trip) for p, m, (_, trip) in zip(pins, machine, SWITCHES)]
-    assert all(abs(d) <= 1 for d in off), (pins, machine, off)
+    assert off == [0, 0, 0], (pins, machine, off)
     assert board.summary["overruns"] == "0" and board.summary["dropped"] == "0"
 
 

@@ -18,7 +18,7 @@ from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 from galileo_cnc.simavr.board import SimulatedBoard
 
 from corpus import CORPUS
-from grbl_support import CONFIG, SCALE, check_trace, grbl_elf, grbl_machine, positions
+from grbl_support import CONFIG, SCALE, SETTINGS, check_trace, grbl_elf, grbl_machine, positions
 
 REPO = Path(__file__).resolve().parents[2]
 CORPUS_BOARD = "kicad/flashpads-nox2noap/Flashpads-B_Cu.gbr"   # traces, pads, 32 arcs
@@ -163,3 +163,29 @@ def test_simavr_timer_quirks_are_what_the_harness_corrects():
     # than the step period, and pulses merge (this slow move stays below it)
     assert 2048 <= np.median(merged) <= 2200
     assert 140 <= fixed.min() and fixed.max() <= 260     # 10 us = 160 cycles, + ISR latency
+
+
+def test_grbl_homing_finds_each_switch_on_the_very_step_it_closes():
+    """The harness's switches close on GRBL's trip step for every axis, so homing
+    puts GRBL's machine zero exactly `trip - $27` from power-up on the pins. Until
+    the harness gave every end-stop its --axis-pins before driving any home pin,
+    X's switch (D9, our firmware's Y step pin) being set open at power-up counted as
+    a Y step: Y's switch closed at 479, and the console's session found GRBL's Y one
+    step off its pins after homing."""
+    from galileo_cnc.grbl.jog import home
+    limits = (("X", 320), ("Y", 480), ("Z", 160))       # switches at +2, +3, +1 mm
+    settings = {22: "1", 25: "1000", 24: "200", 130: "50", 131: "50", 132: "10"}
+    with grbl_machine({**SETTINGS, **settings}, limits=limits) as (board, link):
+        status = home(link)
+        board.stop()
+    assert status.mpos_nm == (-1_000_000,) * 3          # $27 = 1 mm off the switches
+    pos = positions(board)
+    # Z alone first, then X and Y together: each seek stops on its trip step
+    # (positions() rows are one per step interrupt: a run ends where the axis turns)
+    for axis, trip in enumerate(t for _, t in limits):
+        moves = np.diff(pos[:, axis])
+        moves = moves[moves != 0]
+        turn = int(np.argmax(moves < 0))
+        assert turn == trip, ("XYZ"[axis], turn, trip)
+    # GRBL's machine position (-1 mm) is the pins' trip point less 1 mm, on every axis
+    assert tuple(int(v) for v in pos[-1]) == tuple(t - 160 for _, t in limits)
