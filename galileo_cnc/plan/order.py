@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from galileo_cnc.plan.paths import cut_pieces, optimise
+from galileo_cnc.plan.pieces import WHOLE_PATHS
 from galileo_cnc.program.ops import KIND, NO_TOOL, TOOL, X, Y, OpKind, Program
 
 DRAWING_KINDS = (int(OpKind.LINE), int(OpKind.ARC_CW), int(OpKind.ARC_CCW), int(OpKind.FLASH))
@@ -28,13 +29,14 @@ _PATH_KINDS = (int(OpKind.LINE), int(OpKind.ARC_CW), int(OpKind.ARC_CCW))
 
 def drawing_apertures(program: Program) -> set[int]:
     """Apertures (pens) that draw or flash something, region outlines included."""
-    used, selected = set(), NO_TOOL
-    for row in program.table[:, [KIND, TOOL]].tolist():
-        if row[0] == OpKind.SELECT:
-            selected = row[1]
-        elif row[0] in DRAWING_KINDS:
-            used.add(row[1] if row[1] != NO_TOOL else selected)
-    return used - {NO_TOOL}
+    kinds, tools = program.table[:, KIND], program.table[:, TOOL]
+    # the aperture selected at each row: that of the last SELECT up to it
+    last = np.where(kinds == OpKind.SELECT, np.arange(len(kinds)), -1)
+    np.maximum.accumulate(last, out=last)
+    selected = np.where(last >= 0, tools[last], NO_TOOL)
+    drawing = np.isin(kinds, DRAWING_KINDS)
+    used = np.where(tools[drawing] != NO_TOOL, tools[drawing], selected[drawing])
+    return set(np.unique(used).tolist()) - {NO_TOOL}
 
 
 def group_by_aperture(program: Program) -> list[tuple[int, list[int]]]:
@@ -119,8 +121,9 @@ def optimised_order(program: Program, start: tuple[int, int], join_nm: int,
     if not by_aperture:                     # one pen: keep the aperture it is selected as
         selects = [(i, r) for i, r in rows if r[KIND] == OpKind.SELECT]
         ordered.extend(selects[:1])
+    whole = frozenset(first for first, _end in program.metadata.get(WHOLE_PATHS, ()))
     drawn_groups = optimise_groups([group_rows for _select, group_rows in groups], start,
-                                   join_nm)
+                                   join_nm, whole)
     for (select, group_rows), drawn in zip(groups, drawn_groups):
         if select is not None:
             ordered.append((group_rows[0][0] if group_rows else 0, select))
@@ -129,14 +132,16 @@ def optimised_order(program: Program, start: tuple[int, int], join_nm: int,
 
 
 def optimise_groups(groups: list[list[tuple[int, list[int]]]], start: tuple[int, int],
-                    join_nm: int) -> list[list[tuple[int, list[int]]]]:
-    """Each pen's rows chained and ordered (paths.optimise), pen after pen from
-    `start`, each pen's work ending near the ends of the next pen's pieces (where
-    that pen may start) rather than wherever its own travel was shortest."""
+                    join_nm: int, whole: frozenset[int] = frozenset()
+                    ) -> list[list[tuple[int, list[int]]]]:
+    """Each pen's rows chained and ordered (paths.optimise; `whole`: the op indices
+    that start paths kept whole), pen after pen from `start`, each pen's work ending
+    near the ends of the next pen's pieces (where that pen may start) rather than
+    wherever its own travel was shortest."""
     out, here = [], start
     for g, rows in enumerate(groups):
         goal = group_goal(groups[g + 1]) if g + 1 < len(groups) else None
-        drawn, here = optimise(rows, here, join_nm, goal=goal)
+        drawn, here = optimise(rows, here, join_nm, goal=goal, whole=whole)
         out.append(drawn)
     return out
 

@@ -127,13 +127,19 @@ def travel_nm(tour: list[Piece], start: Point) -> float:
 
 
 def optimise(rows: list[tuple[int, Row]], start: Point, join_nm: int,
-             moves: int = TWO_OPT_MOVES, goal: list[Point] | None = None
-             ) -> tuple[list[tuple[int, Row]], Point]:
+             moves: int = TWO_OPT_MOVES, goal: list[Point] | None = None,
+             whole: frozenset[int] = frozenset()) -> tuple[list[tuple[int, Row]], Point]:
     """Rows of one pen in an order that draws the same ink with less pen-up travel
     (what the pen would draw twice drawn once: plan/repeats.py), ending, with `goal`,
-    near where the next pen's work starts (see `order`)."""
+    near where the next pen's work starts (see `order`). A path whose MOVE's op index
+    is in `whole` is a stroke already (pieces.WHOLE_PATHS): it is ordered as it is."""
     with _collector_paused():
-        chains = chain(drop_repeats(cut_pieces(rows, start)), join_nm)
+        pieces = cut_pieces(rows, start)
+        kept = [p for p in pieces if p.rows[0][0] in whole]
+        chains = chain(drop_repeats([p for p in pieces if p.rows[0][0] not in whole]),
+                       join_nm) if len(kept) < len(pieces) else []
+        if kept:      # in the file's order, as chain() leaves its chains
+            chains = sorted(kept + chains, key=lambda c: min(i for i, _row in c.rows))
         tour, end = order(chains, start, moves, goal)
         return [entry for c in tour for entry in c.rows], end
 

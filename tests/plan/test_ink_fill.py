@@ -214,3 +214,29 @@ def test_the_rings_stop_where_the_shrunk_area_has_no_ring_of_three_points():
     sides = [int(np.ptp(np.asarray(a[0])[:, 0])) for a in areas]
     assert sides == [2 * MM, 1_200_000, 400_000]
     assert _concentric([[[0, 0], [MM, 0]]], 400_000, 1_000) == []
+
+
+def _segments(path: np.ndarray) -> list[tuple]:
+    """The path's segments, each as (a, b) with a <= b (either way drawn)."""
+    points = [tuple(p) for p in path.tolist()]
+    return [tuple(sorted(pair)) for pair in zip(points, points[1:]) if pair[0] != pair[1]]
+
+
+def test_a_walk_starts_at_a_leaf_and_ends_across_its_join_drawn_once():
+    # a 6 x 4 mm pour with two holes: rings at several depths, joined into one tree
+    pour = [square(0, 0, 6 * MM, 4 * MM), square(MM, MM, 2 * MM, 3 * MM)[::-1],
+            square(4 * MM, MM, 5 * MM, 3 * MM)[::-1]]
+    fill = fill_region(clip.union(pour), 300_000, 1_000)
+    assert len(fill.paths) == 1 and fill.rings > 3
+    walk = fill.paths[0]
+    # round the leaf ring back to where it began, over the leaf's join, and the rest
+    # of the tree as a closed walk that ends at that join's far end
+    back = 1 + int(np.flatnonzero(np.all(walk[1:] == walk[0], axis=1))[0])
+    join = tuple(sorted((tuple(walk[back].tolist()), tuple(walk[back + 1].tolist()))))
+    assert np.array_equal(walk[-1], walk[back + 1]) and not np.array_equal(walk[-1], walk[0])
+    counts: dict[tuple, int] = {}
+    for segment in _segments(walk):
+        counts[segment] = counts.get(segment, 0) + 1
+    assert counts[join] == 1                   # the leaf's join: drawn once
+    assert max(counts.values()) == 2           # the other joins: there and back
+

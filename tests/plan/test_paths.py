@@ -415,3 +415,22 @@ def test_many_paths_order_better_than_nearest_neighbour():
     tour, _end = paths.order(chains, (0, 0))
     assert len(tour) == len(chains)
     assert paths.travel_nm(tour, (0, 0)) < 0.85 * nn
+
+
+def test_a_whole_path_is_ordered_as_it_is_while_other_paths_lose_their_repeats():
+    # out 10 mm and back along the same line: a repeat worth leaving out (over 5 mm),
+    # unless the path is a whole stroke already (the ink's fill walks: WHOLE_PATHS)
+    there_and_back = [row(MOVE, 0, 0), row(LINE, 10 * MM, 0), row(LINE, 10 * MM, 10 * MM),
+                      row(LINE, 10 * MM, 0), row(LINE, 0, 0)]
+    rows = list(enumerate(there_and_back))
+    kept, _end = paths.optimise(rows, (0, 0), STEP, whole=frozenset({0}))
+    assert kept in (rows, paths.Piece(rows).reversed().rows)      # either way round
+    cut, _end = paths.optimise(rows, (0, 0), STEP)
+    assert len(cut) < len(rows)                   # the repeat is left out
+    # a second path beside a whole one: the whole one is not chained to it
+    other = [row(MOVE, 10 * MM, 10 * MM), row(LINE, 20 * MM, 10 * MM)]
+    rows = list(enumerate(there_and_back + other))
+    drawn, _end = paths.optimise(rows, (0, 0), STEP, whole=frozenset({0}))
+    block = [k for k, (index, _row) in enumerate(drawn) if index <= 4]
+    assert block == list(range(block[0], block[0] + 5))       # its five rows, together
+    assert len(drawn) == 7

@@ -235,12 +235,40 @@ def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray],
         stops[a].append(_Stop(*here, join=number, other=b))
         stops[b].append(_Stop(*there, join=number, other=a))
 
+    ends = _open_ends(nodes, stops, [j[0] for j in joins], root)
     tours = []
     done = [False] * len(nodes)
-    for start in range(len(nodes)):       # outermost rings first: each tree from its top
-        if not done[start]:
+    for start in range(len(nodes)):       # outermost rings first: each tree in its turn
+        if done[start]:
+            continue
+        leaf = ends.get(root(start))
+        if leaf is None:                  # a ring alone: round from its vertex 0
             tours.append(_walk_tree(start, nodes, stops, done))
+            continue
+        # from the leaf's join round the leaf, over the join, and the rest of the tree
+        # as a closed walk from there: the leaf's join is drawn once, not there and back
+        stop = stops[leaf][0]
+        done[leaf] = True
+        head = np.concatenate(list(_walk_ring(stop, nodes[leaf], stops[leaf])))
+        back = next(s for s in stops[stop.other] if s.join == stop.join)
+        tours.append(_without_repeats(np.concatenate(
+            [head, _walk_tree(stop.other, nodes, stops, done, entry=back)])))
     return tours
+
+
+def _open_ends(nodes: list[np.ndarray], stops: list[list[_Stop]], lengths: list[float],
+               root) -> dict[int, int]:
+    """Per tree of joined nodes (by its root), the leaf its walk starts from: the one
+    with the longest join (ties: the first), whose join is then drawn once."""
+    best: dict[int, tuple[float, int]] = {}
+    for node in range(len(nodes)):
+        if len(stops[node]) != 1:
+            continue
+        key = root(node)
+        length = lengths[stops[node][0].join]
+        if key not in best or length > best[key][0]:
+            best[key] = (length, node)
+    return {key: node for key, (_length, node) in best.items()}
 
 
 def _joins_out(inner: list[np.ndarray], outer: list[np.ndarray], first_inner: int,
@@ -290,10 +318,11 @@ def _samples(ring: np.ndarray, spacing: int) -> list[int]:
 
 
 def _walk_tree(start: int, nodes: list[np.ndarray], stops: list[list[_Stop]],
-               done: list[bool]) -> np.ndarray:
-    """The tree of rings holding `start`, drawn as one closed walk from its vertex 0."""
+               done: list[bool], entry: _Stop | None = None) -> np.ndarray:
+    """The tree of rings holding `start` (but for nodes done already), drawn as one
+    closed walk from its vertex 0, or from its stop `entry` (not crossed)."""
     pieces: list[np.ndarray] = []
-    stack = [_walk_ring(None, nodes[start], stops[start])]
+    stack = [_walk_ring(entry, nodes[start], stops[start])]
     done[start] = True
     while stack:
         item = next(stack[-1], None)
@@ -305,7 +334,12 @@ def _walk_tree(start: int, nodes: list[np.ndarray], stops: list[list[_Stop]],
             stack.append(_walk_ring(back, nodes[item.other], stops[item.other]))
         else:
             pieces.append(item)
-    path = np.concatenate(pieces).astype(np.int64, copy=False)
+    return _without_repeats(np.concatenate(pieces))
+
+
+def _without_repeats(path: np.ndarray) -> np.ndarray:
+    """The path without a vertex equal to the one before it."""
+    path = path.astype(np.int64, copy=False)
     keep = np.ones(len(path), dtype=bool)
     keep[1:] = np.any(path[1:] != path[:-1], axis=1)
     return path[keep]

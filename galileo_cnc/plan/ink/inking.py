@@ -31,6 +31,7 @@ from galileo_cnc.plan.ink.islands import (CLEARANCE_NM, ClosePlaces, Islands, cl
 from galileo_cnc.plan.ink.narrow import (Bridge, NarrowFeature, find_narrow,
                                         keep_islands_apart)
 from galileo_cnc.plan.ink.shapes import DEFAULT_TOLERANCE_NM
+from galileo_cnc.plan.pieces import WHOLE_PATHS
 from galileo_cnc.program.ops import (COL, KIND, LINE, NM_PER_MM, NO_TOOL, TOOL, Aperture,
                                      OpKind, Program, ProgramBuilder)
 from galileo_cnc.readers.gerber.transformed import aperture_label
@@ -123,6 +124,9 @@ def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
 def _rows(program: Program, pens: tuple[int, ...], fills: list[PenFill],
           narrow: list[NarrowFeature]) -> Program:
     out = ProgramBuilder(program.source)
+    # each walk is one island's rings and joins drawn as one stroke already (fill.py):
+    # path order moves and reverses it, but has nothing to chain or leave out in it
+    walks: list[tuple[int, int]] = []
     for number, fill in enumerate(fills):
         key = number + 1
         drawn = [n for n in narrow if n.pen_nm == fill.width_nm] if number == len(fills) - 1 else []
@@ -131,7 +135,9 @@ def _rows(program: Program, pens: tuple[int, ...], fills: list[PenFill],
         out.emit(_SELECT, tool=key)
         coarse = fill.coarse if len(fill.coarse) == len(fill.paths) else None
         for path, segments in zip(fill.paths, fit_paths(fill.paths, coarse=coarse)):  # at once
+            first = out.count()
             _emit_path(out, path, key, 0, 0, segments)
+            walks.append((first, out.count()))
         for feature in drawn:
             _emit_feature(out, feature, key)
     apertures = {k + 1: Aperture(k + 1, "circle", (w,), extent_nm=(-(w // 2), -(w // 2),
@@ -139,6 +145,7 @@ def _rows(program: Program, pens: tuple[int, ...], fills: list[PenFill],
                  for k, w in enumerate(pens)}
     return out.build("gerber", program.units, apertures=apertures,
                      metadata={"ink": True, "pens_nm": list(pens),
+                               WHOLE_PATHS: walks,
                                "source_metadata": program.metadata},
                      line_count=program.line_count)
 
