@@ -135,7 +135,7 @@ def plan_program(program: Program, config: MachineConfig | None = None,
     plan/gcode_order.py; plan_file asks for it for Gerber and DXF unless the user wants
     file order, for G-code when the user gives --optimize)."""
     config = config or MachineConfig()
-    steps = config.nm_to_steps
+    steps = config.nm_to_steps_function()
     ox, oy = offset_nm
     job = Job(program.source, (int(ox), int(oy)))
     several_pens = len(drawing_apertures(program)) > 1

@@ -80,9 +80,14 @@ def frame_line(seq: int, text: str) -> bytes:
     return line
 
 
+_SPECS_OF_CLASS: dict[type, list[CommandSpec]] = {}
+for _spec in COMMANDS:
+    _SPECS_OF_CLASS.setdefault(_spec.cls, []).append(_spec)
+
+
 def _spec_of(cmd: object) -> CommandSpec:
-    for spec in COMMANDS:
-        if type(cmd) is spec.cls and all(getattr(cmd, f) == v for f, v in spec.fixed):
+    for spec in _SPECS_OF_CLASS.get(type(cmd), ()):
+        if all(getattr(cmd, f) == v for f, v in spec.fixed):
             return spec
     raise ProtocolError(f"no wire form for {cmd!r}")
 

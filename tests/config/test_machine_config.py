@@ -27,6 +27,19 @@ def test_seed_mechanics():
     assert c.nm_to_steps(6250) == 1 and c.nm_to_steps(-3125) == -1
 
 
+@pytest.mark.parametrize("pitch_mm, steps_per_rev", [(1.25, 200), (8.0, 3200), (0.7, 400)])
+def test_the_planners_step_function_rounds_as_nm_to_steps(pitch_mm, steps_per_rev):
+    import random
+
+    c = MachineConfig(pitch_mm=pitch_mm, steps_per_rev=steps_per_rev)
+    fast = c.nm_to_steps_function()
+    half = c.pitch_nm // (2 * steps_per_rev)
+    rng = random.Random(7)
+    values = [rng.randrange(-10 ** 10, 10 ** 10) for _ in range(20_000)]
+    values += [k * half + d for k in range(-50, 50) for d in (-1, 0, 1)]   # halves
+    assert [fast(v) for v in values] == [c.nm_to_steps(v) for v in values]
+
+
 def test_seed_pins():
     c = MachineConfig()
     assert (c.x_dir_pin, c.x_step_pin, c.y_dir_pin, c.y_step_pin) == (10, 11, 8, 9)
