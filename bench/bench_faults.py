@@ -312,7 +312,8 @@ def plan(target_name: str, count: int, seed: int, replies: int) -> list[tuple[Fa
     return mixed[:count]
 
 
-def campaign(target, count: int, seed: int, tmp: Path, progress=True) -> Counter:
+def campaign(target, count: int, seed: int, tmp: Path, progress=True,
+             partial: Path | None = None) -> Counter:
     program = read_file(SAMPLE)
     job = plan_program(program, None, proposed_offset(program))
     table: Counter = Counter()
@@ -326,23 +327,31 @@ def campaign(target, count: int, seed: int, tmp: Path, progress=True) -> Counter
         if progress and (n + 1) % 50 == 0:
             print(f"  {target.name}: {n + 1}/{count} sessions, "
                   f"{time.monotonic() - began:.0f} s", file=sys.stderr, flush=True)
+        if partial is not None:         # a long run (hours on simavr) keeps what it has
+            partial.write_text(table_text(f"{target.name}: {n + 1} of {count} sessions, "
+                                          f"seed {seed}, {time.monotonic() - began:.0f} s",
+                                          table) + "".join(f"{f}\n" for f in failures))
     for line in failures:
         print(line)
     return table
 
 
-def print_table(name: str, table: Counter) -> None:
+def table_text(name: str, table: Counter) -> str:
     labels = sorted({label for label, _ in table})
-    print(f"\n{name}")
-    print(f"| faults | sessions | {' | '.join(OUTCOMES)} |")
-    print("| --- " * (len(OUTCOMES) + 2) + "|")
+    lines = [f"\n{name}", f"| faults | sessions | {' | '.join(OUTCOMES)} |",
+             "| --- " * (len(OUTCOMES) + 2) + "|"]
     totals = Counter()
     for label in labels:
         row = [table[(label, o)] for o in OUTCOMES]
         totals.update({o: v for o, v in zip(OUTCOMES, row)})
-        print(f"| {label} | {sum(row)} | {' | '.join(map(str, row))} |")
-    print(f"| all | {sum(totals.values())} | "
-          f"{' | '.join(str(totals[o]) for o in OUTCOMES)} |")
+        lines.append(f"| {label} | {sum(row)} | {' | '.join(map(str, row))} |")
+    lines.append(f"| all | {sum(totals.values())} | "
+                 f"{' | '.join(str(totals[o]) for o in OUTCOMES)} |")
+    return "\n".join(lines) + "\n"
+
+
+def print_table(name: str, table: Counter) -> None:
+    print(table_text(name, table), end="")
 
 
 def main(argv=None) -> int:
@@ -351,6 +360,8 @@ def main(argv=None) -> int:
     parser.add_argument("--sim", type=int, default=1000, help="sessions on sim://")
     parser.add_argument("--simavr", type=int, default=1000, help="sessions on simavr")
     parser.add_argument("--seed", type=int, default=13)
+    parser.add_argument("--partial", type=Path,
+                        help="rewrite this file with the table so far after each session")
     args = parser.parse_args(argv)
     bad = 0
     with tempfile.TemporaryDirectory() as tmp:
@@ -359,7 +370,7 @@ def main(argv=None) -> int:
                 continue
             target = make()
             began = time.monotonic()
-            table = campaign(target, count, args.seed, Path(tmp))
+            table = campaign(target, count, args.seed, Path(tmp), partial=args.partial)
             print_table(f"{target.name}: {count} sessions, seed {args.seed}, "
                         f"{time.monotonic() - began:.0f} s", table)
             bad += sum(v for (_, o), v in table.items() if o in ("hang", "wrong", "crash"))
