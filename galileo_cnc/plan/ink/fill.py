@@ -152,23 +152,13 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     fill.gap_strokes = len(strokes)
     if strokes:
         fill.ink = clip.union(fill.ink, clip.stroke(strokes, radius, tolerance_nm))
-    fill.paths = _tours(depths, strokes, spacing)
+    walks = _tours(depths, strokes, spacing)
+    fill.paths = [np.ascontiguousarray(walk[:, :2]) for walk in walks]
     # the arcs of a ring inside E0 may stray as far as its chords (fit_paths); E0's
     # own vertices and the ends of joins (on E0's outline too) keep the fine tolerance
-    if fill.paths:
-        outer = np.concatenate([_points(ring) for ring in depths[0]])
-        inner = np.concatenate([_points(ring) for rings in depths[1:] for ring in rings]
-                               or [np.zeros(0, np.complex128)])
-        every = np.concatenate([_points(path) for path in fill.paths])
-        fine = np.isin(every, outer) | ~np.isin(every, inner)
-        tol = np.where(fine, tolerance_nm, tolerance_nm * DEEP_TOLERANCE)
-        fill.coarse = np.split(tol, np.cumsum([len(path) for path in fill.paths])[:-1])
+    fill.coarse = [np.where(walk[:, 2] != 0, tolerance_nm * DEEP_TOLERANCE, tolerance_nm)
+                   for walk in walks]
     return fill
-
-
-def _points(path: np.ndarray) -> np.ndarray:
-    """The vertices as complex numbers (exact: nm below 2^53), one per vertex."""
-    return np.ascontiguousarray(path, dtype=np.float64).view(np.complex128).ravel()
 
 
 def _concentric(centre_area: list, spacing: int, tolerance_nm: int) -> list[list]:
@@ -197,13 +187,18 @@ class _Stop:
 
 def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray],
            spacing: int) -> list[np.ndarray]:
-    """One pen-down polyline per tree of rings and gap strokes (see the module doc).
+    """One pen-down polyline per tree of rings and gap strokes (see the module doc),
+    as (n, 3) int64 rows x, y, inner: inner is 1 at the vertices of rings inside E0
+    (their arcs may take the coarser tolerance), 0 elsewhere.
 
     A gap stroke is walked there and back, joined at its first point to the nearest
     point of any ring: that point is inside E0 and no outline of E0 is nearer to it
     than the ring point, so the join stays inside E0 too."""
     rings = [ring for at_depth in depths for ring in at_depth]
-    nodes = rings + strokes
+    inner = len(depths[0]) if depths else 0         # nodes from here on: inside E0
+    nodes = [np.column_stack([node, np.full(len(node), int(inner <= k < len(rings)),
+                                            dtype=np.int64)])
+             for k, node in enumerate(rings + strokes)]
     first_node = np.cumsum([0] + [len(at_depth) for at_depth in depths])
     joins = []          # (length, node a, stop on a, node b, stop on b)
     if strokes and rings:
@@ -277,7 +272,7 @@ def _joins_out(inner: list[np.ndarray], outer: list[np.ndarray], first_inner: in
     it that one of its sampled vertices is nearest to (all samples queried at once;
     of equally short joins the earliest sample's)."""
     index = EdgeIndex(outer, cell_nm=spacing)
-    picked = [np.asarray(_samples(ring, spacing), dtype=np.int64) for ring in inner]
+    picked = _samples(inner, spacing)
     if not picked or not len(index):
         return []
     node = np.repeat(np.arange(len(inner)), [len(v) for v in picked])
@@ -304,17 +299,34 @@ def _point_on(index: EdgeIndex, k: int, t: float) -> tuple[int, int]:
     return (int(round(a[0] + (b[0] - a[0]) * t)), int(round(a[1] + (b[1] - a[1]) * t)))
 
 
-def _samples(ring: np.ndarray, spacing: int) -> list[int]:
-    """Vertices spread evenly along the ring by length (arcs have many vertices, long
-    straight sides few): one per JOIN_EVERY spacings, at least JOIN_SAMPLES."""
-    edges = np.hypot(*np.diff(np.vstack([ring, ring[:1]]), axis=0).astype(np.float64).T)
-    along = np.concatenate([[0.0], np.cumsum(edges)[:-1]])
-    count = int(min(max(along[-1] + edges[-1], 0) / (JOIN_EVERY * spacing), JOIN_MOST))
-    count = max(count, JOIN_SAMPLES)
-    if len(ring) <= count:
-        return list(range(len(ring)))
-    wanted = np.linspace(0.0, along[-1] + edges[-1], count, endpoint=False)
-    return sorted(set(np.searchsorted(along, wanted, side="right").clip(1, len(ring)) - 1))
+def _samples(rings: list[np.ndarray], spacing: int) -> list[np.ndarray]:
+    """Per ring, vertices spread evenly along it by length (arcs have many vertices,
+    long straight sides few): one per JOIN_EVERY spacings, at least JOIN_SAMPLES, at
+    most JOIN_MOST; every vertex of a ring that has no more. All rings at once."""
+    if not rings:
+        return []
+    sizes = np.array([len(ring) for ring in rings], dtype=np.int64)
+    first = np.cumsum(sizes) - sizes
+    points = np.concatenate(rings)[:, :2]
+    after = np.arange(len(points)) + 1                 # each vertex's successor
+    after[first + sizes - 1] = first
+    edges = np.hypot(*(points[after] - points).astype(np.float64).T)
+    ends = np.cumsum(edges)
+    base = np.repeat(ends[first] - edges[first], sizes)
+    along = ends - edges - base                        # each vertex's place on its ring
+    length = np.maximum(ends[first + sizes - 1] - ends[first] + edges[first], 0)
+    count = np.maximum(np.minimum(length / (JOIN_EVERY * spacing), JOIN_MOST).astype(np.int64),
+                       JOIN_SAMPLES)
+    picked = []
+    for k, (size, wanted) in enumerate(zip(sizes.tolist(), count.tolist())):
+        if size <= wanted:
+            picked.append(np.arange(size, dtype=np.int64))
+            continue
+        lo = int(first[k])
+        places = np.linspace(0.0, float(length[k]), wanted, endpoint=False)
+        at = np.searchsorted(along[lo:lo + size], places, side="right").clip(1, size) - 1
+        picked.append(np.unique(at))
+    return picked
 
 
 def _walk_tree(start: int, nodes: list[np.ndarray], stops: list[list[_Stop]],
@@ -338,11 +350,14 @@ def _walk_tree(start: int, nodes: list[np.ndarray], stops: list[list[_Stop]],
 
 
 def _without_repeats(path: np.ndarray) -> np.ndarray:
-    """The path without a vertex equal to the one before it."""
+    """The (x, y, inner) rows without a point equal to the one before it; a point kept
+    for several is inner if any of them is (a join's end on an inner ring's vertex)."""
     path = path.astype(np.int64, copy=False)
     keep = np.ones(len(path), dtype=bool)
-    keep[1:] = np.any(path[1:] != path[:-1], axis=1)
-    return path[keep]
+    keep[1:] = np.any(path[1:, :2] != path[:-1, :2], axis=1)
+    out = path[keep]
+    out[:, 2] = np.maximum.reduceat(path[:, 2], np.flatnonzero(keep))
+    return out
 
 
 def _walk_ring(entry: _Stop | None, ring: np.ndarray, stops: list[_Stop]):
@@ -364,8 +379,13 @@ def _walk_ring(entry: _Stop | None, ring: np.ndarray, stops: list[_Stop]):
     ordered = np.concatenate([order[begin:], order[:begin]])
 
     def point(event: int) -> np.ndarray:
-        return ring[event:event + 1] if event < count else \
-            np.array([stops[event - count].point], dtype=np.int64)
+        if event < count:
+            return ring[event:event + 1]
+        stop = stops[event - count]
+        # a stop on one of the ring's vertices is that vertex (its tolerance too)
+        ends = ring[[stop.edge % count, (stop.edge + 1) % count]]
+        on_vertex = np.all(ends[:, :2] == stop.point, axis=1)
+        return np.array([[*stop.point, int(ends[on_vertex, 2].max(initial=0))]], dtype=np.int64)
 
     first_point = point(int(ordered[0]))
     yield first_point
