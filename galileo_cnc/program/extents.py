@@ -64,20 +64,41 @@ def extents(program: Program, with_apertures: bool = False,
                                    np.maximum(x, sx), np.maximum(y, sy), tool], axis=1))
         else:
             boxes.append(np.stack([x, y, x, y, tool], axis=1))
+    grow = _grower(program, with_apertures)
+    box = _union(grow(np.concatenate(boxes))) if boxes else None
     arcs = np.flatnonzero(np.isin(kind, [int(OpKind.ARC_CW), int(OpKind.ARC_CCW)]))
+    if box is not None and len(arcs):
+        # an arc inside its whole circle, and that inside the box so far, adds nothing:
+        # only the others need their extremes (ink has tens of thousands of arcs)
+        centre = starts[arcs] + table[arcs][:, [I, J]]
+        radius = np.ceil(np.hypot(table[arcs, I], table[arcs, J]).astype(np.float64)) + 1
+        circles = grow(np.column_stack([centre - radius[:, None], centre + radius[:, None],
+                                        table[arcs, TOOL]]).astype(np.int64))
+        inside = ((circles[:, 0] >= box[0]) & (circles[:, 1] >= box[1])
+                  & (circles[:, 2] <= box[2]) & (circles[:, 3] <= box[3]))
+        arcs = arcs[~inside]
     if len(arcs):
         arc_boxes = [arc_extremes(int(starts[r, 0]), int(starts[r, 1]), int(table[r, X]),
                                   int(table[r, Y]), int(table[r, I]), int(table[r, J]),
                                   int(table[r, KIND]) == OpKind.ARC_CW) + (int(table[r, TOOL]),)
                      for r in arcs]
-        boxes.append(np.array(arc_boxes, dtype=np.int64))
-    if not boxes:
-        return None
-    all_boxes = np.concatenate(boxes)
-    if with_apertures:
-        grow = np.zeros((len(all_boxes), 4), dtype=np.int64)
-        for code, aperture in program.apertures.items():
-            grow[all_boxes[:, 4] == code] = aperture.extent_nm
-        all_boxes[:, :4] += grow
-    return (int(all_boxes[:, 0].min()), int(all_boxes[:, 1].min()),
-            int(all_boxes[:, 2].max()), int(all_boxes[:, 3].max()))
+        arc_box = _union(grow(np.array(arc_boxes, dtype=np.int64)))
+        box = arc_box if box is None else (min(box[0], arc_box[0]), min(box[1], arc_box[1]),
+                                           max(box[2], arc_box[2]), max(box[3], arc_box[3]))
+    return box
+
+
+def _grower(program: Program, with_apertures: bool):
+    """Boxes (x0, y0, x1, y1, tool) widened by their aperture's extent, or as they are."""
+    def grow(boxes: np.ndarray) -> np.ndarray:
+        if with_apertures:
+            boxes = boxes.copy()
+            for code, aperture in program.apertures.items():
+                boxes[boxes[:, 4] == code, :4] += np.asarray(aperture.extent_nm, dtype=np.int64)
+        return boxes
+    return grow
+
+
+def _union(boxes: np.ndarray) -> tuple[int, int, int, int]:
+    return (int(boxes[:, 0].min()), int(boxes[:, 1].min()),
+            int(boxes[:, 2].max()), int(boxes[:, 3].max()))
