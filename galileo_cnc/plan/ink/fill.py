@@ -366,6 +366,15 @@ def _walk_ring(entry: _Stop | None, ring: np.ndarray, stops: list[_Stop]):
     Vertex k sits at (k, 0) along the ring, a stop at (edge, t), a stop after a vertex
     at the same place; stops at one place keep their order."""
     count = len(ring)
+    if not stops or (len(stops) == 1 and stops[0] is entry):     # nothing to cross
+        if entry is None:
+            first = ring[:1]
+            yield from (first, ring[1:], first)
+            return
+        after = entry.edge if entry.t < 1.0 else (entry.edge + 1) % count
+        first = _stop_point(ring, entry)
+        yield from (first, ring[after + 1:], ring[:after + 1], first)
+        return
     edge = np.array([s.edge for s in stops], dtype=np.int64)
     t = np.array([s.t for s in stops], dtype=np.float64)
     wrap = t >= 1.0
@@ -379,13 +388,7 @@ def _walk_ring(entry: _Stop | None, ring: np.ndarray, stops: list[_Stop]):
     ordered = np.concatenate([order[begin:], order[:begin]])
 
     def point(event: int) -> np.ndarray:
-        if event < count:
-            return ring[event:event + 1]
-        stop = stops[event - count]
-        # a stop on one of the ring's vertices is that vertex (its tolerance too)
-        ends = ring[[stop.edge % count, (stop.edge + 1) % count]]
-        on_vertex = np.all(ends[:, :2] == stop.point, axis=1)
-        return np.array([[*stop.point, int(ends[on_vertex, 2].max(initial=0))]], dtype=np.int64)
+        return ring[event:event + 1] if event < count else _stop_point(ring, stops[event - count])
 
     first_point = point(int(ordered[0]))
     yield first_point
@@ -401,6 +404,15 @@ def _walk_ring(entry: _Stop | None, ring: np.ndarray, stops: list[_Stop]):
     if here < len(ordered):
         yield ring[ordered[here:]]
     yield first_point
+
+
+def _stop_point(ring: np.ndarray, stop: _Stop) -> np.ndarray:
+    """The stop as a (1, 3) row; a stop on one of the ring's vertices is that vertex
+    (its tolerance class too)."""
+    count = len(ring)
+    ends = ring[[stop.edge % count, (stop.edge + 1) % count]]
+    on_vertex = np.all(ends[:, :2] == stop.point, axis=1)
+    return np.array([[*stop.point, int(ends[on_vertex, 2].max(initial=0))]], dtype=np.int64)
 
 
 # ---- gaps ----------------------------------------------------------------------------
