@@ -31,6 +31,7 @@ import numpy as np
 import pyclipper as pc
 
 from galileo_cnc.plan.ink import clip
+from galileo_cnc.plan.ink.background import Deferred
 from galileo_cnc.plan.ink.edges import EdgeIndex
 
 #: Share of the pen width that neighbouring rings overlap: spacing = width * (1 - overlap).
@@ -42,6 +43,10 @@ GAP_NM = 5_000
 JOIN_SAMPLES, JOIN_EVERY, JOIN_MOST = 12, 8, 256
 #: Outline vertices per batch of islands filled together (fill_region).
 BATCH_VERTICES = 4_000
+#: A batch whose pen-centre area has this many vertices has its gap tests done in a
+#: forked process (background.py): a fork costs milliseconds, this many vertices'
+#: gap tests a few tenths of a second.
+BACKGROUND_VERTICES = 20_000
 #: The rings inside E0 and the gap tests are offset with this many times the tolerance
 #: (E0 keeps it: it runs along the copper's edge), and those rings' arcs are fitted to
 #: it: hellboard's fill 11 -> 7 s CPU and 344k -> 140k rows; ten layers measured from
@@ -142,17 +147,25 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     if not centre_area:
         return fill
     areas = _concentric(centre_area, spacing, tolerance_nm * DEEP_TOLERANCE)
-    depths = [clip.rings_as_arrays(area) for area in areas]
-    fill.rings = sum(len(rings) for rings in depths)
-    gaps = _gaps(areas, radius, tolerance_nm * DEEP_TOLERANCE)
-    reach = clip.offset(centre_area, radius, tolerance_nm, cleaned=True)
+    # the gap tests (a third of a large pour's fill) in a second process, meanwhile
+    # the reach and the joins between rings here: the same result either way
+    gaps_found = Deferred(_gaps, areas, radius, tolerance_nm * DEEP_TOLERANCE,
+                          fork=sum(len(ring) for ring in centre_area) >= BACKGROUND_VERTICES)
+    try:
+        depths = [clip.rings_as_arrays(area) for area in areas]
+        fill.rings = sum(len(rings) for rings in depths)
+        reach = clip.offset(centre_area, radius, tolerance_nm, cleaned=True)
+        ring_joins = _ring_joins(depths, spacing)
+        gaps = gaps_found.result()
+    finally:
+        gaps_found.cancel()
     fill.ink = clip.difference(reach, gaps)
     gaps = clip.opening(gaps, GAP_NM, tolerance_nm)
     strokes = _gap_strokes(gaps, centre_area, radius) if gaps else []
     fill.gap_strokes = len(strokes)
     if strokes:
         fill.ink = clip.union(fill.ink, clip.stroke(strokes, radius, tolerance_nm))
-    walks = _tours(depths, strokes, spacing)
+    walks = _tours(depths, strokes, spacing, ring_joins)
     fill.paths = [np.ascontiguousarray(walk[:, :2]) for walk in walks]
     # the arcs of a ring inside E0 may stray as far as its chords (fit_paths); E0's
     # own vertices and the ends of joins (on E0's outline too) keep the fine tolerance
@@ -185,8 +198,19 @@ class _Stop:
     other: int         # the ring node at the join's other end
 
 
+def _ring_joins(depths: list[list[np.ndarray]], spacing: int) -> list[tuple]:
+    """The candidate joins between the rings of each depth and the depth outside it
+    (see _joins_out), rings numbered depth after depth."""
+    first_node = np.cumsum([0] + [len(at_depth) for at_depth in depths])
+    joins = []
+    for depth in range(1, len(depths)):
+        joins.extend(_joins_out(depths[depth], depths[depth - 1], int(first_node[depth]),
+                                int(first_node[depth - 1]), spacing))
+    return joins
+
+
 def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray],
-           spacing: int) -> list[np.ndarray]:
+           spacing: int, ring_joins: list[tuple]) -> list[np.ndarray]:
     """One pen-down polyline per tree of rings and gap strokes (see the module doc),
     as (n, 3) int64 rows x, y, inner: inner is 1 at the vertices of rings inside E0
     (their arcs may take the coarser tolerance), 0 elsewhere.
@@ -199,7 +223,6 @@ def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray],
     nodes = [np.column_stack([node, np.full(len(node), int(inner <= k < len(rings)),
                                             dtype=np.int64)])
              for k, node in enumerate(rings + strokes)]
-    first_node = np.cumsum([0] + [len(at_depth) for at_depth in depths])
     joins = []          # (length, node a, stop on a, node b, stop on b)
     if strokes and rings:
         every_ring = EdgeIndex(rings, cell_nm=spacing)
@@ -209,9 +232,7 @@ def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray],
             q = (int(heads[number][0]), int(heads[number][1]))
             joins.append((distance, len(rings) + number, (0, 0.0, q), int(every_ring.ring[k]),
                           (int(every_ring.edge[k]), t, _point_on(every_ring, k, t))))
-    for depth in range(1, len(depths)):
-        joins.extend(_joins_out(depths[depth], depths[depth - 1], int(first_node[depth]),
-                                int(first_node[depth - 1]), spacing))
+    joins.extend(ring_joins)
     stops: list[list[_Stop]] = [[] for _ in nodes]
     parent = list(range(len(nodes)))
 

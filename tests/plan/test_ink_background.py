@@ -1,0 +1,60 @@
+"""The fill's second process (plan/ink/background.py): the same answers as doing the
+work here, errors brought back, and a fill that forks equal to one that does not."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+from galileo_cnc.plan.ink import clip, fill
+from galileo_cnc.plan.ink.background import Deferred
+
+MM = 1_000_000
+
+
+def child_pid_and(value):
+    return os.getpid(), value
+
+
+def fail(text):
+    raise ValueError(text)
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="no fork on this platform: work runs inline")
+def test_work_runs_in_another_process_and_comes_back_the_same():
+    pid, value = Deferred(child_pid_and, {"rings": [np.arange(6).reshape(3, 2)]}).result()
+    assert pid != os.getpid()
+    assert np.array_equal(value["rings"][0], np.arange(6).reshape(3, 2))
+    here, same = Deferred(child_pid_and, 7, fork=False).result()
+    assert here == os.getpid() and same == 7
+
+
+def test_an_error_in_the_work_is_raised_by_result():
+    with pytest.raises(ValueError, match="no copper"):
+        Deferred(fail, "no copper").result()
+
+
+def test_cancel_ends_the_child_and_result_is_not_needed():
+    work = Deferred(child_pid_and, 1)
+    work.cancel()
+    work.cancel()                       # twice is harmless
+    assert work.result()[1] == 1        # asked anyway: done here
+
+
+def test_a_fill_with_its_gap_tests_forked_equals_one_without(monkeypatch):
+    # a pour with sharp corners and holes (gaps at several depths), and pads
+    pour = [[[0, 0], [12 * MM, 0], [6 * MM, 9 * MM]],
+            [[4 * MM, 2 * MM], [5 * MM, 4 * MM], [6 * MM, 2 * MM]]]
+    pads = [[[x, 10 * MM], [x + MM, 10 * MM], [x + MM, 11 * MM], [x, 11 * MM]]
+            for x in range(0, 10 * MM, 2 * MM)]
+    region = clip.union(pour + pads)
+    monkeypatch.setattr(fill, "BACKGROUND_VERTICES", 0)
+    forked = fill.fill_region(region, 300_000, 1_000)
+    monkeypatch.setattr(fill, "BACKGROUND_VERTICES", 10 ** 12)
+    inline = fill.fill_region(region, 300_000, 1_000)
+    assert forked.gap_strokes == inline.gap_strokes > 0
+    assert len(forked.paths) == len(inline.paths)
+    assert all(np.array_equal(a, b) for a, b in zip(forked.paths, inline.paths))
+    assert clip.area_nm2(forked.ink) == clip.area_nm2(inline.ink)
