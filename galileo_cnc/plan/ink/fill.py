@@ -156,6 +156,8 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
         fill.rings = sum(len(rings) for rings in depths)
         reach = clip.offset(centre_area, radius, tolerance_nm, cleaned=True)
         ring_joins = _ring_joins(depths, spacing)
+        every_ring = EdgeIndex([ring for at_depth in depths for ring in at_depth],
+                               cell_nm=spacing)        # where the gap strokes join
         gaps = gaps_found.result()
     finally:
         gaps_found.cancel()
@@ -165,7 +167,7 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     fill.gap_strokes = len(strokes)
     if strokes:
         fill.ink = clip.union(fill.ink, clip.stroke(strokes, radius, tolerance_nm))
-    walks = _tours(depths, strokes, spacing, ring_joins)
+    walks = _tours(depths, strokes, spacing, ring_joins, every_ring)
     fill.paths = [np.ascontiguousarray(walk[:, :2]) for walk in walks]
     # the arcs of a ring inside E0 may stray as far as its chords (fit_paths); E0's
     # own vertices and the ends of joins (on E0's outline too) keep the fine tolerance
@@ -209,11 +211,12 @@ def _ring_joins(depths: list[list[np.ndarray]], spacing: int) -> list[tuple]:
     return joins
 
 
-def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray],
-           spacing: int, ring_joins: list[tuple]) -> list[np.ndarray]:
+def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray], spacing: int,
+           ring_joins: list[tuple], every_ring: EdgeIndex) -> list[np.ndarray]:
     """One pen-down polyline per tree of rings and gap strokes (see the module doc),
     as (n, 3) int64 rows x, y, inner: inner is 1 at the vertices of rings inside E0
-    (their arcs may take the coarser tolerance), 0 elsewhere.
+    (their arcs may take the coarser tolerance), 0 elsewhere. `ring_joins` are
+    _ring_joins(depths, spacing), `every_ring` an EdgeIndex of all the rings in order.
 
     A gap stroke is walked there and back, joined at its first point to the nearest
     point of any ring: that point is inside E0 and no outline of E0 is nearer to it
@@ -225,7 +228,6 @@ def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray],
              for k, node in enumerate(rings + strokes)]
     joins = []          # (length, node a, stop on a, node b, stop on b)
     if strokes and rings:
-        every_ring = EdgeIndex(rings, cell_nm=spacing)
         heads = np.array([path[0] for path in strokes], dtype=np.int64)
         found = every_ring.nearest_many(heads, spacing)
         for number, (k, t, distance) in enumerate(zip(*(f.tolist() for f in found))):
