@@ -13,6 +13,7 @@ import os
 import pickle
 import signal
 import traceback
+import warnings
 from typing import Any, Callable
 
 
@@ -29,7 +30,11 @@ class Deferred:
     def _start(self) -> None:
         reader, writer = os.pipe()
         try:
-            pid = os.fork()
+            with warnings.catch_warnings():
+                # Python 3.12+ warns when a process with threads (the console's, a
+                # sim:// machine's) forks: the child touches nothing of theirs
+                warnings.simplefilter("ignore", DeprecationWarning)
+                pid = os.fork()
         except OSError:                 # no memory or process left: run it here
             os.close(reader)
             os.close(writer)
