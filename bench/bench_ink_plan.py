@@ -5,7 +5,8 @@
     python3 bench/bench_ink_plan.py --stages              # and where the time goes
 
 Prints, per file: read seconds, ink seconds (wall clock, and the CPU seconds of this
-process: other work on the machine inflates the first, not the second), rows of the
+process and of the fill's forked helper, plan/ink/background.py: other work on the
+machine inflates the wall clock, not the CPU seconds), rows of the
 ink program, the share of the copper inked (exact geometry, not the steps:
 bench_ink.py measures the steps), pen lifts, narrow features and bridges avoided.
 `--stages` adds the CPU seconds of each stage (the planner's functions are wrapped
@@ -21,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import os
 import time
 from pathlib import Path
 
@@ -74,6 +76,12 @@ def timed_stages() -> dict[str, float]:
     return spent
 
 
+def children_cpu_s() -> float:
+    """CPU seconds of the children that ended (the fill's forked gap tests)."""
+    t = os.times()
+    return t.children_user + t.children_system
+
+
 def whole_plan(path: Path, pens: tuple[int, ...]):
     """plan_file in ink mode as bench_ink.py runs it; its InkPlan."""
     import dataclasses
@@ -102,15 +110,17 @@ def main() -> None:
         program = read_file(path)
         read_s = time.perf_counter() - began
         spent.clear()
-        cpu = time.process_time()
+        wall, cpu, children = time.perf_counter(), time.process_time(), children_cpu_s()
         if args.whole:
             plan = whole_plan(path, pens)
         else:
             plan = ink_program(program, pens)
-        cpu = time.process_time() - cpu
+        wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+        children = children_cpu_s() - children
         share = 100 * plan.inked_nm2 / plan.copper_nm2 if plan.copper_nm2 else 100.0
         print(f"{path.name}: read {read_s:.1f} s, {'whole plan' if args.whole else 'ink'} "
-              f"{cpu:.1f} s CPU, {len(plan.program)} rows, {share:.2f} % inked, "
+              f"{wall:.1f} s wall, {cpu:.1f} s CPU (+ {children:.1f} s in its forked helper), "
+              f"{len(plan.program)} rows, {share:.2f} % inked, "
               f"{plan.pen_lifts} pen lifts, {len(plan.narrow)} narrow, "
               f"{len(plan.bridges)} bridges avoided", flush=True)
         if args.digest:
