@@ -181,7 +181,12 @@ def plan(path: Path, config, mode: str, pens_nm: tuple[int, ...]):
             raise RuntimeError("ink mode is not available in this checkout (no PlanOptions)")
         return plan_file(path, config, "auto")
     if mode == "ink":
-        return plan_file(path, config, "auto", options=options(mode="ink", pens_nm=pens_nm))
+        planned = plan_file(path, config, "auto", options=options(mode="ink", pens_nm=pens_nm))
+        # plot prints the share of the copper inked before it streams: the planning a
+        # user waits for includes it (worked out in the background while path order
+        # runs, plan/ink/inking.py)
+        _ = planned.ink.inked_nm2
+        return planned
     return plan_file(path, config, "auto", options=options(mode=mode))
 
 

@@ -115,6 +115,7 @@ def main() -> None:
             plan = whole_plan(path, pens)
         else:
             plan = ink_program(program, pens)
+        _ = plan.inked_nm2          # plot prints it before streaming: part of the wait
         wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
         children = children_cpu_s() - children
         share = 100 * plan.inked_nm2 / plan.copper_nm2 if plan.copper_nm2 else 100.0

@@ -72,8 +72,12 @@ class Deferred:
         problem, _text = value
         raise problem
 
+    def __del__(self) -> None:
+        self.cancel()
+
     def cancel(self) -> None:
-        """Stop a child whose result is no longer wanted (the caller failed)."""
+        """Stop a child whose result is no longer wanted (the caller failed, or the
+        result was never asked for)."""
         if self._pid is not None:
             try:
                 os.kill(self._pid, signal.SIGKILL)

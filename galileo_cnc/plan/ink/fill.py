@@ -47,11 +47,36 @@ BATCH_VERTICES = 4_000
 #: forked process (background.py): a fork costs milliseconds, this many vertices'
 #: gap tests a few tenths of a second.
 BACKGROUND_VERTICES = 20_000
+#: The share of the gap tests done there: the joins between the rings take this
+#: process about half as long as all the gap tests (hellboard: 1.7 and 3.0 s CPU).
+BACKGROUND_SHARE = 0.75
 #: The rings inside E0 and the gap tests are offset with this many times the tolerance
 #: (E0 keeps it: it runs along the copper's edge), and those rings' arcs are fitted to
 #: it: hellboard's fill 11 -> 7 s CPU and 344k -> 140k rows; ten layers measured from
 #: the steps inked within 0.012 % of before (docs/ink.md, "Measured on the corpus").
 DEEP_TOLERANCE = 4
+
+
+@dataclass
+class InkRecipe:
+    """What one batch's ink is made of: the pen-centre area E0 swept by the pen (its
+    reach), less the gaps, plus the gap strokes. Only the coverage figures and the
+    next, narrower pen need that polygon set, and on a large pour it costs a tenth of
+    the planning (the reach is a dilation of a 100k-vertex outline), so it is made
+    when asked for (`ink`), not while filling."""
+
+    centre_area: list
+    gaps: list
+    strokes: list[np.ndarray]
+    radius_nm: int
+    tolerance_nm: int
+
+    def ink(self) -> list:
+        reach = clip.offset(self.centre_area, self.radius_nm, self.tolerance_nm, cleaned=True)
+        ink = clip.difference(reach, self.gaps)
+        if self.strokes:
+            ink = clip.union(ink, clip.stroke(self.strokes, self.radius_nm, self.tolerance_nm))
+        return ink
 
 
 @dataclass
@@ -62,9 +87,21 @@ class PenFill:
     paths: list[np.ndarray] = field(default_factory=list)   # int64 (n, 2) polylines
     rings: int = 0
     gap_strokes: int = 0
-    ink: list = field(default_factory=list)                 # polygon set the pen covers
-    parts: list = field(default_factory=list)   # (batch of the region, its ink), see inked_area_nm2
     coarse: list = field(default_factory=list)  # per path: each vertex's tolerance (nm)
+    recipes: list = field(default_factory=list)  # (batch of the region, its InkRecipe)
+    _parts: list | None = field(default=None, repr=False)
+
+    @property
+    def parts(self) -> list:
+        """(batch of the region, its ink): see inked_area_nm2. Made once, when asked."""
+        if self._parts is None:
+            self._parts = [(batch, recipe.ink()) for batch, recipe in self.recipes]
+        return self._parts
+
+    @property
+    def ink(self) -> list:
+        """The polygon set the pen covers (the batches' inks are disjoint)."""
+        return [ring for _batch, ink in self.parts for ring in ink]
 
 
 def fill_region(region: list, width_nm: int, tolerance_nm: int, *,
@@ -87,8 +124,7 @@ def fill_region(region: list, width_nm: int, tolerance_nm: int, *,
         fill.coarse.extend(part.coarse)
         fill.rings += part.rings
         fill.gap_strokes += part.gap_strokes
-        fill.ink.extend(part.ink)       # disjoint: each batch's ink stays in its islands
-        fill.parts.append((batch, part.ink))
+        fill.recipes.extend(part.recipes)    # disjoint: each batch's ink stays in its islands
     return fill
 
 
@@ -99,7 +135,7 @@ def inked_area_nm2(fills: list[PenFill], extra: list, region: list) -> float:
     the other pens' ink and `extra` (few rings) go to the batches whose box they
     meet (a ring that misses a batch's box cannot wind around a point in it).
     Clipper's sweep then crosses one strip of islands at a time, not the board."""
-    if not fills or not fills[0].parts:
+    if not fills or not fills[0].recipes:
         rest = [ring for f in fills for ring in f.ink] + list(extra)
         return clip.area_nm2(clip.intersection(clip.union(rest), region)) if rest else 0.0
     others = [np.asarray(ring, dtype=np.int64) for f in fills[1:] for ring in f.ink]
@@ -145,28 +181,28 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     if centre_area and avoid:
         centre_area = clip.difference(centre_area, avoid)
     if not centre_area:
+        fill.recipes = [(region, InkRecipe([], [], [], radius, tolerance_nm))]   # no ink
         return fill
     areas = _concentric(centre_area, spacing, tolerance_nm * DEEP_TOLERANCE)
     # the gap tests (a third of a large pour's fill) in a second process, meanwhile
-    # the reach and the joins between rings here: the same result either way
-    gaps_found = Deferred(_gaps, areas, radius, tolerance_nm * DEEP_TOLERANCE,
+    # the joins between rings here: the same result either way
+    split = _gap_split(areas)
+    gaps_found = Deferred(_gaps, areas, radius, tolerance_nm * DEEP_TOLERANCE, 0, split,
                           fork=sum(len(ring) for ring in centre_area) >= BACKGROUND_VERTICES)
     try:
         depths = [clip.rings_as_arrays(area) for area in areas]
         fill.rings = sum(len(rings) for rings in depths)
-        reach = clip.offset(centre_area, radius, tolerance_nm, cleaned=True)
         ring_joins = _ring_joins(depths, spacing)
         every_ring = EdgeIndex([ring for at_depth in depths for ring in at_depth],
                                cell_nm=spacing)        # where the gap strokes join
-        gaps = gaps_found.result()
+        deeper = _gaps(areas, radius, tolerance_nm * DEEP_TOLERANCE, split)
+        gaps = clip.union(gaps_found.result() + deeper)
     finally:
         gaps_found.cancel()
-    fill.ink = clip.difference(reach, gaps)
-    gaps = clip.opening(gaps, GAP_NM, tolerance_nm)
-    strokes = _gap_strokes(gaps, centre_area, radius) if gaps else []
+    opened = clip.opening(gaps, GAP_NM, tolerance_nm)
+    strokes = _gap_strokes(opened, centre_area, radius) if opened else []
     fill.gap_strokes = len(strokes)
-    if strokes:
-        fill.ink = clip.union(fill.ink, clip.stroke(strokes, radius, tolerance_nm))
+    fill.recipes = [(region, InkRecipe(centre_area, gaps, strokes, radius, tolerance_nm))]
     walks = _tours(depths, strokes, spacing, ring_joins, every_ring)
     fill.paths = [np.ascontiguousarray(walk[:, :2]) for walk in walks]
     # the arcs of a ring inside E0 may stray as far as its chords (fit_paths); E0's
@@ -440,17 +476,28 @@ def _stop_point(ring: np.ndarray, stop: _Stop) -> np.ndarray:
 
 # ---- gaps ----------------------------------------------------------------------------
 
-def _gaps(areas: list[list], radius: int, tolerance_nm: int) -> list:
+def _gaps(areas: list[list], radius: int, tolerance_nm: int, first: int = 0,
+          end: int | None = None) -> list:
     """Where no ring comes within r: inside E(k) deeper than r, and farther than r from
-    E(k+1) (rings outside E(k) are farther still, rings inside E(k+1) too)."""
+    E(k+1) (rings outside E(k) are farther still, rings inside E(k+1) too); for the
+    depths first..end-1, not merged (the gaps of two depths lie 2r apart at least)."""
     gaps = []
-    for depth, area in enumerate(areas):
-        deep = clip.offset(area, -radius, tolerance_nm, cleaned=True)
+    for depth in range(first, len(areas) if end is None else end):
+        deep = clip.offset(areas[depth], -radius, tolerance_nm, cleaned=True)
         if not deep:
             continue
         inner = areas[depth + 1] if depth + 1 < len(areas) else []
         gaps.extend(clip.difference(deep, clip.offset(inner, radius, tolerance_nm, cleaned=True)))
-    return clip.union(gaps)
+    return gaps
+
+
+def _gap_split(areas: list[list]) -> int:
+    """The depth up to which the background process tests for gaps: BACKGROUND_SHARE
+    of the work (counted in the vertices of E(k) and E(k+1)); the rest is done here,
+    after the joins between rings."""
+    sizes = [sum(len(ring) for ring in area) for area in areas] + [0]
+    cost = np.cumsum([sizes[k] + sizes[k + 1] for k in range(len(areas))])
+    return int(np.searchsorted(cost, BACKGROUND_SHARE * cost[-1])) + 1 if len(cost) else 0
 
 
 def _gap_strokes(gaps: list, centre_area: list, radius: int) -> list[np.ndarray]:

@@ -23,8 +23,9 @@ import numpy as np
 from galileo_cnc.errors import ReaderWarning, SourcePos
 from galileo_cnc.plan.ink import clip
 from galileo_cnc.plan.ink.arcs import fit_arcs, fit_paths
-from galileo_cnc.plan.ink.fill import (DEFAULT_OVERLAP, GAP_NM, PenFill, fill_region,
-                                      inked_area_nm2)
+from galileo_cnc.plan.ink.background import Deferred
+from galileo_cnc.plan.ink.fill import (BACKGROUND_VERTICES, DEFAULT_OVERLAP, GAP_NM, PenFill,
+                                      fill_region, inked_area_nm2)
 from galileo_cnc.plan.ink.geometry import DarkImage, dark_geometry
 from galileo_cnc.plan.ink.islands import (CLEARANCE_NM, ClosePlaces, Islands, close_places,
                                          keep_back)
@@ -57,10 +58,24 @@ class InkPlan:
     zero_size: int                        # objects of zero-size apertures (no copper)
     close: ClosePlaces                    # where islands come too close for two inks
     copper_nm2: float
-    filled_nm2: float                     # copper the fills cover
-    inked_nm2: float                      # copper the fills and centre lines cover
+    coverage: Deferred                    # (filled_nm2, inked_nm2), worked out meanwhile
     warnings: list[ReaderWarning] = field(default_factory=list)
     seconds: float = 0.0
+
+    @property
+    def filled_nm2(self) -> float:
+        """Copper the fills cover."""
+        return self._coverage()[0]
+
+    @property
+    def inked_nm2(self) -> float:
+        """Copper the fills and the centre lines cover."""
+        return self._coverage()[1]
+
+    def _coverage(self) -> tuple[float, float]:
+        if not isinstance(self.coverage, tuple):
+            self.coverage = self.coverage.result()
+        return self.coverage
 
     @property
     def pen_lifts(self) -> int:
@@ -88,7 +103,7 @@ def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
     close = close_places(islands)
     keep_out = keep_back(close, CLEARANCE_NM // 2, tolerance_nm)
     fills: list[PenFill] = []
-    inked: list = []
+    inked: list = []                      # what the wider pens ink, for the narrower ones
     for number, width in enumerate(pens):
         radius = width // 2
         if number == 0:
@@ -103,22 +118,33 @@ def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
                            edge_margin_nm=edge_margin_nm,
                            keep_out=keep_out) if target else PenFill(width)
         fills.append(fill)
-        inked = clip.union(inked, fill.ink) if inked else list(fill.ink)
-    filled = inked_area_nm2(fills, [], region)     # strip by strip, not one board-wide sweep
+        if number + 1 < len(pens):
+            inked = clip.union(inked, fill.ink) if inked else list(fill.ink)
 
     smallest = pens[-1]
     limit = smallest + 2 * edge_margin_nm + 4 * tolerance_nm
     narrow, zero_size = find_narrow(program, limit, smallest, tolerance_nm)
     bridges = keep_islands_apart(narrow, islands, smallest)
-    narrow_ink = clip.stroke([piece for f in narrow for piece in f.pieces], smallest // 2,
-                             tolerance_nm)
+    # the coverage figures need the ink as polygons (fill.InkRecipe): on a large board
+    # a second process makes them while this one goes on to the rows and path order
+    coverage = Deferred(_coverage, fills, [piece for f in narrow for piece in f.pieces],
+                        smallest // 2, region, tolerance_nm,
+                        fork=sum(len(ring) for ring in region) >= BACKGROUND_VERTICES)
     plan = InkPlan(_rows(program, pens, fills, narrow), pens, copper, fills, narrow, bridges,
-                   zero_size, close, clip.area_nm2(region), filled,
-                   inked_area_nm2(fills, narrow_ink, region) if narrow_ink else filled)
+                   zero_size, close, clip.area_nm2(region), coverage)
     plan.warnings = _warnings(program, plan)
     plan.program.warnings = list(program.warnings) + plan.warnings
     plan.seconds = time.perf_counter() - began
     return plan
+
+
+def _coverage(fills: list[PenFill], centre_lines: list[np.ndarray], radius_nm: int,
+              region: list, tolerance_nm: int) -> tuple[float, float]:
+    """(copper the fills cover, copper the fills and the centre lines cover), nm2,
+    worked out strip by strip (inked_area_nm2), not in one board-wide sweep."""
+    filled = inked_area_nm2(fills, [], region)
+    narrow_ink = clip.stroke(centre_lines, radius_nm, tolerance_nm) if centre_lines else []
+    return filled, (inked_area_nm2(fills, narrow_ink, region) if narrow_ink else filled)
 
 
 def _rows(program: Program, pens: tuple[int, ...], fills: list[PenFill],
