@@ -58,3 +58,20 @@ def test_a_fill_with_its_gap_tests_forked_equals_one_without(monkeypatch):
     assert len(forked.paths) == len(inline.paths)
     assert all(np.array_equal(a, b) for a, b in zip(forked.paths, inline.paths))
     assert clip.area_nm2(forked.ink) == clip.area_nm2(inline.ink)
+
+
+def sleep_then(seconds, value):
+    import time
+
+    time.sleep(seconds)
+    return value
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="no fork on this platform: work runs inline")
+def test_a_result_never_asked_for_leaves_no_process_behind():
+    work = Deferred(sleep_then, 60, "late")
+    pid = work._pid
+    assert pid is not None
+    del work                                   # the coverage of a plan nobody printed
+    with pytest.raises(ChildProcessError):     # killed and reaped: no child of that pid
+        os.waitpid(pid, os.WNOHANG)
