@@ -105,6 +105,12 @@ class Backend:
         """Stream a planned file (plan.pipeline.PlannedFile) with the progress bar."""
         raise NotImplementedError
 
+    def resume(self, console) -> None:
+        """Continue the job this machine's journal says was interrupted or stopped:
+        our firmware's (console/resume.py) unless the backend keeps its own."""
+        from galileo_cnc.console.resume import resume_job
+        resume_job(console)
+
 
 def open_backend(port: str | None, baud: int, config: MachineConfig, config_path=None,
                  profile: MachineConfig | None = None, on_message=None) -> Backend:

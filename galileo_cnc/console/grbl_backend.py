@@ -6,7 +6,8 @@ only asks `?` when it can take it at once. The port is wrapped so a job stopped
 from the progress bar's key thread can break the streaming thread's read
 (`InterruptiblePort`). The pieces come from galileo_cnc.grbl (jog, home, unlock,
 G-code, estimate, travel, streaming) and grbl/session.py (connection line,
-steps/mm check, pieces between pen changes, feed hold then reset).
+steps/mm check, pieces between pen changes, feed hold then reset); jobs and their
+journal, getg's and resume's, are grbl_job.py's.
 """
 
 from __future__ import annotations
@@ -33,14 +34,6 @@ from galileo_cnc.transport.port import open_port, port_error_text
 MOVING_STATES = ("Run", "Jog", "Hold", "Home")
 #: Alarms after which GRBL answers nothing, not even `?`, until a soft reset.
 CRITICAL_ALARMS = (1, 2)
-#: What the console's own commands cannot do on GRBL, and why.
-UNSUPPORTED = {
-    "resume": "resume continues jobs on galileo-cnc firmware: it finds where the machine "
-              "stopped from the firmware's line numbers and step position, which GRBL does "
-              "not report. On GRBL, plot the file again with getg (the console keeps no "
-              "journal of GRBL jobs; one started with galileo-cnc plot resumes with "
-              "plot FILE --resume).",
-}
 
 
 class JobInterrupted(Exception):
@@ -161,9 +154,6 @@ class GrblBackend(Backend):
                 yield
             except (serial.SerialException, OSError) as lost:
                 raise PortGone(f"{self.port_name}: {port_error_text(lost)}") from None
-
-    def unsupported(self, command: str) -> str | None:
-        return UNSUPPORTED.get(command)
 
     # ---- state -------------------------------------------------------------------
     def make_view(self, status: Status) -> MachineView:
@@ -313,6 +303,12 @@ class GrblBackend(Backend):
     def plot(self, console, planned, config: MachineConfig) -> None:
         from galileo_cnc.console.grbl_job import plot_on_grbl
         plot_on_grbl(console, self, planned, config)
+
+    def resume(self, console) -> None:
+        """The job in the GRBL journal (from getg or `galileo-cnc plot`), as plot
+        --resume continues it: home or re-zero, lead-in, then the rest."""
+        from galileo_cnc.console.grbl_job import resume_on_grbl
+        resume_on_grbl(console, self)
 
     def stop_job(self) -> None:
         """From the progress bar's key thread: feed hold now (GRBL decelerates on its

@@ -1,6 +1,7 @@
 """`resume`: continue the job the journal says was interrupted (a lost port) or
 stopped (q, Ctrl-C) where the machine left it, or reset (a job planned homed: it is
-homed again first); the pen in force is asked for first."""
+homed again first); the pen in force is asked for first. Each backend resumes from
+its own journal (`Backend.resume`): our firmware's is here, GRBL's in grbl_job.py."""
 
 from __future__ import annotations
 
@@ -12,6 +13,11 @@ from galileo_cnc.stream.streamer import JobStreamer
 
 
 def run(console, arguments: list[str]) -> None:
+    console.backend.resume(console)
+
+
+def resume_job(console) -> None:
+    """Our firmware's: the job in journal.json, from its line numbers and position."""
     journal = Journal.default()
     entry = journal.pending()
     if entry is None:

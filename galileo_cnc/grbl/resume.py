@@ -17,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from galileo_cnc.errors import GalileoError
+from galileo_cnc.grbl.estimate import PLANNER_BLOCKS
 from galileo_cnc.grbl.gcode import AxisScale, GcodeLine, GrblPen
 
 #: Blocks GRBL's stepper may still be running once they have left the planner
@@ -125,3 +126,21 @@ def rewind(lines: list[GcodeLine], confirmed: int, floor: int, queue_blocks: int
                 return index + 1
         index -= 1
     return max(floor, 0)
+
+
+def resume_start(lines: list[GcodeLine], confirmed: int, first_index: int,
+                 planner_blocks: int | None, cut_short: str | None) -> tuple[int, str]:
+    """(the G-code line to continue from, the sentence that says why). After the
+    last line GRBL acknowledged (`confirmed`), unless GRBL's queue was cut short
+    (`cut_short` says how: a reset while it moved, the job stopped): then the first
+    line that may not have run (`rewind` over GRBL's planner and stepper blocks),
+    never before `first_index`, where the interrupted session began."""
+    acked = confirmed + 1
+    if cut_short is None:
+        return acked, (f"resuming at G-code line {acked + 1} of {len(lines)}, after the "
+                       f"last line GRBL acknowledged")
+    depth = (planner_blocks or PLANNER_BLOCKS) + STEPPER_BLOCKS
+    start = rewind(lines, confirmed, first_index, depth)
+    return start, (f"resuming at G-code line {start + 1} of {len(lines)}: {cut_short}, so "
+                   f"the {acked - start} lines before line {acked + 1} that GRBL had queued "
+                   f"may not have run")

@@ -1,10 +1,14 @@
 """Running a planned job on a connected GRBL board: what `plot` and the console's
-`getg` share (cli/plot_grbl.py, console/grbl_job.py).
+`getg` and `resume` share (cli/plot_grbl.py, console/grbl_job.py).
 
 The connection line, the steps/mm check against the profile, the job cut into
-pieces at its pen changes, one piece streamed to a stop with refusals and alarms
-named by their line in the whole job, and a stop on the user's word (feed hold,
-then soft reset, so no step is lost).
+pieces at its pen changes and streamed (`stream_job`, a resume's lead-in first),
+one piece streamed to a stop with refusals and alarms named by their line in the
+whole job, a stop on the user's word (feed hold, then soft reset, so no step is
+lost), and for a resume: the job planned again from its journal entry (`replan`)
+and the position found again (`find_position`: $H, or the user re-zeroes).
+The journal itself (stream/journal.py) sits beside grbl/ and is bound to a job in
+console/grbl_job.py.
 """
 
 from __future__ import annotations
@@ -14,12 +18,13 @@ import time
 import numpy as np
 
 from galileo_cnc.errors import GalileoError
-from galileo_cnc.grbl.gcode import GcodeLine
+from galileo_cnc.grbl.gcode import AxisScale, GcodeLine, GrblPen
+from galileo_cnc.grbl.jog import home, unlock
 from galileo_cnc.grbl.link import FEED_HOLD, GrblLink
 from galileo_cnc.grbl.numbers import read_float, steps_per_mm_f32
 from galileo_cnc.grbl.reports import GrblError, alarm_text, error_text
 from galileo_cnc.grbl.stream import GrblStreamError, stream
-from galileo_cnc.plan.pipeline import PlannedFile
+from galileo_cnc.plan.pipeline import PlannedFile, PlanOptions, plan_file
 from galileo_cnc.program.ops import NM_PER_MM
 from galileo_cnc.transport.port import SIMAVR_URL
 
@@ -137,3 +142,65 @@ def hold_and_reset(link: GrblLink) -> None:
         link.soft_reset()
     except GrblError:
         pass        # the user already asked to stop; the message says what to do
+
+
+def stream_job(link: GrblLink, lines: list[GcodeLine], pen_changes: dict[int, int], where,
+               show, ask_pen, *, start: int = 0, lead: list[GcodeLine] = (),
+               on_reply=None) -> None:
+    """Streams lines[start:] (after the `lead` lines, a resume's lead-in) in pieces that
+    end at the job's pen changes: each piece runs to a stop (GRBL's buffer drained)
+    before `ask_pen(first line, aperture, resuming)` asks for the pen. Resuming past a
+    pen change, the pen in use at `start` is asked for first (resuming=True) unless a
+    change comes right there. `show(lines done)`, `on_reply(line in the job, reply)`."""
+    total = len(lines)
+    pieces = pen_pieces(lines, pen_changes)
+    before = [piece for piece in pieces if piece[0] < start]
+    if before and not any(first == start for first, _ in pieces):
+        ask_pen(*before[-1], True)      # the pen in the holder may be another
+    position, chunk = start, list(lead)
+    numbers: list[int | None] = [None] * len(lead)
+    for first, aperture in pieces:
+        if first < start:
+            continue
+        if first > position or chunk:
+            stream_piece(link, chunk + lines[position:first],
+                         numbers + list(range(position, first)), where, show, on_reply)
+            position, chunk, numbers = first, [], []
+        ask_pen(first, aperture, False)
+    stream_piece(link, chunk + lines[position:total], numbers + list(range(position, total)),
+                 where, show, on_reply)
+
+
+def replan(entry, config) -> PlannedFile:
+    """The interrupted job, planned again exactly as it was from its journal entry
+    (stream/journal.JournalEntry: file, offset, mode, order, pens, layers, units; the
+    planner is deterministic)."""
+    return plan_file(entry.source, config, tuple(entry.offset_nm),
+                     options=PlanOptions(mode=entry.mode, file_order=not entry.group,
+                                         pens_nm=tuple(entry.pens_nm),
+                                         layers=tuple(entry.layers), units=entry.units),
+                     optimize=entry.ordered)
+
+
+def find_position(link: GrblLink, scale: AxisScale, pen: GrblPen, say, at_work_zero) -> bool:
+    """A reset lost GRBL's position (opening the port again resets a board; a stop
+    resets GRBL too). With homing ($22=1) `$H` finds the machine frame, and the work
+    offset (G54) is in GRBL's EEPROM. Without, `at_work_zero(question)` asks the user
+    whether the pen stands at the job's work zero (X0 Y0, down on the paper); yes
+    makes that point G54's zero (after `$X` if GRBL is in alarm). False: the user
+    said no, nothing was sent."""
+    if link.settings.homing:
+        say("homing ($H): the reset lost GRBL's position")
+        status = home(link)
+        wco = ", ".join(f"{nm / NM_PER_MM:.3f}" for nm in link.tracker.wco_nm)
+        say(f"homed; work offset (G54, kept in GRBL's EEPROM) {wco} mm, state {status.state}")
+        return True
+    down = scale.mm(2, pen.down_z_steps)
+    if not at_work_zero(f"GRBL has no homing ($22=0): the reset lost its position. The "
+                        f"pen must stand at the job's work zero (X0 Y0, the pen down on "
+                        f"the paper: Z{down})"):
+        return False
+    if link.status().state == "Alarm":
+        unlock(link)
+    link.command_checked(f"G10 L20 P1 X0 Y0 Z{down}")
+    return True

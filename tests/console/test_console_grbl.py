@@ -26,13 +26,18 @@ from prompt_toolkit.output.vt100 import Vt100_Output
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.console.app import Console
+from galileo_cnc.console.grbl_job import grbl_journal
 from galileo_cnc.grbl.gcode import expected_end_steps, job_to_gcode, pen_from_config
+from galileo_cnc.grbl.session import pen_pieces
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
+from galileo_cnc.stream.journal import ABORTED, FINISHED
 
 from test_console import WAIT_S, ConsoleUser, Screen, console_in_thread, home  # noqa: F401
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "grbl"))
-from grbl_support import CONFIG, SCALE, SETTINGS, grbl_machine, positions  # noqa: E402
+from grbl_support import (CONFIG, LIMITS, SCALE, SETTINGS, check_resumed,  # noqa: E402
+                          grbl_machine, positions, set_work_zero, settled_trace)
+from grbl_support import HOMING as RESUME_HOMING  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 BOARD = ROOT / "samples" / "led-blinker.gbr"
@@ -136,9 +141,8 @@ def test_an_evening_on_grbl(home):  # noqa: F811  (the fixture)
             assert toolbar_shows(console, "GRBL Idle") == (
                 f" {board.port} | GRBL Idle | X 0.000  Y 0.000  Z 0.000 mm | feed 100 mm/s")
             assert status(user) == ("Idle", (0, 0, 0), (0, 0, 0))
-            user.line("resume")                 # needs our firmware: said, not tried
-            user.expect(r"resume continues jobs on galileo-cnc firmware.*GRBL does not "
-                        r"report")
+            user.line("resume")                 # the GRBL journal is empty
+            user.expect(r"no interrupted GRBL job to resume \(journal .*journal-grbl\.json\)")
 
             # ---- setup: keypad jogs land exactly; 2.5 mm = 400 steps (all below
             # the switches, which close at +2/+3/+1 mm)
@@ -251,7 +255,9 @@ def test_an_evening_on_grbl(home):  # noqa: F811  (the fixture)
             user.expect(r"lines\s+\d")
             user.type("q")
             user.expect(rf"job stopped after \d+ of {len(lines)} G-code lines: stopped by "
-                        r"the user; GRBL held the feed and was reset")
+                        r"the user; GRBL held the feed and was reset.*type resume to "
+                        r"continue it")
+            assert grbl_journal().load().state == ABORTED       # journalled as plot does
             state, work, machine = status(user)
             assert state == "Idle"
             assert tuple(m - w for m, w in zip(machine, work)) == (-7200, -7200, -800)
@@ -271,6 +277,7 @@ def test_an_evening_on_grbl(home):  # noqa: F811  (the fixture)
             assert (state, work) == ("Idle", end_work)
             x, y, z = (f"{v / STEPS_PER_MM:.3f}" for v in end_work)
             toolbar_shows(console, rf"GRBL Idle \| X {x}  Y {y}  Z {z} mm \| feed 100 mm/s")
+            assert grbl_journal().load().state == FINISHED
         board.stop()
     text = user.screen.text
     assert text.count("ALARM:9") == 2                  # the alarm, then the unlock's cause
@@ -282,6 +289,78 @@ def test_an_evening_on_grbl(home):  # noqa: F811  (the fixture)
     pins = tuple(int(v) for v in positions(board)[-1])
     off = [p - (m + trip) for p, m, (_, trip) in zip(pins, machine, SWITCHES)]
     assert off == [0, 0, 0], (pins, machine, off)
+    assert board.summary["overruns"] == "0" and board.summary["dropped"] == "0"
+
+
+def test_a_job_stopped_with_q_resumes_in_the_same_session(home):  # noqa: F811
+    """The user's machine is homed and its work zero stored in G54 (60 mm in, as
+    test_grbl_resume.py sets it up). In one console session: getg, q while the fifth
+    pen draws, `resume` (homes, goes back over what GRBL may not have run, pen up,
+    asks for the pen in use), to "finished", then `status`. GRBL's pins: the two parts
+    together draw the whole job."""
+    job, lines = planned_lines(CONFIG)
+    pen = pen_from_config(CONFIG)
+    pieces = pen_pieces(lines, job.pen_changes)
+    end_work = expected_end_steps(lines, SCALE)[-1]
+    with grbl_machine(RESUME_HOMING, limits=LIMITS, realtime=True) as (board, setup_link):
+        set_work_zero(setup_link)               # homed, G54 set, the set-up's port closed
+        setup_end = settled_trace(board)
+        with console_object(home, board.port, CONFIG) as (user, console):
+            user.line(f"getg --mode centre {BOARD}")
+            user.expect(r"use these offsets\? \[Y/n\]")
+            user.line("")
+            for _, aperture in pieces[:5]:
+                user.expect(rf"\ainsert pen for aperture D{aperture} \(")
+                user.type("\r")
+            time.sleep(0.5)                     # the fifth pen draws for half a second
+            user.type("q")
+            user.expect(rf"job stopped after \d+ of {len(lines)} G-code lines: stopped by "
+                        r"the user; GRBL held the feed and was reset.*type resume to "
+                        r"continue it")
+            stopped = grbl_journal().load()
+            assert stopped.state == ABORTED and stopped.reason == "stopped by the user"
+            assert pieces[4][0] <= stopped.confirmed + 1 < len(lines)
+            assert status(user)[0] == "Idle"
+            cut = settled_trace(board)
+
+            user.line("resume")
+            found = user.expect(rf"led-blinker\.gbr: resuming at G-code line (\d+) of "
+                                rf"{len(lines)}: the job was aborted \(stopped by the user\)")
+            start = int(found.group(1)) - 1
+            # back over what GRBL had queued, never past a dwell (the flashes' G4)
+            assert pieces[3][0] < start <= stopped.confirmed + 1
+            user.expect(r"continue the job\? \[Y/n\]")
+            user.line("")
+            user.expect(r"homing \(\$H\)")
+            user.expect(r"homed; work offset \(G54, kept in GRBL's EEPROM\) -60\.000, "
+                        r"-60\.000, -10\.000 mm")
+            # the pen in use at the resumed line, then each change after it
+            asked = [(a, True) for first, a in pieces if first < start][-1:]
+            if any(first == start for first, _ in pieces):
+                asked = []
+            asked += [(a, False) for first, a in pieces if first >= start]
+            for aperture, resuming in asked:
+                goes_on = r".*\(the pen the job goes on with\)" if resuming else ""
+                user.expect(rf"\ainsert pen for aperture D{aperture} \({goes_on}")
+                user.type("\r")
+            finished = user.expect(r"\aprocess has finished in \d+:\d\d \(\d+ G-code "
+                                   r"lines\); GRBL stands at X (\S+) Y (\S+) Z (\S+) mm")
+            stands = tuple(round(float(v) * STEPS_PER_MM) for v in finished.groups())
+            assert stands == end_work
+            state, work, machine = status(user)           # and the console goes on
+            assert (state, work) == ("Idle", end_work)
+            assert grbl_journal().load().state == FINISHED
+            user.line("resume")                           # nothing left
+            user.expect(r"no interrupted GRBL job to resume")
+        board.stop()
+    text = user.screen.text
+    assert "Traceback" not in text and "error:" not in text and "ALARM" not in text
+    # the first part stopped where the hold ramped down; the second homed, went back
+    # pen up and drew from line `start`: together every motion of the job
+    check_resumed(board, setup_end, cut, lines, start, pen)
+    # homed twice, GRBL's machine position is its pins' less the switches' trip points
+    pins = tuple(int(v) for v in positions(board)[-1])
+    assert tuple(p - m for p, m in zip(pins, machine)) == tuple(t for _, t in LIMITS)
     assert board.summary["overruns"] == "0" and board.summary["dropped"] == "0"
 
 

@@ -8,6 +8,7 @@ Outside CI a missing Debian package skips with its name; under CI it fails.
 from __future__ import annotations
 
 import math
+import time
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -20,10 +21,12 @@ from galileo_cnc.grbl import firmware
 from galileo_cnc.grbl.gcode import AxisScale, GcodeLine, job_to_gcode, pen_from_config
 from galileo_cnc.grbl.link import GrblLink
 from galileo_cnc.grbl.numbers import grbl_steps, read_float
+from galileo_cnc.grbl.resume import lead_in, state_before
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 from galileo_cnc.simavr import board as simavr
 from galileo_cnc.simavr.board import step_trace
 
+from faults import FaultyPort
 from firmware_support import build_harness, require_packages
 
 # The test machine: the seed's 160 steps/mm, run fast so simulated jobs stay short.
@@ -120,6 +123,40 @@ def motions(lines: list[GcodeLine], scale: AxisScale = SCALE, start=(0, 0, 0)):
         yield words[0], start, tuple(pos), centre
 
 
+def motion_lines(lines: list[GcodeLine]) -> list[int]:
+    """The index in `lines` of each motion motions() yields, in order."""
+    return [i for i, line in enumerate(lines)
+            if line.text.split() and line.text.split()[0] in ("G0", "G1", "G2", "G3")]
+
+
+def check_prefix(pos: np.ndarray, lines: list[GcodeLine], start=(0, 0, 0)) -> int:
+    """The pins drew the job from its start up to wherever they stop, possibly inside
+    a motion (a feed hold decelerates on the path; a reset cuts it): every motion up
+    to there reached exactly, in order, every step within one step of its path, and
+    the steps after the last end point within one step of the next motion's path.
+    Returns how many motions were drawn to their end point."""
+    index = count = 0
+    for kind, begin, end, centre in motions(lines, start=start):
+        assert tuple(pos[index]) == begin, (kind, begin, tuple(pos[index]))
+        first = index
+        if centre is not None and end == begin:      # a full circle: leave, come back
+            while index < len(pos) - 1 and tuple(pos[index]) == begin:
+                index += 1
+        hits = np.nonzero(np.all(pos[index:] == end, axis=1))[0]
+        stop = index + int(hits[0]) if len(hits) else len(pos) - 1
+        path = pos[first:stop + 1].astype(float)
+        if centre is None:
+            axis_d, _ = _segment_distance(path, begin, end)
+        else:
+            axis_d, _ = _circle_distance(path, centre, begin)
+        assert axis_d <= 1.0, f"a step lies {axis_d:.3f} steps from {kind} {begin}->{end}"
+        if not len(hits):
+            return count                # stopped inside this motion (or at its start)
+        index, count = stop, count + 1
+    assert index == len(pos) - 1, f"{len(pos) - 1 - index} step moves after the job's end"
+    return count
+
+
 def check_trace(pos: np.ndarray, lines: list[GcodeLine], start=(0, 0, 0)) -> dict:
     """Every motion's end point is reached exactly, in order, and every position
     between two end points lies within one step of that motion's path on every
@@ -196,3 +233,121 @@ def planned_gcode(profile_path: str) -> list[GcodeLine]:
     return job_to_gcode(planned.job, SCALE, pen_from_config(config),
                         feed_steps_per_s=config.feed_steps_per_s,
                         flash_dwell_ms=config.flash_dwell_ms)
+
+
+# ---- a job cut and resumed (plot --resume, the console's resume) -------------------------
+
+MM = 160                # steps
+# homing on, switches at +2, +3, +1 mm (GRBL homes toward +, pulls off $27 = 1 mm),
+# seeking at 100 mm/s with 20 ms of debounce ($25, $26: a homing from the work zero
+# 60 mm away takes 2 s of simulated time, not 7), locating at $24 = 200 mm/min;
+# $10=3 adds the buffer state to status reports (Bf:15,128: planner and RX buffer empty)
+HOMING = {**SETTINGS, 10: "3", 22: "1", 130: "100", 131: "100", 132: "20",
+          25: "6000", 24: "200", 26: "20"}
+LIMITS = (("X", 2 * MM), ("Y", 3 * MM), ("Z", 1 * MM))
+WORK_ZERO_MM = (-60, -60, -10)          # machine position of the job's work zero
+HOMED = (-MM, -MM, -MM)                 # machine position after $H
+#: where $H leaves the head, in the job's work steps
+HOMED_WORK = tuple(h - w * MM for h, w in zip(HOMED, WORK_ZERO_MM))
+
+
+class RecordingPort(FaultyPort):
+    """FaultyPort that keeps every line that reached the board."""
+
+    def __init__(self, port, **faults):
+        super().__init__(port, **faults)
+        self.sent: list[str] = []
+
+    def write(self, data: bytes) -> int:
+        written = super().write(data)
+        if data.endswith(b"\n"):
+            self.sent.append(data.decode().strip())
+        return written
+
+
+def sent_job_lines(sent: list[str], lines: list[GcodeLine]) -> int:
+    """The index of the last job line that reached GRBL (the rest of `sent` is $I,
+    $$, $#, G4 P0 and status queries)."""
+    index = 0
+    for text in sent:
+        if index < len(lines) and text == lines[index].text:
+            index += 1
+    return index - 1
+
+
+def wait_until_still(port_path: str) -> None:
+    """As the user is told to: wait until the machine stands still (the pty, unlike
+    an Uno, does not reset GRBL on opening, so it can be asked)."""
+    with serial.Serial(port_path, 115200, timeout=0.2) as port:
+        link = GrblLink(port)
+        while link.read_line(0.5) is not None:     # replies nobody read after the cut
+            pass
+        for _ in range(20000):
+            status = link.status()
+            if status.state == "Idle" and (status.planner_free, status.rx_free) == (15, 128):
+                return
+    raise AssertionError(f"GRBL never came to rest (last {status})")
+
+
+def settled_trace(board):
+    """The pin trace once the harness has flushed it (GRBL is standing still)."""
+    count = -1
+    while True:
+        edges = board.trace()
+        if len(edges[0]) == count:
+            return edges
+        count = len(edges[0])
+        time.sleep(0.3)
+
+
+def set_work_zero(link: GrblLink) -> None:
+    """The user's set-up: home, go to the job's work zero, store it in G54; the
+    port is closed again for the plot."""
+    link.command_checked("$H")
+    work = " ".join(f"{'XYZ'[a]}{v}" for a, v in enumerate(WORK_ZERO_MM))
+    link.command_checked(f"G0 {work}")
+    link.command_checked("G10 L20 P1 X0 Y0 Z0")
+    link.wait_idle()
+    link.port.close()
+
+
+def state_steps(lines: list[GcodeLine], start: int) -> tuple[int, int, int]:
+    """Where the job stands before lines[start], in steps (the texts GRBL reads)."""
+    state = state_before(lines, start)
+    return tuple(grbl_steps(text, SCALE.steps_per_mm[a]) for a, text in enumerate(state.axes))
+
+
+def check_resumed(board, setup_end, cut, lines: list[GcodeLine], start: int, pen,
+                  resumed_from=HOMED_WORK) -> int:
+    """GRBL's pins over a job cut and resumed, split at the two still points (pin
+    traces read with settled_trace): `setup_end` (the head at the job's work zero,
+    before the job) and `cut` (after the first session, GRBL at rest). The first
+    session draws the job from its start up to where it was cut, possibly inside a
+    motion (check_prefix); the second, from where the resume begins (`resumed_from`,
+    in work steps: after $H, or where the user re-zeroed), the lead-in then
+    lines[start:], every end point exact, the pen up (at or above its up height) while
+    it travels to where line `start` begins; together they draw every motion of the
+    job. Returns how many motions the first session drew to their end point."""
+    pos, tick = positions_and_ticks(board.trace())
+    rows = [int(np.searchsorted(tick, edges[0][-1] // 8, side="right")) - 1
+            if len(edges[0]) else 0 for edges in (setup_end, cut)]
+    work = pos - pos[rows[0]]               # the pins at the job's work zero
+    drawn = check_prefix(work[rows[0]:rows[1] + 1], lines)
+    second = work[rows[1]:]
+    there = np.nonzero(np.all(second == resumed_from, axis=1))[0]
+    assert len(there), f"the resume never started from {resumed_from}"
+    resumed = second[there[-1]:]
+    lead = lead_in(lines, start, SCALE, pen)
+    check_trace(resumed, lead + lines[start:], start=resumed_from)
+    begin = state_steps(lines, start)
+    arrive = int(np.nonzero(np.all(resumed == begin, axis=1))[0][0])
+    travel = resumed[:arrive + 1]
+    # (the pen may rise where the resume starts and come down where it arrives)
+    elsewhere = (np.any(travel[:, :2] != begin[:2], axis=1)
+                 & np.any(travel[:, :2] != resumed_from[:2], axis=1))
+    assert np.all(travel[elsewhere, 2] >= pen.up_z_steps), "the pen was down travelling"
+    # together the whole job: the first motion the first session did not finish is
+    # drawn by the second
+    indices = motion_lines(lines)
+    assert drawn == len(indices) or indices[drawn] >= start, (drawn, indices[drawn], start)
+    return drawn

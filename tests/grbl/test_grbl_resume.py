@@ -4,12 +4,11 @@ resume tests of our firmware cut theirs), GRBL runs on with what it had, then
 `plot --resume` homes, goes back to where the job stood (pen up), and finishes it.
 From the pins: the two sessions together draw the whole job, every end point exact
 and every step within one step of its line, and the only lines drawn twice are
-those GRBL had not yet acknowledged when the port died (in flight)."""
+those GRBL had not yet acknowledged when the port died (in flight). Also: Ctrl-C."""
 
 from __future__ import annotations
 
 import re
-import time
 
 import numpy as np
 import pytest
@@ -19,85 +18,15 @@ from galileo_cnc.cli import main as cli
 from galileo_cnc.cli import plot_grbl
 from galileo_cnc.config.profile import load_profile
 from galileo_cnc.grbl.gcode import GcodeLine, GrblPen, pen_from_config
-from galileo_cnc.grbl.link import GrblLink
-from galileo_cnc.grbl.numbers import grbl_steps
-from galileo_cnc.grbl.resume import PREAMBLE_TEXT, lead_in, rewind, state_before
+from galileo_cnc.grbl.resume import PREAMBLE_TEXT, lead_in, rewind
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
 from galileo_cnc.plan.pipeline import PlanOptions
 from galileo_cnc.stream.journal import ABORTED, FINISHED, INTERRUPTED
 
-from faults import FaultyPort
-from grbl_support import (PROFILE, SAMPLE, SCALE, SETTINGS, check_trace, grbl_machine,
-                          motions, planned_gcode, positions_and_ticks)
-
-MM = 160                # steps
-# homing on, switches at +2, +3, +1 mm (GRBL homes toward +, pulls off $27 = 1 mm);
-# $10=3 adds the buffer state to status reports (Bf:15,128: planner and RX buffer empty)
-HOMING = {**SETTINGS, 10: "3", 22: "1", 130: "100", 131: "100", 132: "20",
-          25: "1000", 24: "200"}
-LIMITS = (("X", 2 * MM), ("Y", 3 * MM), ("Z", 1 * MM))
-WORK_ZERO_MM = (-60, -60, -10)          # machine position of the job's work zero
-HOMED = (-MM, -MM, -MM)                 # machine position after $H
-
-
-class RecordingPort(FaultyPort):
-    """FaultyPort that keeps every line that reached the board."""
-
-    def __init__(self, port, **faults):
-        super().__init__(port, **faults)
-        self.sent: list[str] = []
-
-    def write(self, data: bytes) -> int:
-        written = super().write(data)
-        if data.endswith(b"\n"):
-            self.sent.append(data.decode().strip())
-        return written
-
-
-def wait_until_still(port_path: str) -> None:
-    """As the user is told to: wait until the machine stands still (the pty, unlike
-    an Uno, does not reset GRBL on opening, so it can be asked)."""
-    with serial.Serial(port_path, 115200, timeout=0.2) as port:
-        link = GrblLink(port)
-        while link.read_line(0.5) is not None:     # replies nobody read after the cut
-            pass
-        for _ in range(20000):
-            status = link.status()
-            if status.state == "Idle" and (status.planner_free, status.rx_free) == (15, 128):
-                return
-    raise AssertionError(f"GRBL never came to rest (last {status})")
-
-
-def settled_trace(board):
-    """The pin trace once the harness has flushed it (GRBL is standing still)."""
-    count = -1
-    while True:
-        edges = board.trace()
-        if len(edges[0]) == count:
-            return edges
-        count = len(edges[0])
-        time.sleep(0.3)
-
-
-def sent_job_lines(sent: list[str], lines: list[GcodeLine]) -> int:
-    """The index of the last job line that reached GRBL (the rest of `sent` is $I,
-    $$, $#, G4 P0 and status queries)."""
-    index = 0
-    for text in sent:
-        if index < len(lines) and text == lines[index].text:
-            index += 1
-    return index - 1
-
-
-def set_work_zero(link: GrblLink) -> None:
-    """The user's set-up: home, go to the job's work zero, store it in G54; the
-    port is closed again for the plot."""
-    link.command_checked("$H")
-    work = " ".join(f"{'XYZ'[a]}{v}" for a, v in enumerate(WORK_ZERO_MM))
-    link.command_checked(f"G0 {work}")
-    link.command_checked("G10 L20 P1 X0 Y0 Z0")
-    link.wait_idle()
-    link.port.close()
+from grbl_support import (HOMING, LIMITS, PROFILE, SAMPLE, SCALE, RecordingPort,
+                          check_resumed, grbl_machine, motion_lines, motions, planned_gcode,
+                          positions_and_ticks, sent_job_lines, set_work_zero, settled_trace,
+                          wait_until_still)
 
 
 @pytest.fixture
@@ -154,50 +83,15 @@ def test_resume_after_a_lost_port_homes_and_finishes_the_job(profile, capsys):
     # one pen asked for before going on (the one in use at the resumed line)
     assert out.count("(the pen the job goes on with)") <= 1
 
-    # the pins, split at the sessions' ends (GRBL stood still at each)
-    pos, tick = positions_and_ticks(board.trace())
-    rows = [int(np.searchsorted(tick, edges[0][-1] // 8, side="right")) - 1
-            for edges in (setup_end, cut)]
-    at_zero = pos[rows[0]]                   # the pins at the job's work zero
-    work = pos - at_zero
-    # session 1: the job from its start up to some line X the queue ended with
-    first = work[rows[0]:rows[1] + 1]
-    ran = None
-    for last in range(confirmed, last_sent + 1):
-        try:
-            check_trace(first, lines[:last + 1])
-            ran = last
-            break
-        except AssertionError:
-            continue
-    assert ran is not None, "the first session is no prefix of the job"
-    # session 2: homing, then the lead-in from the homed position, then the rest
-    homed = tuple(np.subtract(HOMED, np.multiply(WORK_ZERO_MM, MM)))
-    second = work[rows[1]:]
-    back_home = np.nonzero(np.all(second == homed, axis=1))[0]
-    assert len(back_home), "the resume never reached the homed position"
-    resumed = second[back_home[-1]:]
-    lead = lead_in(lines, start, SCALE, pen)
-    assert lead[0].text == PREAMBLE_TEXT
-    checked = check_trace(resumed, lead + lines[start:], start=homed)
-    assert checked["worst_axis_steps"] <= 1.0
-    # pen up (at or above its up height) while travelling to where line `start` begins
-    begin = _state_steps(lines, start)
-    arrive = int(np.nonzero(np.all(resumed == begin, axis=1))[0][0])
-    travel = resumed[:arrive + 1]
-    elsewhere = np.any(travel[:, :2] != begin[:2], axis=1)
-    assert elsewhere.any() and np.all(travel[elsewhere, 2] >= pen.up_z_steps)
-    # together the whole job; drawn twice only the lines in flight at the cut
+    # the pins, split at the sessions' ends (GRBL stood still at each): the first
+    # session a prefix of the job, the second homing, lead-in and the rest, together
+    # the whole job
+    drawn = check_resumed(board, setup_end, cut, lines, start, pen)
+    ran = motion_lines(lines)[drawn - 1]        # the last line the first session drew
+    # drawn twice only the lines in flight at the cut (GRBL ran its queue to the end)
     assert start <= ran + 1
     twice = range(start, ran + 1)
     assert all(confirmed < k <= last_sent for k in twice), (confirmed, last_sent, start, ran)
-    assert tuple(resumed[-1]) == next(reversed(list(motions(lines))))[2]
-
-
-def _state_steps(lines, start) -> tuple[int, int, int]:
-    """Where the job stands before lines[start], in steps (the texts GRBL reads)."""
-    state = state_before(lines, start)
-    return tuple(grbl_steps(text, SCALE.steps_per_mm[a]) for a, text in enumerate(state.axes))
 
 
 # ---- the G-code side, without a board -------------------------------------------------------
@@ -256,6 +150,7 @@ def test_ctrl_c_holds_then_resets_and_resume_finishes_the_job(profile, capsys):
         # the feed hold (!) came first, then the soft reset (0x18): the position is kept
         held = port.raw.index(b"!")
         assert b"\x18" in port.raw[held:]
+        cut = settled_trace(board)
 
         code = cli.main(["plot", SAMPLE, "--resume", "--yes", "--port", board.port,
                          "--profile", profile])
@@ -264,6 +159,13 @@ def test_ctrl_c_holds_then_resets_and_resume_finishes_the_job(profile, capsys):
     assert code == 0, err
     assert "ALARM" not in out + err and "process has finished" in out
     assert plot_grbl.grbl_journal().load().state == FINISHED
+    # stopped, GRBL's queue was dropped: back over what it may not have run
+    start = int(re.search(r"resuming at G-code line (\d+) of \d+: the job was aborted "
+                          r"\(stopped with Ctrl-C\)", out)[1]) - 1
+    assert start <= entry.confirmed
+    # the first session stopped where the hold ramped down, the resume drew the rest
+    check_resumed(board, setup_end, cut, lines, start, pen_from_config(
+        load_profile(profile).config))
     pos, tick = positions_and_ticks(board.trace())
     at_zero = pos[int(np.searchsorted(tick, setup_end[0][-1] // 8, side="right")) - 1]
     end = next(reversed(list(motions(lines))))[2]
