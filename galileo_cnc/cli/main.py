@@ -141,16 +141,13 @@ def _run_grbl_plot(args: argparse.Namespace, profile, port: str, plan, handle=No
     # refused before anything is sent: these need what only our firmware reports or keeps
     if args.resume and args.check:
         raise GalileoError("plot --resume --check: check the job without --resume")
-    if args.trace:
-        raise GalileoError("plot --trace: a GRBL board cannot report its steps "
-                           "(--preview draws the plan)")
     if args.home:
         raise GalileoError("plot --home: on a GRBL board, home with `home` ($H) in the "
                            "console; GRBL keeps the work offset (G54) from its switches")
     return run_grbl_plot(GrblPlotOptions(
         args.file, profile, port, plan, offset=args.offset,
         margin_nm=round(args.margin * NM_PER_MM), yes=args.yes, check=args.check,
-        preview=args.preview, resume=args.resume), port=handle)
+        preview=args.preview, resume=args.resume, trace=args.trace), port=handle)
 
 
 def _run_preview(args: argparse.Namespace) -> int:

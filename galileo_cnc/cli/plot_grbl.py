@@ -10,6 +10,8 @@ through GRBL's check mode (`$C`) and lists every line GRBL rejects.
 it homes (or the user re-zeroes), then goes on after the last line GRBL had
 acknowledged, from the GRBL job journal (docs/grbl.md, "Resume after a lost port"),
 which the console's getg and resume keep too (console/grbl_job.py holds it).
+`--trace` writes the steps GRBL's pins made on `simavr://?firmware=grbl` (a real
+board cannot report its steps: the reference machine's trace of the job, saying so).
 Exit codes as `plot`: 0 done (or nothing rejected), 1 refused, rejected or
 alarmed, 3 port lost (resume with --resume), 130 stopped with Ctrl-C.
 """
@@ -41,11 +43,13 @@ from galileo_cnc.grbl.session import (describe, find_position, hold_and_reset, p
 from galileo_cnc.grbl.stream import GrblStreamError
 from galileo_cnc.grbl.travel import applies, check_travel
 from galileo_cnc.machine.timing import duration_text
+from galileo_cnc.machine.trace import Trace
 from galileo_cnc.plan.pipeline import PlannedFile, PlanOptions, plan_file
 from galileo_cnc.program.ops import NM_PER_MM
+from galileo_cnc.simavr.grbl_firmware import grbl_step_trace
 from galileo_cnc.stream.journal import ABORTED, FAILED, FINISHED, INTERRUPTED
 from galileo_cnc.stream.streamer import PenChange, describe_aperture
-from galileo_cnc.transport.port import open_port, port_error_text
+from galileo_cnc.transport.port import open_port, port_error_text, with_step_trace
 
 __all__ = ["GRBL_JOURNAL_NAME", "GrblPlotOptions", "grbl_journal", "run_grbl_plot"]
 
@@ -62,6 +66,7 @@ class GrblPlotOptions:
     check: bool = False
     preview: str | None = None
     resume: bool = False            # continue the journal's job (its file, offset, profile)
+    trace: str | None = None        # write the steps (simavr://: GRBL's pins) as .npz
 
 
 class GrblProgress(TextProgress):
@@ -83,6 +88,9 @@ class GrblProgress(TextProgress):
 def run_grbl_plot(options: GrblPlotOptions, out: TextIO | None = None, port=None) -> int:
     """`port`: an already open port to use (and close) instead of opening options.port."""
     out = out if out is not None else sys.stdout
+    if options.check and options.trace:
+        raise GalileoError("plot --check --trace: check mode moves nothing, so there are no "
+                           "steps to trace")
     progress = GrblProgress(out)
     journal = grbl_journal()
     entry = None
@@ -94,7 +102,11 @@ def run_grbl_plot(options: GrblPlotOptions, out: TextIO | None = None, port=None
         config = options.profile.config
         planned = plan_file(options.file, config, options.offset, margin_nm=options.margin_nm,
                             on_progress=progress.planning, options=options.plan)
-    port = port if port is not None else open_grbl_port(options.port, options.profile.baud)
+    if port is None:                    # simavr:// records GRBL's pins for --trace
+        port = open_grbl_port(with_step_trace(options.port) if options.trace else
+                              options.port, options.profile.baud)
+    board = getattr(port, "board", None)
+    board = board if board is not None and board.records_steps else None
     try:
         link = GrblLink.connect(port)
         out.write(describe(link, options.port) + "\n")
@@ -165,12 +177,16 @@ def run_grbl_plot(options: GrblPlotOptions, out: TextIO | None = None, port=None
             journal.end(FAILED, str(problem))
             raise
         journal.end(FINISHED)
+        final = link.tracker.last
         progress.message(f"\aprocess has finished in {duration_text(time.monotonic() - began)}; "
-                         f"{position_text(link.tracker.last)}")
+                         f"{position_text(final)}")
     except (serial.SerialException, OSError) as lost:     # before or after the job
         raise GalileoError(f"{options.port}: {port_error_text(lost)}") from None
     finally:
-        port.close()
+        port.close()                    # simavr: the board stops, its pin record is whole
+    if options.trace:
+        _write_trace(options.trace, board, link.settings, scale, final, planned, config,
+                     options.port, out)
     if options.preview:
         _write_preview(options.preview, planned, config, out)
     return EXIT_OK
@@ -194,6 +210,27 @@ def _warn_g92(link: GrblLink, progress: GrblProgress) -> None:
         progress.message(f"note: GRBL has a G92 offset {g92}: GRBL forgets it on a reset, "
                          f"so a --resume after a lost port could not restore it (set the "
                          f"work zero with G10 L20 instead)")
+
+
+def _write_trace(path: str, board, settings, scale: AxisScale, final, planned: PlannedFile,
+                 config, port_name: str, out: TextIO) -> None:
+    """The steps GRBL's pins made (simavr://, recorded from the board's power-on), in
+    plot --trace's format (machine/trace.py), its final position GRBL's last work
+    position; from a real board, which cannot report its steps, the reference
+    machine's trace of the job, and the line says so."""
+    if board is None:
+        from galileo_cnc.machine import simulate
+        trace = simulate(planned.job.commands, config)
+        trace.save(path)
+        out.write(f"step trace: {path} ({len(trace)} steps): the reference machine's, since "
+                  f"{port_name} cannot report its steps\n")
+        return
+    tick, axis, direction = grbl_step_trace(board.trace(), settings.integer(3))
+    here = tuple(round(nm * float(scale.steps_per_mm[a]) / NM_PER_MM)
+                 for a, nm in enumerate(final.wpos_nm))
+    Trace(tick, axis, direction, here, int(tick[-1]) if len(tick) else 0).save(path)
+    out.write(f"step trace: {path} ({len(tick)} steps, as GRBL's step pins in simavr "
+              f"reported them)\n")
 
 
 def open_grbl_port(port: str, baud: int):

@@ -20,8 +20,11 @@ import subprocess
 import tempfile
 from pathlib import Path
 
+import numpy as np
+
 from galileo_cnc.errors import GalileoError
-from galileo_cnc.simavr.board import REPO_ROOT, SimulatedBoard, missing_debian_packages
+from galileo_cnc.simavr.board import (REPO_ROOT, SimulatedBoard, missing_debian_packages,
+                                      step_trace)
 
 GRBL_SOURCE_ENV = "GALILEO_GRBL_SOURCE"
 DEFAULT_SOURCE = REPO_ROOT.parent / "shared" / "grbl-1.1h"
@@ -112,3 +115,15 @@ def grbl_board(elf: Path | None = None, *, limits: tuple = (), trace: bool = Tru
     return SimulatedBoard(elf or build_grbl(), trace=trace,
                           pins=TRACE_PINS + tuple(extra_pins), endstops=endstops,
                           extra_args=HARNESS_ARGS + tuple(extra_args), **kwargs)
+
+
+def grbl_step_trace(edges, dir_invert_mask: int = 0
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """GRBL's step and direction pin edges (board.trace()) as a step trace (tick,
+    axis, dir), each step's direction in GRBL's own sense: a direction pin high is
+    GRBL's negative direction, unless `$3` (its direction invert mask,
+    `dir_invert_mask`) inverts that axis (stepper.c: direction_bits ^
+    dir_port_invert_mask)."""
+    tick, axis, direction = step_trace(edges, AXIS_PINS)
+    sign = np.array([1 if dir_invert_mask >> a & 1 else -1 for a in range(3)], np.int8)
+    return tick, axis, (direction * sign[axis]).astype(np.int8)

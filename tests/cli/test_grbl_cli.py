@@ -13,6 +13,7 @@ import sys
 from contextlib import contextmanager
 from pathlib import Path
 
+import numpy as np
 import pytest
 import serial
 
@@ -21,6 +22,7 @@ from galileo_cnc.cli import plot_grbl
 from galileo_cnc.grbl import firmware
 from galileo_cnc.grbl.gcode import GcodeLine, expected_end_steps, job_to_gcode
 from galileo_cnc.grbl.link import GrblLink
+from galileo_cnc.machine.trace import Trace
 from galileo_cnc.simavr import board as simavr_board
 from galileo_cnc.simavr import grbl_firmware
 from galileo_cnc.transport.port import open_port
@@ -53,6 +55,7 @@ def grbl(settings: dict[int, str], **board_kwargs):
 
 def test_plot_on_grbl_draws_the_sample_exactly(profile, tmp_path, capsys, monkeypatch):
     preview = tmp_path / "plotted.png"
+    trace_file = tmp_path / "plan.npz"
     with grbl(SETTINGS) as board:
         # probed (GRBL or ours?) and plotted over one open: an Uno resets at each open
         opened = []
@@ -60,7 +63,8 @@ def test_plot_on_grbl_draws_the_sample_exactly(profile, tmp_path, capsys, monkey
         monkeypatch.setattr(serial, "serial_for_url",
                             lambda url, *a, **k: opened.append(url) or real_open(url, *a, **k))
         code = cli.main(["plot", SAMPLE, "--port", board.port, "--mode", "centre", "--yes",
-                         "--profile", profile, "--preview", str(preview)])
+                         "--profile", profile, "--preview", str(preview),
+                         "--trace", str(trace_file)])
         board.stop()
     assert opened == [board.port]
     out, err = capsys.readouterr()
@@ -75,6 +79,11 @@ def test_plot_on_grbl_draws_the_sample_exactly(profile, tmp_path, capsys, monkey
     # every end point reached exactly, in order, every step within one of the path
     checked = check_trace(positions(board), planned_gcode(profile))
     assert checked["motions"] > 40
+    # a board on a port cannot report its steps: --trace is the plan's, and says so
+    trace = Trace.load(trace_file)
+    assert (f"step trace: {trace_file} ({len(trace)} steps): the reference machine's, "
+            f"since {board.port} cannot report its steps") in out
+    assert trace.final_position == expected_end_steps(planned_gcode(profile), SCALE)[-1]
 
 
 def test_a_servo_pen_chosen_in_the_profile_lifts_with_the_spindle_output(tmp_path, capsys,
@@ -115,10 +124,14 @@ def test_other_steps_per_mm_refused_before_anything_moves(profile, capsys):
     assert positions(board).tolist() == [[0, 0, 0]]     # not one step edge on the pins
 
 
-def test_check_mode_reports_rejected_lines_and_moves_nothing(profile, capsys, monkeypatch):
+def test_check_mode_reports_rejected_lines_and_moves_nothing(profile, capsys, monkeypatch,
+                                                              tmp_path):
     with grbl(SETTINGS) as board:
         args = ["plot", SAMPLE, "--port", board.port, "--mode", "centre", "--check",
                 "--profile", profile]
+        assert cli.main(args + ["--trace", str(tmp_path / "none.npz")]) == 1
+        assert "check mode moves nothing, so there are no steps to trace" in \
+            capsys.readouterr().err
         assert cli.main(args) == 0
         clean, _ = capsys.readouterr()
 
@@ -187,18 +200,38 @@ def reported_work_steps(out: str) -> tuple[int, ...]:
     return steps
 
 
-def test_plot_over_the_simavr_grbl_url_finishes_exactly(profile, capsys):
+def trace_positions(trace: Trace) -> np.ndarray:
+    """A --trace file's positions as grbl_support.positions() gives the pins': one row
+    per step interrupt (the steps of one tick together), from (0, 0, 0)."""
+    pos = trace.positions()
+    last_of_tick = np.r_[trace.tick[1:] != trace.tick[:-1], True]
+    return np.vstack([np.zeros((1, 3), np.int64), pos[last_of_tick]])
+
+
+def test_plot_over_the_simavr_grbl_url_finishes_exactly(profile, capsys, tmp_path):
     grbl_elf()                      # built (or skipped with the missing package) first
     assert cli._probe(GRBL_URL, 115200) == "GRBL 1.1h"      # ports --probe's tag
+    trace_file = tmp_path / "grbl.npz"
     code = cli.main(["plot", SAMPLE, "--port", GRBL_URL, "--mode", "centre", "--yes",
-                     "--profile", profile])
+                     "--profile", profile, "--trace", str(trace_file)])
     out, err = capsys.readouterr()
     assert code == 0, err
     assert f"GRBL 1.1h on {GRBL_URL} (RX 128 B, 15 blocks, 160 steps/mm)" in out
     assert out.count("insert pen for aperture D") == 6 and "process has finished" in out
     assert "ALARM" not in out + err and "error" not in out + err
     lines = planned_gcode(profile)
-    assert reported_work_steps(out) == expected_end_steps(lines, SCALE)[-1]
+    end = expected_end_steps(lines, SCALE)[-1]
+    assert reported_work_steps(out) == end
+    # --trace: the steps GRBL's pins made, in plot --trace's format (tick, axis, dir)
+    trace = Trace.load(trace_file)
+    assert f"step trace: {trace_file} ({len(trace)} steps, as GRBL's step pins in simavr " \
+           f"reported them)" in out
+    assert trace.final_position == end == tuple(trace.displacement())
+    assert np.all(np.diff(trace.tick) >= 0) and set(np.unique(trace.dir)) == {-1, 1}
+    # every end point exact, every step within one of the path: the directions are
+    # GRBL's (a dir pin high is its negative direction), not the pins' levels
+    checked = check_trace(trace_positions(trace), lines)
+    assert checked["motions"] > 40
 
 
 def test_simavr_grbl_url_bad_options_and_missing_pieces(profile, capsys, monkeypatch, tmp_path):
