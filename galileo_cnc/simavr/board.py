@@ -235,6 +235,7 @@ class SimulatedBoard:
         # Its "stack:" line as ints (addresses too), after stop() with stack_paint.
         self.stack: dict[str, int] = {}
         self.returncode: int | None = None
+        self._frozen = False
 
     # -- lifetime -----------------------------------------------------------
 
@@ -295,10 +296,26 @@ class SimulatedBoard:
         self._process.wait(timeout)
         return self._finish()
 
+    def freeze(self) -> None:
+        """Stops simulated time (SIGSTOP to the harness): the firmware stays exactly
+        where it is, in the middle of a move if it moves, and what the host writes
+        waits in the pty. A test makes "the host acts while the board is still busy"
+        happen at a chosen moment this way, not by a race with the wall clock."""
+        if self.running and not self._frozen:
+            self._process.send_signal(signal.SIGSTOP)
+            self._frozen = True
+
+    def thaw(self) -> None:
+        """Simulated time goes on from where `freeze` stopped it."""
+        if self._process is not None and self._frozen:
+            self._process.send_signal(signal.SIGCONT)
+            self._frozen = False
+
     def stop(self, timeout: float = 10.0) -> int:
         """SIGTERM, then the exit code; the trace and log stay readable."""
         if self._process is None:
             return self.returncode if self.returncode is not None else 0
+        self.thaw()                     # a stopped process would not see SIGTERM
         if self._process.poll() is None:
             self._process.send_signal(signal.SIGTERM)
             try:

@@ -4,7 +4,9 @@ resume tests of our firmware cut theirs), GRBL runs on with what it had, then
 `plot --resume` homes, goes back to where the job stood (pen up), and finishes it.
 From the pins: the two sessions together draw the whole job, every end point exact
 and every step within one step of its line, and the only lines drawn twice are
-those GRBL had not yet acknowledged when the port died (in flight). Also: Ctrl-C."""
+those GRBL had not yet acknowledged when the port died (in flight). Also: a resume
+started while GRBL still moves (its reset drops the queue: ALARM:3, the resume goes
+back over it), a machine without switches ($22=0: the user re-zeroes), Ctrl-C."""
 
 from __future__ import annotations
 
@@ -18,12 +20,13 @@ from galileo_cnc.cli import main as cli
 from galileo_cnc.cli import plot_grbl
 from galileo_cnc.config.profile import load_profile
 from galileo_cnc.grbl.gcode import GcodeLine, GrblPen, pen_from_config
+from galileo_cnc.grbl.link import GrblLink
 from galileo_cnc.grbl.resume import PREAMBLE_TEXT, lead_in, rewind
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
 from galileo_cnc.plan.pipeline import PlanOptions
 from galileo_cnc.stream.journal import ABORTED, FINISHED, INTERRUPTED
 
-from grbl_support import (HOMING, LIMITS, PROFILE, SAMPLE, SCALE, RecordingPort,
+from grbl_support import (HOMING, LIMITS, PROFILE, SAMPLE, SCALE, SETTINGS, RecordingPort,
                           check_resumed, grbl_machine, motion_lines, motions, planned_gcode,
                           positions_and_ticks, sent_job_lines, set_work_zero, settled_trace,
                           wait_until_still)
@@ -92,6 +95,128 @@ def test_resume_after_a_lost_port_homes_and_finishes_the_job(profile, capsys):
     assert start <= ran + 1
     twice = range(start, ran + 1)
     assert all(confirmed < k <= last_sent for k in twice), (confirmed, last_sent, start, ran)
+
+
+class FreezingPort(RecordingPort):
+    """The port dies (die_after) at the very moment simulated time stops: GRBL is
+    frozen in the middle of its queue, still moving, until `ThawingPort` lets it go."""
+
+    def __init__(self, port, board, **faults):
+        super().__init__(port, **faults)
+        self.board = board
+
+    def write(self, data: bytes) -> int:
+        if data.endswith(b"\n") and self.lines_written + 1 == self.die_after:
+            self.board.freeze()
+        return super().write(data)
+
+
+class ThawingPort(RecordingPort):
+    """The resume's port: its soft reset (0x18) reaches the frozen GRBL, which goes on
+    from where it stood, so the reset comes while it still moves. `cut` is the pin
+    trace when the resume sends $H (GRBL at rest after the reset: the first session
+    is complete on the pins)."""
+
+    def __init__(self, port, board):
+        super().__init__(port)
+        self.board = board
+        self.cut = None
+
+    def write(self, data: bytes) -> int:
+        if data == b"$H\n" and self.cut is None:
+            self.cut = settled_trace(self.board)
+        written = super().write(data)
+        if data == b"\x18":
+            self.board.thaw()
+        return written
+
+
+def resume_options(profile: str, board) -> plot_grbl.GrblPlotOptions:
+    """`plot SAMPLE --resume --yes` on the board."""
+    options = sample_options(profile, board)
+    options.resume = True
+    return options
+
+
+def test_resume_while_grbl_still_moves_goes_back_over_its_queue(profile, capsys):
+    """The user runs plot --resume at once, GRBL still running the lines it had: the
+    resume's soft reset drops GRBL's queue (ALARM:3), so lines GRBL acknowledged never
+    ran; the resume goes back over its planner and stepper blocks, homes, and the
+    two sessions together draw the whole job."""
+    lines = planned_gcode(profile)
+    pen = pen_from_config(load_profile(profile).config)
+    with grbl_machine(HOMING, limits=LIMITS) as (board, link):
+        set_work_zero(link)
+        setup_end = settled_trace(board)
+        # the port dies while the plot sends the 61st line, in the middle of the job's
+        # longest drawing (no dwell there): GRBL is frozen with its planner full
+        port = FreezingPort(serial.Serial(board.port, 115200, timeout=0.2), board,
+                            die_after=70)
+        assert plot_grbl.run_grbl_plot(sample_options(profile, board),
+                                       port=port) == plot_grbl.EXIT_PORT_LOST
+        confirmed = plot_grbl.grbl_journal().load().confirmed
+        last_sent = sent_job_lines(port.sent, lines)
+        resume_port = ThawingPort(serial.Serial(board.port, 115200, timeout=0.2), board)
+        code = plot_grbl.run_grbl_plot(resume_options(profile, board), port=resume_port)
+        out, err = capsys.readouterr()
+        board.stop()
+    assert code == plot_grbl.EXIT_OK, err
+    found = re.search(r"resuming at G-code line (\d+) of \d+: GRBL was reset while it "
+                      r"still moved \(ALARM:3\), so the (\d+) lines before line (\d+) "
+                      r"that GRBL had queued may not have run", out)
+    assert found, out
+    start = int(found[1]) - 1
+    assert int(found[3]) == confirmed + 2 and int(found[2]) == confirmed + 1 - start
+    # back over the planner's 15 and the stepper's 5 blocks (a line is at least one),
+    # never past a dwell: GRBL answers one only once all before it has run
+    moves = [k for k in motion_lines(lines) if start <= k <= confirmed]
+    dwell = [k for k in range(start, confirmed + 1) if lines[k].text.startswith("G4")]
+    assert start <= confirmed and not dwell and (len(moves) == 20 or
+                                                 lines[start - 1].text.startswith("G4"))
+    assert "homing ($H)" in out and "process has finished" in out
+    assert plot_grbl.grbl_journal().load().state == FINISHED
+    # the first session stopped where the reset cut GRBL's queue (inside a line, and
+    # before the end of what it had been sent); the resume drew the rest
+    drawn = check_resumed(board, setup_end, resume_port.cut, lines, start, pen)
+    # the reset dropped lines GRBL had acknowledged: going on after the last `ok`
+    # would have skipped them
+    assert start <= motion_lines(lines)[drawn] <= confirmed < last_sent
+
+
+def test_resume_without_switches_has_the_user_re_zero(profile, capsys):
+    """GRBL without homing ($22=0): the resume cannot find the position by itself.
+    Here the head keeps its place in simavr, so GRBL's work zero is spoiled first (as a
+    reset of a real board loses it); the user puts the pen on the job's work zero, and
+    the resume makes that G54's zero again, then goes on from there."""
+    lines = planned_gcode(profile)
+    pen = pen_from_config(load_profile(profile).config)
+    with grbl_machine({**SETTINGS, 10: "3"}) as (board, link):
+        link.port.close()
+        setup_end = settled_trace(board)        # the job's work zero: where GRBL woke
+        port = RecordingPort(serial.Serial(board.port, 115200, timeout=0.2), die_after=45)
+        assert plot_grbl.run_grbl_plot(sample_options(profile, board),
+                                       port=port) == plot_grbl.EXIT_PORT_LOST
+        confirmed = plot_grbl.grbl_journal().load().confirmed
+        wait_until_still(board.port)
+        cut = settled_trace(board)
+        with serial.Serial(board.port, 115200, timeout=0.2) as user_port:
+            user = GrblLink.connect(user_port)
+            user.command_checked("G90 G0 X0 Y0")            # the pen on the work zero
+            user.command_checked(f"G1 Z{SCALE.mm(2, pen.down_z_steps)} F600")
+            user.command_checked("G10 L2 P1 X3 Y-2 Z1")     # GRBL's idea of it lost
+            user.wait_idle()
+        code = plot_grbl.run_grbl_plot(resume_options(profile, board))
+        out, err = capsys.readouterr()
+        board.stop()
+    assert code == plot_grbl.EXIT_OK, err
+    assert f"resuming at G-code line {confirmed + 2} of {len(lines)}, after the last line " \
+           f"GRBL acknowledged" in out
+    assert ("GRBL has no homing ($22=0): the reset lost its position. The pen must stand "
+            "at the job's work zero (X0 Y0, the pen down on the paper: Z0): move it there "
+            "(--yes takes the machine as standing there)") in out
+    assert "homing ($H)" not in out and "process has finished" in out
+    check_resumed(board, setup_end, cut, lines, confirmed + 1, pen,
+                  resumed_from=(0, 0, pen.down_z_steps))
 
 
 # ---- the G-code side, without a board -------------------------------------------------------
