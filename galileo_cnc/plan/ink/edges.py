@@ -21,20 +21,20 @@ class EdgeIndex:
 
     def __init__(self, rings: list[np.ndarray], cell_nm: int):
         self.cell = max(int(cell_nm), 1)
-        starts, ring_ids, edge_ids = [], [], []
-        for number, ring in enumerate(rings):
-            starts.append(ring)
-            ring_ids.append(np.full(len(ring), number, dtype=np.int64))
-            edge_ids.append(np.arange(len(ring), dtype=np.int64))
-        if not starts:
+        if not rings:
             self.a = self.b = np.zeros((0, 2), dtype=np.int64)
             self.ring = self.edge = np.zeros(0, dtype=np.int64)
             self._keys = self._members = np.zeros(0, dtype=np.int64)
             return
-        self.a = np.concatenate(starts)
-        self.b = np.concatenate([np.roll(ring, -1, axis=0) for ring in rings])
-        self.ring = np.concatenate(ring_ids)
-        self.edge = np.concatenate(edge_ids)
+        sizes = np.array([len(ring) for ring in rings], dtype=np.int64)
+        first = np.repeat(np.cumsum(sizes) - sizes, sizes)
+        self.a = np.concatenate(rings).astype(np.int64, copy=False)
+        self.ring = np.repeat(np.arange(len(rings), dtype=np.int64), sizes)
+        self.edge = np.arange(len(self.a), dtype=np.int64) - first
+        # each edge ends at the ring's next vertex, the last at the ring's first
+        after = np.arange(len(self.a)) + 1
+        after[np.cumsum(sizes)[sizes > 0] - 1] = (np.cumsum(sizes) - sizes)[sizes > 0]
+        self.b = self.a[after]
         self._build()
 
     def _build(self) -> None:

@@ -469,9 +469,12 @@ def _stop_point(ring: np.ndarray, stop: _Stop) -> np.ndarray:
     """The stop as a (1, 3) row; a stop on one of the ring's vertices is that vertex
     (its tolerance class too)."""
     count = len(ring)
-    ends = ring[[stop.edge % count, (stop.edge + 1) % count]]
-    on_vertex = np.all(ends[:, :2] == stop.point, axis=1)
-    return np.array([[*stop.point, int(ends[on_vertex, 2].max(initial=0))]], dtype=np.int64)
+    inner = 0
+    for x, y, vertex_inner in (ring[stop.edge % count].tolist(),
+                               ring[(stop.edge + 1) % count].tolist()):
+        if (x, y) == stop.point:
+            inner = max(inner, vertex_inner)
+    return np.array([[*stop.point, inner]], dtype=np.int64)
 
 
 # ---- gaps ----------------------------------------------------------------------------
