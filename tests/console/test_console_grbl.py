@@ -19,6 +19,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
+import serial
 from prompt_toolkit.application import create_app_session
 from prompt_toolkit.data_structures import Size
 from prompt_toolkit.input import create_pipe_input
@@ -30,13 +31,15 @@ from galileo_cnc.console.grbl_job import grbl_journal
 from galileo_cnc.grbl.gcode import expected_end_steps, job_to_gcode, pen_from_config
 from galileo_cnc.grbl.session import pen_pieces
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
-from galileo_cnc.stream.journal import ABORTED, FINISHED
+from galileo_cnc.stream.journal import ABORTED, FINISHED, INTERRUPTED
+from galileo_cnc.transport import discovery
 
 from test_console import WAIT_S, ConsoleUser, Screen, console_in_thread, home  # noqa: F401
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "grbl"))
 from grbl_support import (CONFIG, LIMITS, SCALE, SETTINGS, check_resumed,  # noqa: E402
-                          grbl_machine, positions, set_work_zero, settled_trace)
+                          grbl_machine, motion_lines, positions, set_work_zero,
+                          settled_trace, wait_until_still)
 from grbl_support import HOMING as RESUME_HOMING  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -334,15 +337,7 @@ def test_a_job_stopped_with_q_resumes_in_the_same_session(home):  # noqa: F811
             user.expect(r"homing \(\$H\)")
             user.expect(r"homed; work offset \(G54, kept in GRBL's EEPROM\) -60\.000, "
                         r"-60\.000, -10\.000 mm")
-            # the pen in use at the resumed line, then each change after it
-            asked = [(a, True) for first, a in pieces if first < start][-1:]
-            if any(first == start for first, _ in pieces):
-                asked = []
-            asked += [(a, False) for first, a in pieces if first >= start]
-            for aperture, resuming in asked:
-                goes_on = r".*\(the pen the job goes on with\)" if resuming else ""
-                user.expect(rf"\ainsert pen for aperture D{aperture} \({goes_on}")
-                user.type("\r")
+            answer_pens_of_the_rest(user, pieces, start)
             finished = user.expect(r"\aprocess has finished in \d+:\d\d \(\d+ G-code "
                                    r"lines\); GRBL stands at X (\S+) Y (\S+) Z (\S+) mm")
             stands = tuple(round(float(v) * STEPS_PER_MM) for v in finished.groups())
@@ -362,6 +357,111 @@ def test_a_job_stopped_with_q_resumes_in_the_same_session(home):  # noqa: F811
     pins = tuple(int(v) for v in positions(board)[-1])
     assert tuple(p - m for p, m in zip(pins, machine)) == tuple(t for _, t in LIMITS)
     assert board.summary["overruns"] == "0" and board.summary["dropped"] == "0"
+
+
+def answer_pens_of_the_rest(user, pieces, start: int) -> None:
+    """Enter at each pen the resume asks for: the one in use at line `start` (unless a
+    change comes right there), then each change after it."""
+    asked = [(a, True) for first, a in pieces if first < start][-1:]
+    if any(first == start for first, _ in pieces):
+        asked = []
+    asked += [(a, False) for first, a in pieces if first >= start]
+    for aperture, resuming in asked:
+        goes_on = r".*\(the pen the job goes on with\)" if resuming else ""
+        user.expect(rf"\ainsert pen for aperture D{aperture} \({goes_on}")
+        user.type("\r")
+
+
+class DyingPort:
+    """The console's port to GRBL, pulled out (SerialException from then on) just as
+    the job's line `at` is about to be written."""
+
+    def __init__(self, port, lines, at: int):
+        self.port, self.lines, self.at = port, lines, at
+        self.sent = 0                   # job lines written, in order
+        self.dead = False
+
+    def write(self, data: bytes) -> int:
+        if self.dead:
+            raise serial.SerialException("device disconnected")
+        if self.sent < len(self.lines) and data == self.lines[self.sent].text.encode() + b"\n":
+            if self.sent == self.at:
+                self.dead = True
+                raise serial.SerialException("device disconnected")
+            self.sent += 1
+        return self.port.write(data)
+
+    def readline(self, *args) -> bytes:
+        if self.dead:
+            raise serial.SerialException("device disconnected")
+        return self.port.readline(*args)
+
+    def close(self) -> None:
+        self.port.close()
+
+    def __getattr__(self, name):
+        return getattr(self.port, name)
+
+
+def test_a_job_whose_port_is_lost_resumes_after_connect(home, monkeypatch):  # noqa: F811
+    """The cable is pulled while getg streams (line 56 of 79, in the middle of the
+    job's longest drawing): the journal says `interrupted`, GRBL runs on with what
+    it had; once it stands still the user types `connect`, then `resume`: after the
+    last line GRBL acknowledged, homed, to "finished". GRBL's pins: the two parts
+    together draw the whole job, and nothing GRBL acknowledged is drawn twice."""
+    job, lines = planned_lines(CONFIG)
+    pen = pen_from_config(CONFIG)
+    pieces = pen_pieces(lines, job.pen_changes)
+    end_work = expected_end_steps(lines, SCALE)[-1]
+    opened = []
+
+    def open_dying(*args, **kwargs):    # the first port the console opens is pulled
+        opened.append(real_open(*args, **kwargs))
+        if len(opened) == 1:
+            opened[0] = DyingPort(opened[0], lines, at=45)
+        return opened[-1]
+
+    real_open = discovery.open_port
+    monkeypatch.setattr(discovery, "open_port", open_dying)
+    with grbl_machine(RESUME_HOMING, limits=LIMITS) as (board, setup_link):
+        set_work_zero(setup_link)
+        setup_end = settled_trace(board)
+        with console_object(home, board.port, CONFIG) as (user, console):
+            user.line(f"getg --mode centre {BOARD}")
+            user.expect(r"use these offsets\? \[Y/n\]")
+            user.line("")
+            for _, aperture in pieces[:5]:
+                user.expect(rf"\ainsert pen for aperture D{aperture} \(")
+                user.type("\r")
+            lost = user.expect(rf"GRBL had acknowledged (\d+) of {len(lines)} G-code lines "
+                               r"and runs on with the lines it had; once the machine stands "
+                               r"still, connect again and type resume")
+            user.expect(r"the port is gone: type connect to reconnect, then resume")
+            entry = grbl_journal().load()
+            assert entry.state == INTERRUPTED and entry.confirmed + 1 == int(lost.group(1))
+            assert pieces[4][0] - 1 <= entry.confirmed < 55     # in the fifth pen's lines
+            wait_until_still(board.port)                        # as the user is told
+            cut = settled_trace(board)
+            user.line(f"connect {board.port}")
+            user.expect(rf"connected to GRBL 1\.1h on {board.port}")
+            user.line("resume")
+            user.expect(rf"resuming at G-code line {entry.confirmed + 2} of {len(lines)}, "
+                        r"after the last line GRBL acknowledged")
+            user.expect(r"continue the job\? \[Y/n\]")
+            user.line("")
+            user.expect(r"homed; work offset")
+            answer_pens_of_the_rest(user, pieces, entry.confirmed + 1)
+            finished = user.expect(r"\aprocess has finished in \d+:\d\d \(\d+ G-code "
+                                   r"lines\); GRBL stands at X (\S+) Y (\S+) Z (\S+) mm")
+            assert tuple(round(float(v) * STEPS_PER_MM) for v in finished.groups()) == end_work
+            assert status(user)[:2] == ("Idle", end_work)
+            assert grbl_journal().load().state == FINISHED
+        board.stop()
+    assert "Traceback" not in user.screen.text
+    drawn = check_resumed(board, setup_end, cut, lines, entry.confirmed + 1, pen)
+    # GRBL ran its queue to the end: the first part ends on a line's end point, at or
+    # after the last acknowledged line (drawn again from there only what was in flight)
+    assert motion_lines(lines)[drawn - 1] >= entry.confirmed
 
 
 @pytest.mark.parametrize("port", ["sim://?speed=0"])
