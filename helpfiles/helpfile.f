@@ -72,10 +72,10 @@ connect [PORT]
     connection is kept. A board whose firmware was built for another machine
     profile is named on the connection line and gets no jobs until reflashed.
     A stock GRBL 1.1 board is recognised by its banner ("connected to GRBL
-    1.1h on ..."): getg, setup, status, home ($H) and unlock ($X) work on it
-    too (jogs are $J= moves; q or releasing the key cancels one); resume does
-    not (use galileo-cnc plot --resume there). Its $100-$102 must match the
-    profile's steps/mm, or jobs are refused with the lines to send.
+    1.1h on ..."): getg, setup, status, home ($H), unlock ($X) and resume
+    work on it too (jogs are $J= moves; q or releasing the key cancels one).
+    Its $100-$102 must match the profile's steps/mm, or jobs are refused with
+    the lines to send.
 
 [home]
 home
@@ -95,8 +95,12 @@ resume
     after the last command the machine ran; a stopped one goes back, pen up,
     to the start of the command the machine ramped down in and draws on from
     there (a few millimetres may be drawn twice, nothing is skipped). It is
-    refused, saying why, when the file changed or the machine was reset or
-    moved since (its position no longer lies on the job's path).
+    refused, saying why, when the file changed or the machine was moved since
+    (its position no longer lies on the job's path). After a reset of the
+    board it homes first, if the job was started homed (galileo-cnc plot
+    --home); else the job must start again. On a GRBL board it homes with $H
+    (or, with no switches, asks you to put the pen back at work zero), then
+    goes on after the last line GRBL confirmed.
 
 [exit]
 exit
