@@ -31,6 +31,7 @@ from galileo_cnc.plan.nearby import distances_to
 from galileo_cnc.plan.pieces import Piece, Point, Row, cut_pieces
 from galileo_cnc.plan.repeats import drop_repeats
 from galileo_cnc.plan.tour import PERTURB_MAX, PERTURB_PER_CHAIN, Tour
+from galileo_cnc.program.ops import X, Y
 
 __all__ = ["EXACT", "TWO_OPT_MOVES", "Piece", "chain", "cut_pieces", "optimise", "order",
            "travel_nm"]
@@ -136,12 +137,33 @@ def optimise(rows: list[tuple[int, Row]], start: Point, join_nm: int,
     with _collector_paused():
         pieces = cut_pieces(rows, start)
         kept = [p for p in pieces if p.rows[0][0] in whole]
-        chains = chain(drop_repeats([p for p in pieces if p.rows[0][0] not in whole]),
-                       join_nm) if len(kept) < len(pieces) else []
+        others = [p for p in pieces if p.rows[0][0] not in whole]
+        if kept and others:
+            # a whole path that another piece touches (a centre line ending on a
+            # pad's walk) is chained with it as any path is: one stroke may draw both
+            near = touching(kept, others, join_nm)
+            others += [p for p, hit in zip(kept, near) if hit]
+            kept = [p for p, hit in zip(kept, near) if not hit]
+        chains = chain(drop_repeats(others), join_nm) if others else []
         if kept:      # in the file's order, as chain() leaves its chains
             chains = sorted(kept + chains, key=lambda c: min(i for i, _row in c.rows))
         tour, end = order(chains, start, moves, goal)
         return [entry for c in tour for entry in c.rows], end
+
+
+def touching(paths: list[Piece], others: list[Piece], join_nm: int) -> list[bool]:
+    """For each of `paths`, whether one of its vertices may lie within `join_nm` of a
+    vertex of `others` (flashes included): both in one cell of a join_nm grid or in
+    neighbouring ones. Never false where chaining or repeats could join them; now
+    and then true where they could not (two cells apart diagonally)."""
+    cell = max(join_nm, 1)
+    near: set[tuple[int, int]] = set()
+    for piece in others:
+        for _index, row in piece.rows:
+            cx, cy = row[X] // cell, row[Y] // cell
+            near.update((cx + dx, cy + dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1))
+    return [any((row[X] // cell, row[Y] // cell) in near for _index, row in p.rows)
+            for p in paths]
 
 
 @contextmanager

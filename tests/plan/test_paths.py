@@ -417,7 +417,7 @@ def test_many_paths_order_better_than_nearest_neighbour():
     assert paths.travel_nm(tour, (0, 0)) < 0.85 * nn
 
 
-def test_a_whole_path_is_ordered_as_it_is_while_other_paths_lose_their_repeats():
+def test_a_whole_path_is_ordered_as_it_is_unless_another_path_touches_it():
     # out 10 mm and back along the same line: a repeat worth leaving out (over 5 mm),
     # unless the path is a whole stroke already (the ink's fill walks: WHOLE_PATHS)
     there_and_back = [row(MOVE, 0, 0), row(LINE, 10 * MM, 0), row(LINE, 10 * MM, 10 * MM),
@@ -427,10 +427,20 @@ def test_a_whole_path_is_ordered_as_it_is_while_other_paths_lose_their_repeats()
     assert kept in (rows, paths.Piece(rows).reversed().rows)      # either way round
     cut, _end = paths.optimise(rows, (0, 0), STEP)
     assert len(cut) < len(rows)                   # the repeat is left out
-    # a second path beside a whole one: the whole one is not chained to it
-    other = [row(MOVE, 10 * MM, 10 * MM), row(LINE, 20 * MM, 10 * MM)]
+    # a second path apart from a whole one: the whole one is drawn as it is
+    other = [row(MOVE, 30 * MM, 10 * MM), row(LINE, 40 * MM, 10 * MM)]
     rows = list(enumerate(there_and_back + other))
     drawn, _end = paths.optimise(rows, (0, 0), STEP, whole=frozenset({0}))
     block = [k for k, (index, _row) in enumerate(drawn) if index <= 4]
     assert block == list(range(block[0], block[0] + 5))       # its five rows, together
     assert len(drawn) == 7
+    # one that ends on a vertex of it (a centre line into a pad's walk): chained with
+    # it as any path is, one stroke for both
+    touching = [row(MOVE, 20 * MM, 10 * MM), row(LINE, 10 * MM, 10 * MM)]
+    rows = list(enumerate(there_and_back + touching))
+    drawn, _end = paths.optimise(rows, (0, 0), STEP, whole=frozenset({0}))
+    assert sum(r[KIND] == MOVE for _index, r in drawn) == 1
+    assert paths.touching([paths.Piece(list(enumerate(there_and_back)))],
+                          [paths.Piece(list(enumerate(touching)))], STEP) == [True]
+    assert paths.touching([paths.Piece(list(enumerate(there_and_back)))],
+                          [paths.Piece(list(enumerate(other)))], STEP) == [False]

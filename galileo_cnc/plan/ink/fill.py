@@ -289,40 +289,49 @@ def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray], spacing: i
         stops[a].append(_Stop(*here, join=number, other=b))
         stops[b].append(_Stop(*there, join=number, other=a))
 
-    ends = _open_ends(nodes, stops, [j[0] for j in joins], root)
+    opened = _opened_joins(nodes, stops, joins, len(rings), root)
     tours = []
     done = [False] * len(nodes)
     for start in range(len(nodes)):       # outermost rings first: each tree in its turn
         if done[start]:
             continue
-        leaf = ends.get(root(start))
-        if leaf is None:                  # a ring alone: round from its vertex 0
+        if root(start) not in opened:     # a ring alone: round from its vertex 0
             tours.append(_walk_tree(start, nodes, stops, done))
             continue
-        # from the leaf's join round the leaf, over the join, and the rest of the tree
-        # as a closed walk from there: the leaf's join is drawn once, not there and back
-        stop = stops[leaf][0]
-        done[leaf] = True
-        head = np.concatenate(list(_walk_ring(stop, nodes[leaf], stops[leaf])))
+        # one side of the opened join as a closed walk from the join (a gap stroke at
+        # the end of it: from its far end in), over the join, and the other side as a
+        # closed walk from there: the join (and such a stroke) is drawn once
+        side, stop = opened[root(start)]
+        if side >= len(rings) and len(stops[side]) == 1:
+            done[side] = True
+            head = nodes[side][::-1]
+        else:
+            head = _walk_tree(side, nodes, stops, done, entry=stop)
         back = next(s for s in stops[stop.other] if s.join == stop.join)
         tours.append(_without_repeats(np.concatenate(
             [head, _walk_tree(stop.other, nodes, stops, done, entry=back)])))
     return tours
 
 
-def _open_ends(nodes: list[np.ndarray], stops: list[list[_Stop]], lengths: list[float],
-               root) -> dict[int, int]:
-    """Per tree of joined nodes (by its root), the leaf its walk starts from: the one
-    with the longest join (ties: the first), whose join is then drawn once."""
-    best: dict[int, tuple[float, int]] = {}
-    for node in range(len(nodes)):
-        if len(stops[node]) != 1:
-            continue
-        key = root(node)
-        length = lengths[stops[node][0].join]
-        if key not in best or length > best[key][0]:
-            best[key] = (length, node)
-    return {key: node for key, (_length, node) in best.items()}
+def _opened_joins(nodes: list[np.ndarray], stops: list[list[_Stop]], joins: list[tuple],
+                  strokes_from: int, root) -> dict[int, tuple[int, _Stop]]:
+    """Per tree of joined nodes (by its root), the join its walk draws once: the node
+    on the side walked first and its stop on the join. A walk is one stroke with two
+    ends: at most one join can be drawn once (any other would leave more than two
+    nodes of odd degree), and with a gap stroke at its end, that stroke too. So: the
+    join that saves most, its length plus its stroke's (ties: the first join)."""
+    best: dict[int, tuple[float, int, int, _Stop]] = {}
+    for node, at in enumerate(stops):
+        for stop in at:
+            length, first = joins[stop.join][0], joins[stop.join][1]
+            if node != first:
+                continue                  # each join once, from its first node's side
+            if node >= strokes_from and len(at) == 1:
+                length += float(np.hypot(*np.diff(nodes[node][:, :2], axis=0).T).sum())
+            key = root(node)
+            if key not in best or (length, -stop.join) > (best[key][0], -best[key][1]):
+                best[key] = (length, stop.join, node, stop)
+    return {key: (node, stop) for key, (_length, _join, node, stop) in best.items()}
 
 
 def _joins_out(inner: list[np.ndarray], outer: list[np.ndarray], first_inner: int,
