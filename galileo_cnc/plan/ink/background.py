@@ -1,10 +1,11 @@
 """Work done in a forked child while the caller goes on: the fill's second CPU.
 
 The fill of a large pour spends seconds in Clipper, which holds the GIL, so threads
-cannot share it out. Where the platform can fork, `in_background(fn, *args)` runs
+cannot share it out. Where the platform can fork, `Deferred(fn, *args)` runs
 fn(*args) in a child that starts as a copy of this process (nothing to import or
-send there) and sends back only the pickled result; elsewhere, or for small work,
-fn runs when the result is asked for. The answer is the same either way.
+send there) and sends back only the pickled result; elsewhere (Windows), or for
+small work (`fork=False`), fn runs when the result is asked for. The answer is the
+same either way.
 """
 
 from __future__ import annotations

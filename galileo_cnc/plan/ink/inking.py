@@ -58,7 +58,8 @@ class InkPlan:
     zero_size: int                        # objects of zero-size apertures (no copper)
     close: ClosePlaces                    # where islands come too close for two inks
     copper_nm2: float
-    coverage: Deferred                    # (filled_nm2, inked_nm2), worked out meanwhile
+    # (filled_nm2, inked_nm2): worked out meanwhile, a tuple once asked for
+    coverage: Deferred | tuple[float, float]
     warnings: list[ReaderWarning] = field(default_factory=list)
     seconds: float = 0.0
 
