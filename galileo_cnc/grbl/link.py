@@ -180,13 +180,23 @@ class GrblLink:
         return line
 
     def status(self, timeout_s: float = 5.0) -> Status:
-        """Sends `?` and returns the next report (with WCO carried over)."""
+        """Sends `?` and returns the next report (with WCO carried over). A report
+        that does not parse (a byte lost or flipped on the cable) is asked for once
+        more before it counts as an error."""
         self.realtime(STATUS_QUERY)
         deadline = time.monotonic() + timeout_s
+        garbled = False
         while time.monotonic() < deadline:
             line = self.read_line(deadline - time.monotonic())
             if line is not None and line.startswith("<"):
-                return self.tracker.update(parse_status(line))
+                try:
+                    return self.tracker.update(parse_status(line))
+                except GrblError:
+                    if garbled:
+                        raise
+                    garbled = True
+                    self.realtime(STATUS_QUERY)
+                    continue
             if line is not None:
                 self.classify(line)
         raise GrblError(f"no status report within {timeout_s:g} s")

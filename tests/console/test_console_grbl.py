@@ -309,12 +309,7 @@ def test_a_job_stopped_with_q_resumes_in_the_same_session(home):  # noqa: F811
         set_work_zero(setup_link)               # homed, G54 set, the set-up's port closed
         setup_end = settled_trace(board)
         with console_object(home, board.port, CONFIG) as (user, console):
-            user.line(f"getg --mode centre {BOARD}")
-            user.expect(r"use these offsets\? \[Y/n\]")
-            user.line("")
-            for _, aperture in pieces[:5]:
-                user.expect(rf"\ainsert pen for aperture D{aperture} \(")
-                user.type("\r")
+            getg_through_pens(user, pieces, 5)
             time.sleep(0.5)                     # the fifth pen draws for half a second
             user.type("q")
             user.expect(rf"job stopped after \d+ of {len(lines)} G-code lines: stopped by "
@@ -357,6 +352,16 @@ def test_a_job_stopped_with_q_resumes_in_the_same_session(home):  # noqa: F811
     pins = tuple(int(v) for v in positions(board)[-1])
     assert tuple(p - m for p, m in zip(pins, machine)) == tuple(t for _, t in LIMITS)
     assert board.summary["overruns"] == "0" and board.summary["dropped"] == "0"
+
+
+def getg_through_pens(user, pieces, count: int) -> None:
+    """getg the board with the proposed offsets, and insert its first `count` pens."""
+    user.line(f"getg --mode centre {BOARD}")
+    user.expect(r"use these offsets\? \[Y/n\]")
+    user.line("")
+    for _, aperture in pieces[:count]:
+        user.expect(rf"\ainsert pen for aperture D{aperture} \(")
+        user.type("\r")
 
 
 def answer_pens_of_the_rest(user, pieces, start: int) -> None:
@@ -427,12 +432,7 @@ def test_a_job_whose_port_is_lost_resumes_after_connect(home, monkeypatch):  # n
         set_work_zero(setup_link)
         setup_end = settled_trace(board)
         with console_object(home, board.port, CONFIG) as (user, console):
-            user.line(f"getg --mode centre {BOARD}")
-            user.expect(r"use these offsets\? \[Y/n\]")
-            user.line("")
-            for _, aperture in pieces[:5]:
-                user.expect(rf"\ainsert pen for aperture D{aperture} \(")
-                user.type("\r")
+            getg_through_pens(user, pieces, 5)
             lost = user.expect(rf"GRBL had acknowledged (\d+) of {len(lines)} G-code lines "
                                r"and runs on with the lines it had; once the machine stands "
                                r"still, connect again and type resume")

@@ -189,3 +189,33 @@ def test_grbl_homing_finds_each_switch_on_the_very_step_it_closes():
         assert turn == trip, ("XYZ"[axis], turn, trip)
     # GRBL's machine position (-1 mm) is the pins' trip point less 1 mm, on every axis
     assert tuple(int(v) for v in pos[-1]) == tuple(t - 160 for _, t in limits)
+
+
+class GarblingPort:
+    """GRBL's port with its next `garble` status reports damaged in the MPos field (a
+    byte lost on the cable), everything else passed through."""
+
+    def __init__(self, port, garble: int):
+        self.port, self.garble = port, garble
+
+    def readline(self, *args) -> bytes:
+        line = self.port.readline(*args)
+        if self.garble and b"MPos:" in line:
+            self.garble -= 1
+            line = line.replace(b"MPos:", b"MPos:x", 1)
+        return line
+
+    def __getattr__(self, name):
+        return getattr(self.port, name)
+
+
+def test_one_garbled_status_report_is_asked_for_again_two_are_an_error():
+    from galileo_cnc.grbl.reports import GrblError
+
+    with grbl_machine() as (_board, link):
+        link.port = GarblingPort(link.port, garble=1)
+        status = link.status()
+        assert status.state == "Idle" and status.mpos_nm == (0, 0, 0)
+        link.port = GarblingPort(link.port.port, garble=2)
+        with pytest.raises(GrblError, match="bad 'MPos' field"):
+            link.status()
