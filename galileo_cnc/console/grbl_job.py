@@ -109,12 +109,20 @@ def check_same_job(entry: JournalEntry, lines: list[GcodeLine]) -> None:
                               f"interrupted one had {entry.total}: it cannot be resumed")
 
 
+#: States in which a board that did not reset on opening had not run its queue out.
+NOT_RUN_OUT = ("Hold", "Door", "Run", "Jog")
+
+
 def cut_short(link, entry: JournalEntry) -> str | None:
     """Why GRBL's queue may have been cut before it ran every acknowledged line, None
-    when it ran on: GRBL was reset while it moved (`ALARM:3` on connecting), or the
-    job was stopped (q, Ctrl-C: hold and reset) or stopped by an alarm or a refusal."""
+    when it ran on: GRBL was reset while it moved (`ALARM:3` on connecting) or while
+    it stood held (a feed-hold button: no ALARM:3, but the queue is dropped all the
+    same), or the job was stopped (q, Ctrl-C: hold and reset) or stopped by an alarm
+    or a refusal."""
     if 3 in link.alarms:
         return "GRBL was reset while it still moved (ALARM:3)"
+    if link.state_before_reset in NOT_RUN_OUT:
+        return f"GRBL stood in {link.state_before_reset} with lines still queued"
     if entry.state in (ABORTED, FAILED):
         return f"the job was {entry.state} ({entry.reason})" if entry.reason else \
             f"the job was {entry.state}"

@@ -61,6 +61,9 @@ class GrblLink:
         self.messages: list[str] = []      # [MSG:...] and other push lines
         self.boot_lines: list[str] = []    # what came before the banner
         self.critical_alarm = False        # ALARM:1/2 seen, its reset message not yet
+        #: the state a board that did not reset on opening stood in before our soft
+        #: reset (Hold: its queue had not run out), None when it reset itself
+        self.state_before_reset: str | None = None
         self._partial = b""
 
     # ---- lines ----------------------------------------------------------------
@@ -102,6 +105,7 @@ class GrblLink:
             line = self.read_line(min(1.0, max(0.05, deadline - time.monotonic())))
             if line is None:
                 if not asked:
+                    self.state_before_reset = self._state_before_reset()
                     self.realtime(SOFT_RESET)
                     asked = True
                 continue
@@ -119,6 +123,20 @@ class GrblLink:
             return version
         raise GrblError(f"no GRBL banner within {timeout_s:g} s "
                         f"(got {self.boot_lines[-3:]!r})")
+
+    def _state_before_reset(self) -> str | None:
+        """A silent board did not reset on opening: what it stands in (`?`), before
+        our reset makes it forget (a reset in a finished feed hold drops the queue
+        without ALARM:3). None when it does not answer."""
+        self.realtime(STATUS_QUERY)
+        line = self.read_line(0.5)
+        while line is not None and not line.startswith("<"):
+            self.boot_lines.append(line)
+            line = self.read_line(0.5)
+        try:
+            return parse_status(line).state if line is not None else None
+        except GrblError:
+            return None
 
     def read_info(self) -> None:
         self.build = parse_build_info(list(self.command_checked("$I").lines))

@@ -103,7 +103,7 @@ def open_identified(device: str, baud: int, wait_s: float = BANNER_WAIT_S
 
 def _identify(port, wait_s: float) -> str | None:
     deadline = time.monotonic() + wait_s
-    asked = False
+    asked = status_asked = False
     while time.monotonic() < deadline:
         line = port.readline()
         if line.endswith(b"\n"):
@@ -115,12 +115,23 @@ def _identify(port, wait_s: float) -> str | None:
             # GRBL answers our framed `V` with error:N; `$I` then says who it is
             if asked and text.startswith("error:") and text[6:].isdigit():
                 port.write(b"$I\n")
-            if text.startswith("[VER:1.1"):
+            if text.startswith("[VER:1.1") or _is_grbl_status(text):
                 return GRBL
         elif not line and not asked and time.monotonic() > deadline - wait_s / 2:
             port.write(P.frame_line(0, "V"))
             asked = True
+        elif not line and asked and not status_asked and time.monotonic() > deadline - wait_s / 4:
+            # no answer to `V` either: a GRBL in a feed hold reads no line until it is
+            # resumed, but answers its real-time `?` (ours would have answered `V`)
+            port.write(b"?")
+            status_asked = True
     return None
+
+
+def _is_grbl_status(text: str) -> bool:
+    """A GRBL 1.1 status report: `<Hold:0|MPos:1.000,2.000,0.000|...>`."""
+    return (text.startswith("<") and text.endswith(">")
+            and ("|MPos:" in text or "|WPos:" in text))
 
 
 def open_board(port: str | None, baud: int = DEFAULT_BAUD

@@ -183,6 +183,48 @@ def test_resume_while_grbl_still_moves_goes_back_over_its_queue(profile, capsys)
     assert start <= motion_lines(lines)[drawn] <= confirmed < last_sent
 
 
+class HoldingPort(RecordingPort):
+    """The user presses the shield's feed-hold button just as the cable goes: `!`
+    reaches GRBL, then the port dies (die_after)."""
+
+    def write(self, data: bytes) -> int:
+        if data.endswith(b"\n") and self.lines_written + 1 == self.die_after:
+            self.port.write(b"!")
+        return super().write(data)
+
+
+def test_resume_of_a_machine_held_when_the_port_went_goes_back_over_its_queue(profile,
+                                                                                capsys):
+    """GRBL held (feed hold) when the port was lost stands still with its queue: the
+    resume's reset drops it without ALARM:3. The resume asks the state first (`?`,
+    before the reset), sees Hold, and goes back over the queue as after ALARM:3; the
+    two sessions together draw the whole job."""
+    lines = planned_gcode(profile)
+    pen = pen_from_config(load_profile(profile).config)
+    with grbl_machine(HOMING, limits=LIMITS) as (board, link):
+        set_work_zero(link)
+        setup_end = settled_trace(board)
+        port = HoldingPort(serial.Serial(board.port, 115200, timeout=0.2), die_after=70)
+        assert plot_grbl.run_grbl_plot(sample_options(profile, board),
+                                       port=port) == plot_grbl.EXIT_PORT_LOST
+        confirmed = plot_grbl.grbl_journal().load().confirmed
+        cut = settled_trace(board)              # held: the head stands, lines queued
+        code = cli.main(["plot", SAMPLE, "--resume", "--yes", "--port", board.port,
+                         "--profile", profile])
+        out, err = capsys.readouterr()
+        board.stop()
+    assert code == 0, err
+    found = re.search(r"resuming at G-code line (\d+) of \d+: GRBL stood in Hold with "
+                      r"lines still queued", out)
+    assert found, out
+    start = int(found[1]) - 1
+    assert start <= confirmed and "ALARM" not in out + err
+    drawn = check_resumed(board, setup_end, cut, lines, start, pen)
+    # the hold stopped GRBL short of lines it had acknowledged: going on after the
+    # last `ok` would have skipped them
+    assert start <= motion_lines(lines)[drawn] <= confirmed
+
+
 def test_resume_without_switches_has_the_user_re_zero(profile, capsys):
     """GRBL without homing ($22=0): the resume cannot find the position by itself.
     Here the head keeps its place in simavr, so GRBL's work zero is spoiled first (as a
