@@ -25,6 +25,8 @@ the simulated world's frame, and their union must be the homed fault-free run's.
 
     python3 bench/bench_faults.py                     # 1,000 on sim://, 1,000 on simavr
     python3 bench/bench_faults.py --sim 200 --simavr 0 --seed 7
+    python3 bench/bench_faults.py --sim 0 --simavr 600 --part 1/2   # half of one campaign;
+    python3 bench/bench_faults.py --sim 0 --simavr 600 --part 2/2   # the other on a 2nd core
 
 Reproducible for a seed: the sessions (kind, rate, which reply is lost, when the reset
 comes) and each direction's fault draws. Not reproducible: which bytes the host sends
@@ -313,13 +315,18 @@ def plan(target_name: str, count: int, seed: int, replies: int) -> list[tuple[Fa
 
 
 def campaign(target, count: int, seed: int, tmp: Path, progress=True,
-             partial: Path | None = None) -> Counter:
+             partial: Path | None = None, part: tuple[int, int] = (1, 1)) -> Counter:
+    """The seeded campaign of `count` sessions, or its part k of n (every n-th session
+    from the k-th), so that n processes together run exactly the one campaign."""
     program = read_file(SAMPLE)
     job = plan_program(program, None, proposed_offset(program))
     table: Counter = Counter()
     failures = []
     began = time.monotonic()
-    for n, (fault, s) in enumerate(plan(target.name, count, seed, len(job) + 2)):
+    k, n_parts = part
+    sessions = plan(target.name, count, seed, len(job) + 2)[k - 1::n_parts]
+    count = len(sessions)
+    for n, (fault, s) in enumerate(sessions):
         outcome = session(target, job, program, fault, s, tmp)
         table[(fault.label(), outcome)] += 1
         if outcome in ("hang", "wrong", "crash"):
@@ -354,6 +361,17 @@ def print_table(name: str, table: Counter) -> None:
     print(table_text(name, table), end="")
 
 
+def _part(text: str) -> tuple[int, int]:
+    k, _, n = text.partition("/")
+    try:
+        k, n = int(k), int(n)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected K/N such as 1/2, got {text!r}") from None
+    if not 1 <= k <= n:
+        raise argparse.ArgumentTypeError(f"part {text}: K must be between 1 and N")
+    return k, n
+
+
 def main(argv=None) -> int:
     import tempfile
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -362,6 +380,8 @@ def main(argv=None) -> int:
     parser.add_argument("--seed", type=int, default=13)
     parser.add_argument("--partial", type=Path,
                         help="rewrite this file with the table so far after each session")
+    parser.add_argument("--part", type=_part, default=(1, 1), metavar="K/N",
+                        help="run only part K of N of the campaign (for N processes)")
     args = parser.parse_args(argv)
     bad = 0
     with tempfile.TemporaryDirectory() as tmp:
@@ -370,8 +390,11 @@ def main(argv=None) -> int:
                 continue
             target = make()
             began = time.monotonic()
-            table = campaign(target, count, args.seed, Path(tmp), partial=args.partial)
-            print_table(f"{target.name}: {count} sessions, seed {args.seed}, "
+            table = campaign(target, count, args.seed, Path(tmp), partial=args.partial,
+                             part=args.part)
+            share = "" if args.part == (1, 1) else f" (part {args.part[0]}/{args.part[1]})"
+            print_table(f"{target.name}: {sum(table.values())} of {count} sessions{share}, "
+                        f"seed {args.seed}, "
                         f"{time.monotonic() - began:.0f} s", table)
             bad += sum(v for (_, o), v in table.items() if o in ("hang", "wrong", "crash"))
     return 1 if bad else 0
