@@ -59,6 +59,10 @@ static int log_level = LOG_WARNING;
 
 static void on_signal(int sig) { stop_signal = sig; }
 
+/* SIGUSR1 presses the reset button (as an Uno's auto-reset when a port opens). */
+static volatile sig_atomic_t reset_requested;
+static void on_reset_signal(int sig) { (void)sig; reset_requested = 1; }
+
 /* simavr's messages go to stderr: stdout carries "pty:" or the UART itself. */
 static void logger(avr_t *avr, const int level, const char *format, va_list ap)
 {
@@ -306,7 +310,18 @@ struct run {
 	avr_cycle_count_t service_cycles;
 	int out_of_time;
 	int state_at_stop;
+	uint64_t resets;
+	avr_cycle_count_t cycle_base; /* cycles run before the last reset */
+	avr_cycle_count_t max_cycles; /* --max-seconds in cycles, or 0 */
+	pins_t *pins;
+	timer_quirks_t *quirks;
 };
+
+/* Cycles since power-up: simavr's count restarts at every reset. */
+static avr_cycle_count_t run_cycles(const struct run *r)
+{
+	return r->cycle_base + r->avr->cycle;
+}
 
 /* --max-seconds: a timer, so a sleeping AVR stops on the exact cycle too
  * (stopping the core keeps simavr from jumping on to the next timer). */
@@ -331,12 +346,35 @@ static avr_cycle_count_t service_timer(avr_t *avr, avr_cycle_count_t when, void 
 		r->last_flush_ns = now;
 	}
 	if (r->max_speed > 0) {
-		double sim_ns = (double)avr->cycle * 1e9 / avr->frequency;
+		double sim_ns = (double)run_cycles(r) * 1e9 / avr->frequency;
 		int64_t ahead_ns = (int64_t)(sim_ns / r->max_speed) - (now - r->start_ns);
 		if (ahead_ns > 1000000)
 			usleep((useconds_t)(ahead_ns / 1000));
 	}
 	return when + r->service_cycles;
+}
+
+/* The reset button. simavr's avr_reset() restarts the cycle count and drops
+ * every cycle timer, so the trace carries on from a base (with a mark at the
+ * reset) and the harness' timers start again. The head keeps its place: the
+ * end-stops go on counting from where it stands. Host bytes not yet delivered
+ * are lost, as a real board's are while it restarts. */
+static void reset_board(struct run *r)
+{
+	avr_t *avr = r->avr;
+	avr_cycle_count_t at = run_cycles(r);
+	r->cycle_base = at;
+	avr_reset(avr);
+	pins_reset(r->pins, at);
+	uart_bridge_reset(r->uart);
+	timer_quirks_start(r->quirks);
+	avr_cycle_timer_register(avr, r->service_cycles, service_timer, r);
+	if (r->max_cycles) {
+		if (at >= r->max_cycles)
+			r->out_of_time = 1;
+		else
+			avr_cycle_timer_register(avr, r->max_cycles - at, max_seconds_timer, r);
+	}
 }
 
 int main(int argc, char **argv)
@@ -410,11 +448,14 @@ int main(int argc, char **argv)
 	sigaction(SIGTERM, &sa, NULL);
 	sigaction(SIGINT, &sa, NULL);
 	sigaction(SIGHUP, &sa, NULL);
+	sa.sa_handler = on_reset_signal;
+	sigaction(SIGUSR1, &sa, NULL);
 	signal(SIGPIPE, SIG_IGN);
 
 	struct run run = {
 		.avr = avr, .uart = &uart, .trace = trace, .max_speed = opt.max_speed,
 		.service_cycles = (avr_cycle_count_t)opt.freq / 1000000u * SERVICE_US,
+		.pins = &pins, .quirks = &quirks,
 	};
 	avr_cycle_timer_register(avr, run.service_cycles, service_timer, &run);
 
@@ -438,9 +479,10 @@ int main(int argc, char **argv)
 		uart_bridge_wait_input(&uart, &stop_signal);
 	timer_quirks_start(&quirks);
 	run.start_ns = run.last_flush_ns = now_ns();
-	if (opt.max_seconds > 0)
-		avr_cycle_timer_register(avr, (avr_cycle_count_t)(opt.max_seconds * opt.freq + 0.5),
-					 max_seconds_timer, &run);
+	if (opt.max_seconds > 0) {
+		run.max_cycles = (avr_cycle_count_t)(opt.max_seconds * opt.freq + 0.5);
+		avr_cycle_timer_register(avr, run.max_cycles, max_seconds_timer, &run);
+	}
 
 	const char *reason = NULL;
 	int status = EXIT_OK;
@@ -464,6 +506,11 @@ int main(int argc, char **argv)
 			reason = strsignal(stop_signal);
 			break;
 		}
+		if (reset_requested) {
+			reset_requested = 0;
+			reset_board(&run);
+			run.resets++;
+		}
 		if (run.out_of_time) {
 			reason = "max-seconds";
 			avr->state = run.state_at_stop;
@@ -481,12 +528,13 @@ int main(int argc, char **argv)
 			(unsigned long long)quirks.replays);
 	fprintf(stderr,
 		"galileo-simavr: stop: %s; state=%s pc=0x%04x cycle=%llu (%.6f s) "
-		"uart0 rx=%llu tx=%llu frame=%llu cycles overruns=%llu dropped=%llu trace=%llu\n",
-		reason, state_name(avr->state), (unsigned)avr->pc, (unsigned long long)avr->cycle,
-		(double)avr->cycle / opt.freq, (unsigned long long)uart.rx_bytes,
+		"uart0 rx=%llu tx=%llu frame=%llu cycles overruns=%llu dropped=%llu trace=%llu "
+		"resets=%llu\n",
+		reason, state_name(avr->state), (unsigned)avr->pc, (unsigned long long)run_cycles(&run),
+		(double)run_cycles(&run) / opt.freq, (unsigned long long)uart.rx_bytes,
 		(unsigned long long)uart.tx_bytes, (unsigned long long)uart.uart->cycles_per_byte,
 		(unsigned long long)uart.overruns, (unsigned long long)uart.dropped_out,
-		(unsigned long long)pins.records);
+		(unsigned long long)pins.records, (unsigned long long)run.resets);
 	uart_bridge_close(&uart, opt.pty_link);
 	return status;
 }

@@ -43,6 +43,9 @@ void pins_axis_default(int axis, uint8_t *step_pin, uint8_t *dir_pin)
 	*dir_pin = axis_pins[axis].dir;
 }
 
+/* PINB, PINC, PIND in the ATmega328P's data space. */
+static const uint16_t pin_register[3] = {0x23, 0x26, 0x29};
+
 static avr_irq_t *pin_irq(avr_t *avr, int pin)
 {
 	char port;
@@ -52,9 +55,10 @@ static avr_irq_t *pin_irq(avr_t *avr, int pin)
 	return avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(port), bit);
 }
 
-static void record(pins_t *p, uint8_t pin, uint8_t level)
+static void write_record(pins_t *p, uint64_t cycle, uint8_t pin, uint8_t level)
 {
-	uint64_t cycle = p->avr->cycle;
+	if (!p->trace)
+		return;
 	uint8_t rec[TRACE_RECORD_BYTES];
 	for (int i = 0; i < 8; i++)
 		rec[i] = (uint8_t)(cycle >> (8 * i));
@@ -62,6 +66,11 @@ static void record(pins_t *p, uint8_t pin, uint8_t level)
 	rec[9] = level;
 	fwrite(rec, sizeof(rec), 1, p->trace);
 	p->records++;
+}
+
+static void record(pins_t *p, uint8_t pin, uint8_t level)
+{
+	write_record(p, p->cycle_base + p->avr->cycle, pin, level);
 }
 
 static void drive_home(pins_t *p, endstop_t *e)
@@ -184,4 +193,23 @@ int pins_attach(pins_t *p, avr_t *avr, FILE *trace, const uint8_t *traced, int n
 		drive_home(p, e);
 	}
 	return 0;
+}
+
+void pins_reset(pins_t *p, uint64_t cycle)
+{
+	write_record(p, cycle, TRACE_RESET_PIN, 0);
+	p->cycle_base = cycle;
+	for (int a = 0; a < AXES; a++) {
+		endstop_t *e = &p->axis[a];
+		if (!e->active)
+			continue;
+		/* The switch is where it was, and the port's "external" value still holds
+		 * it; only the PIN bit needs setting again, directly: simavr would filter
+		 * an IRQ of the level it last raised. */
+		char port = 'B';
+		int bit = 0;
+		pins_arduino(e->home_pin, &port, &bit);
+		uint8_t *pin_reg = &p->avr->data[pin_register[port - 'B']];
+		*pin_reg = (uint8_t)((*pin_reg & ~(1u << bit)) | ((unsigned)e->home_level << bit));
+	}
 }

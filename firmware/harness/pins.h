@@ -14,6 +14,8 @@
 
 /* One trace record on disk: little-endian u64 cycle, u8 pin, u8 level. */
 #define TRACE_RECORD_BYTES 10
+/* The pin of the record that marks a reset (the cycle it came at, level 0). */
+#define TRACE_RESET_PIN 0xff
 
 struct pins_t;
 
@@ -37,6 +39,7 @@ typedef struct pins_t {
 	avr_t *avr;
 	FILE *trace;
 	uint64_t records;
+	uint64_t cycle_base; /* cycles before the last reset: records count from power-up */
 	pin_state_t pin[PINS_MAX];
 	endstop_t axis[AXES];
 	uint8_t ext_mask[3], ext_value[3]; /* driven inputs of ports B, C, D */
@@ -55,5 +58,9 @@ int pins_set_axis(pins_t *p, int axis, int step_pin, int dir_pin);
 int pins_add_endstop(pins_t *p, int axis, int home_pin, int64_t trip_steps);
 /* Hooks the traced pins and the end-stop axes' pins; drives the home pins. */
 int pins_attach(pins_t *p, avr_t *avr, FILE *trace, const uint8_t *traced, int ntraced);
+/* After avr_reset() at `cycle` (since power-up): writes the reset mark and drives
+ * the home pins again (the reset cleared the PIN registers). The pins' levels are
+ * kept: the firmware's first writes after the reset record whatever changed. */
+void pins_reset(pins_t *p, uint64_t cycle);
 
 #endif

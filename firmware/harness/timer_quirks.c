@@ -69,6 +69,7 @@ int timer_quirks_attach(timer_quirks_t *q, avr_t *avr)
 
 void timer_quirks_start(timer_quirks_t *q)
 {
+	q->timer0_running = 0; /* stopped at power-up and after a reset */
 	if (q->ocr1a_at_start < 0)
 		return;
 	/* simavr reads OCR1A from data memory when the firmware configures

@@ -180,6 +180,15 @@ static void start_feeding(uart_bridge_t *b)
 	b->feeding = 1;
 }
 
+void uart_bridge_reset(uart_bridge_t *b)
+{
+	b->in_tail = b->in_head;
+	b->feeding = 0;
+	b->last_feed_cycle = 0;
+	memset(b->seen_regs, 0, sizeof(b->seen_regs));
+	b->frame_cycles = 0;
+}
+
 static int readable(int fd)
 {
 	struct pollfd p = {.fd = fd, .events = POLLIN};

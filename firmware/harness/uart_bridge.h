@@ -66,6 +66,8 @@ int uart_bridge_attach(uart_bridge_t *b, avr_t *avr);
 void uart_bridge_check_frame(uart_bridge_t *b);
 /* Moves bytes between the host and the queues; call every few thousand cycles. */
 void uart_bridge_service(uart_bridge_t *b);
+/* After avr_reset(): the feed timer is gone and undelivered host bytes are lost. */
+void uart_bridge_reset(uart_bridge_t *b);
 /* Last chance to hand the AVR's output to the host (blocking, bounded). */
 void uart_bridge_flush(uart_bridge_t *b);
 void uart_bridge_close(uart_bridge_t *b, const char *link);

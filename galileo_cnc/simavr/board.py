@@ -39,6 +39,9 @@ CYCLES_PER_TICK = TIMER1_PRESCALER  # one Timer1 tick in CPU cycles
 
 # One record of the harness's --trace file.
 TRACE_DTYPE = np.dtype([("cycle", "<u8"), ("pin", "u1"), ("level", "u1")])
+# The pin of the record that marks a reset (SimulatedBoard.reset); read_trace's
+# int8 pins give it as -1. Cycles count from power-up across resets.
+RESET_MARK_PIN = np.int8(-1)
 
 # (step pin, dir pin) of X, Y, Z on the Uno: the seed's pin map.
 DEFAULT_AXIS_PINS: tuple[tuple[int, int], ...] = ((11, 10), (9, 8), (13, 12))
@@ -152,6 +155,12 @@ def read_trace(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.ndar
     records = np.frombuffer(raw[:whole], dtype=TRACE_DTYPE)
     return (records["cycle"].astype(np.int64), records["pin"].astype(np.int8),
             records["level"].astype(np.int8))
+
+
+def reset_cycles(edges: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+    """The cycles (since power-up) at which the board was reset."""
+    cycle, pin, _ = edges
+    return np.asarray(cycle)[np.asarray(pin) == RESET_MARK_PIN]
 
 
 def step_trace(edges: tuple[np.ndarray, np.ndarray, np.ndarray],
@@ -310,6 +319,15 @@ class SimulatedBoard:
         if self._process is not None and self._frozen:
             self._process.send_signal(signal.SIGCONT)
             self._frozen = False
+
+    def reset(self) -> None:
+        """Presses the reset button (SIGUSR1 to the harness), as an Uno's auto-reset
+        does when a port opens: the firmware starts again from power-up, the head
+        stays where it is and the end-stops keep counting from there. The trace
+        goes on, with a mark at the reset (`reset_cycles`)."""
+        if self.running:
+            self.thaw()
+            self._process.send_signal(signal.SIGUSR1)
 
     def stop(self, timeout: float = 10.0) -> int:
         """SIGTERM, then the exit code; the trace and log stay readable."""

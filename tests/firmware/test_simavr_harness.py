@@ -192,6 +192,33 @@ def test_endstops_follow_the_step_count(built):
     assert (np.diff(tick) > 0).all()
 
 
+def test_reset_restarts_the_firmware_with_the_head_where_it_stood(built):
+    """SimulatedBoard.reset (the reset button): testfw boots again, the end-stops go on
+    counting from where the head stood (Y at 5 after the first report), an open
+    switch reads open at once after the reset, and the trace keeps one clock with a
+    mark at the reset."""
+    with SimulatedBoard(built, endstops=[("X", 7, -5), "Y:6:7"]) as board:
+        with open_port(board) as port:
+            port.write(b"S")
+            first = port.readline()
+            board.reset()
+            assert port.readline() == b"testfw\n"
+            port.write(b"S")
+            second = port.readline()
+        board.stop()
+    #                  X0  X at -1..-8   X at -7..0   Y0 Y at 1..5 (closed up to 7)
+    assert first == b"S" b"1" b"11110000" b"00011111" b"|" b"0" b"00000" b"\n"
+    #                                                 Y0 Y at 6..10
+    assert second == b"S" b"1" b"11110000" b"00011111" b"|" b"0" b"00111" b"\n"
+    assert "resets=1" in board.log
+    cycle, pin, level = board.trace()
+    assert (np.diff(cycle) >= 0).all()
+    mark = simavr.reset_cycles((cycle, pin, level))
+    assert len(mark) == 1
+    assert ((pin == 13) & (cycle < mark[0])).sum() >= TOGGLES        # boot toggles, then steps
+    assert ((pin == 13) & (cycle > mark[0])).sum() >= TOGGLES        # and again after it
+
+
 def test_home_pins_read_their_pull_ups_without_endstops(built):
     with SimulatedBoard(built) as board:
         report = steps_report(board)

@@ -1,0 +1,98 @@
+"""A board reset mid-job on the firmware in simavr, as a user meets it: `plot --home`
+on the board's port, the reset button (or an Uno's auto-reset), `plot --resume`.
+
+The harness keeps the head where it stood across the reset and its trace goes on
+with a mark there, so what the pen drew is the steps before the mark from power-up,
+then the rest from where the head stood with the pen turned back to its Z origin
+(Z has no end-stop: the docs ask the user to). The whole job on sim://, whose
+reference machine has its switches where the harness has them, is what it must be.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from galileo_cnc.cli.main import main
+from galileo_cnc.simavr.board import (CYCLES_PER_TICK, SimulatedBoard, reset_cycles,
+                                      step_trace)
+from galileo_cnc.sim.simulator import named_machine
+
+from firmware_support import ELF, build_firmware, build_harness
+from inked import inked_points
+
+SAMPLE = str(Path(__file__).resolve().parents[2] / "samples" / "led-blinker.gbr")
+pytestmark = pytest.mark.usefixtures("fresh_sim")     # tests/conftest.py
+ENDSTOPS = ("X:7:-400", "Y:6:-400")    # MachineConfig's sim_x/y_endstop_steps
+
+
+@pytest.fixture(autouse=True)
+def built(monkeypatch, tmp_path):
+    build_firmware()
+    build_harness()
+    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path))
+
+
+def press_reset_after_steps(board: SimulatedBoard, steps: int) -> threading.Thread:
+    """Presses the board's reset once its pins have made `steps` steps (the record is
+    flushed every 100 ms: a few more may have run)."""
+    def watch():
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and board.running:
+            if len(step_trace(board.trace())[0]) >= steps:
+                board.reset()
+                return
+            time.sleep(0.02)
+    thread = threading.Thread(target=watch, daemon=True)
+    thread.start()
+    return thread
+
+
+def drawn_across_the_reset(edges):
+    tick, axis, direction = step_trace(edges)
+    resets = reset_cycles(edges)
+    assert len(resets) == 1
+    before = tick * CYCLES_PER_TICK < int(resets[0])
+    assert before.any() and (~before).any()
+    first = _trace(tick[before], axis[before], direction[before])
+    rest = _trace(tick[~before], axis[~before], direction[~before])
+    x, y = (int(direction[before][axis[before] == a].sum()) for a in range(2))
+    return inked_points(first), inked_points(rest, start=(x, y, 0))
+
+
+def _trace(tick, axis, direction):
+    from galileo_cnc.machine.trace import Trace
+    moved = tuple(int(direction[axis == a].sum()) for a in range(3))
+    return Trace(tick, axis, direction, moved, int(tick[-1]) if len(tick) else 0)
+
+
+def test_a_homed_job_reset_on_the_firmware_resumes_to_the_uninterrupted_drawing(capsys):
+    assert main(["plot", SAMPLE, "--home", "--yes", "--port", "sim://whole?speed=0"]) == 0
+    whole = inked_points(named_machine("whole").trace())
+    total = len(named_machine("whole").trace())
+    capsys.readouterr()
+
+    with SimulatedBoard(ELF, endstops=ENDSTOPS) as board:
+        button = press_reset_after_steps(board, total // 2)
+        assert main(["plot", SAMPLE, "--home", "--yes", "--port", board.port]) == 3
+        button.join(5)
+        said = capsys.readouterr().out
+        assert "the machine was reset during the job" in said
+        assert "homes the machine and continues" in said
+
+        assert main(["plot", SAMPLE, "--resume", "--yes", "--port", board.port]) == 0
+        said = capsys.readouterr().out
+        assert "may not have run, so they are drawn again" in said and "homed" in said
+        board.stop()
+        edges = board.trace()
+    assert "resets=1" in board.log
+
+    before, after = drawn_across_the_reset(edges)
+    assert before and after and not after >= whole      # the resumed part is not everything
+    assert before | after == whole
+    cycles = edges[0]
+    assert np.all(np.diff(cycles) >= 0)                  # one clock from power-up
