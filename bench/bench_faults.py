@@ -350,7 +350,7 @@ def session(target, job, program, fault: Fault, seed: int, tmp: Path, log=None) 
         close()
 
 
-def plan(target_name: str, count: int, seed: int, replies: int) -> list[tuple[Fault, int]]:
+def plan(count: int, seed: int, replies: int) -> list[tuple[Fault, int]]:
     """`count` seeded sessions: a lost reply at every position, resets mid-job, the rest
     byte faults at each rate, one kind or all of them."""
     rng = random.Random(seed)
@@ -379,7 +379,7 @@ def campaign(target, count: int, seed: int, tmp: Path, progress=True,
     failures = []
     began = time.monotonic()
     k, n_parts = part
-    sessions = plan(target.name, count, seed, len(job) + 2)[k - 1::n_parts]
+    sessions = plan(count, seed, len(job) + 2)[k - 1::n_parts]
     if only:
         sessions = [(f, s) for f, s in sessions if _kind(f) == only]
     count = len(sessions)
