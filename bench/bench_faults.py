@@ -30,6 +30,7 @@ the bench turns the pen back to its Z origin, as the docs ask of a real user.
     python3 bench/bench_faults.py --sim 0 --simavr 600 --part 1/2   # half of one campaign;
     python3 bench/bench_faults.py --sim 0 --simavr 600 --part 2/2   # the other on a 2nd core
     python3 bench/bench_faults.py --sim 0 --simavr 70 --only reset    # its 11 resets
+    python3 bench/bench_faults.py --sim 0 --simavr 600 --part 1/2 --start 120  # go on
 
 Reproducible for a seed: the sessions (kind, rate, which reply is lost, when the reset
 comes) and each direction's fault draws. Not reproducible: which bytes the host sends
@@ -369,10 +370,11 @@ def plan(count: int, seed: int, replies: int) -> list[tuple[Fault, int]]:
 
 def campaign(target, count: int, seed: int, tmp: Path, progress=True,
              partial: Path | None = None, part: tuple[int, int] = (1, 1),
-             only: str | None = None) -> Counter:
+             only: str | None = None, start: int = 0) -> Counter:
     """The seeded campaign of `count` sessions, or its part k of n (every n-th session
     from the k-th), so that n processes together run exactly the one campaign; `only`
-    ("lost", "reset" or "bytes") keeps that kind of its sessions."""
+    ("lost", "reset" or "bytes") keeps that kind of its sessions; `start` skips the
+    first sessions of what is left (those a stopped run had done)."""
     program = read_file(SAMPLE)
     job = plan_program(program, None, proposed_offset(program))
     table: Counter = Counter()
@@ -383,7 +385,7 @@ def campaign(target, count: int, seed: int, tmp: Path, progress=True,
     if only:
         sessions = [(f, s) for f, s in sessions if _kind(f) == only]
     count = len(sessions)
-    for n, (fault, s) in enumerate(sessions):
+    for n, (fault, s) in enumerate(sessions[start:], start):
         outcome = session(target, job, program, fault, s, tmp)
         table[(fault.label(), outcome)] += 1
         if outcome in ("hang", "wrong", "crash"):
@@ -392,7 +394,8 @@ def campaign(target, count: int, seed: int, tmp: Path, progress=True,
             print(f"  {target.name}: {n + 1}/{count} sessions, "
                   f"{time.monotonic() - began:.0f} s", file=sys.stderr, flush=True)
         if partial is not None:         # a long run (hours on simavr) keeps what it has
-            partial.write_text(table_text(f"{target.name}: {n + 1} of {count} sessions, "
+            partial.write_text(table_text(f"{target.name}: sessions {start + 1}..{n + 1} "
+                                          f"of {count}, "
                                           f"seed {seed}, {time.monotonic() - began:.0f} s",
                                           table) + "".join(f"{f}\n" for f in failures))
     for line in failures:
@@ -445,6 +448,8 @@ def main(argv=None) -> int:
                         help="run only part K of N of the campaign (for N processes)")
     parser.add_argument("--only", choices=("lost", "reset", "bytes"),
                         help="run only the campaign's sessions of that kind")
+    parser.add_argument("--start", type=int, default=0, metavar="N",
+                        help="skip the first N sessions (a stopped run's, see --partial)")
     args = parser.parse_args(argv)
     bad = 0
     with tempfile.TemporaryDirectory() as tmp:
@@ -454,11 +459,11 @@ def main(argv=None) -> int:
             target = make()
             began = time.monotonic()
             table = campaign(target, count, args.seed, Path(tmp), partial=args.partial,
-                             part=args.part, only=args.only)
+                             part=args.part, only=args.only, start=args.start)
             share = ("" if args.part == (1, 1) else f" (part {args.part[0]}/{args.part[1]})") + (
                 f", only {args.only}" if args.only else "")
             print_table(f"{target.name}: {sum(table.values())} of {count} sessions{share}, "
-                        f"seed {args.seed}, "
+                        f"seed {args.seed}, from session {args.start + 1}, "
                         f"{time.monotonic() - began:.0f} s", table)
             bad += sum(v for (_, o), v in table.items() if o in ("hang", "wrong", "crash"))
     return 1 if bad else 0
