@@ -28,6 +28,7 @@ from inked import inked_points
 
 SAMPLE = str(Path(__file__).resolve().parents[2] / "samples" / "led-blinker.gbr")
 pytestmark = pytest.mark.usefixtures("fresh_sim")     # tests/conftest.py
+
 ENDSTOPS = ("X:7:-400", "Y:6:-400")    # MachineConfig's sim_x/y_endstop_steps
 
 
@@ -47,7 +48,7 @@ def press_reset_after_steps(board: SimulatedBoard, steps: int) -> threading.Thre
             if len(step_trace(board.trace())[0]) >= steps:
                 board.reset()
                 return
-            time.sleep(0.02)
+            time.sleep(0.1)             # the harness flushes its record every 100 ms
     thread = threading.Thread(target=watch, daemon=True)
     thread.start()
     return thread
