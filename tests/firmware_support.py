@@ -56,12 +56,18 @@ def build_firmware() -> dict:
     return _built
 
 
+_harness_built: list = []
+
+
 def build_harness() -> None:
+    """`make -C firmware/harness harness` once per session: make rebuilds what changed,
+    so a checkout's older harness is never the one tested."""
     require_packages(simavr.HARNESS_PACKAGES)
-    if not simavr.harness_available():
+    if not _harness_built:
         result = subprocess.run(["make", "-C", str(FIRMWARE_DIR / "harness"), "harness"],
                                 capture_output=True, text=True)
         assert result.returncode == 0, result.stdout + result.stderr
+        _harness_built.append(True)
 
 
 class FirmwareLink:
