@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/time.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -50,6 +51,7 @@ struct options {
 	int stack_paint; /* the pattern byte of --stack-paint, or -1 */
 	int ocr1a_at_start; /* --ocr1a-at-start, or -1 */
 	int replay_tcnt0;
+	int exit_with_parent;
 	int verbose;
 	const char *elf;
 };
@@ -58,6 +60,36 @@ static volatile sig_atomic_t stop_signal;
 static int log_level = LOG_WARNING;
 
 static void on_signal(int sig) { stop_signal = sig; }
+
+/* --exit-with-parent: a harness whose host died (a test run killed) would
+ * otherwise simulate on, a core busy, until someone kills it. Checked twice a
+ * second from SIGALRM; getppid() is async-signal-safe. */
+static pid_t parent_pid;
+static volatile sig_atomic_t parent_gone;
+static void on_parent_check(int sig)
+{
+	if (getppid() != parent_pid) {
+		parent_gone = 1;
+		stop_signal = sig;
+	}
+}
+
+static const char *stop_reason(void)
+{
+	return parent_gone ? "parent exited" : strsignal(stop_signal);
+}
+
+static void watch_parent(void)
+{
+	parent_pid = getppid();
+	struct sigaction sa;
+	memset(&sa, 0, sizeof(sa));
+	sa.sa_handler = on_parent_check;
+	sa.sa_flags = SA_RESTART; /* the bridge's reads and writes go on */
+	sigaction(SIGALRM, &sa, NULL);
+	struct itimerval every = {.it_interval = {0, 500000}, .it_value = {0, 500000}};
+	setitimer(ITIMER_REAL, &every, NULL);
+}
 
 /* SIGUSR1 presses the reset button (as an Uno's auto-reset when a port opens). */
 static volatile sig_atomic_t reset_requested;
@@ -93,7 +125,8 @@ static void usage(FILE *out)
 		"                      [--trace FILE] [--pins N,N,...] [--endstop AXIS:HOMEPIN:TRIP]...\n"
 		"                      [--max-seconds S] [--realtime | --max-speed F] [--no-wait]\n"
 		"                      [--simavr-uart-timing] [--stack-paint BYTE]\n"
-		"                      [--axis-pins SPEC] [--ocr1a-at-start N] [--replay-tcnt0] [-v] ELF\n"
+		"                      [--axis-pins SPEC] [--ocr1a-at-start N] [--replay-tcnt0]\n"
+		"                      [--exit-with-parent] [-v] ELF\n"
 		"\n"
 		"  --pty LINK        UART0 on a new pseudo-terminal, LINK a symlink to it;\n"
 		"                    prints 'pty: <slave path>' on stdout when ready; the AVR\n"
@@ -115,7 +148,8 @@ static void usage(FILE *out)
 		"                    X:2:5,Y:3:6,Z:4:7 (default X:11:10,Y:9:8,Z:13:12)\n"
 		"  --ocr1a-at-start N  OCR1A = N at cycle 0 (simavr never fires CTC TOP 0)\n"
 		"  --replay-tcnt0    a TCNT0 preload written while Timer0 is stopped takes\n"
-		"                    effect when it starts (silicon does, simavr drops it)\n");
+		"                    effect when it starts (silicon does, simavr drops it)\n"
+		"  --exit-with-parent  stop when the process that started the harness ends\n");
 }
 
 static int parse_pins(const char *spec, struct options *o)
@@ -178,7 +212,7 @@ static int parse_args(int argc, char **argv, struct options *o, pins_t *pins)
 {
 	enum { OPT_FREQ = 256, OPT_MCU, OPT_PTY, OPT_STDIO, OPT_TRACE, OPT_PINS, OPT_ENDSTOP,
 	       OPT_MAX_SECONDS, OPT_REALTIME, OPT_MAX_SPEED, OPT_NO_WAIT, OPT_SIMAVR_UART,
-	       OPT_STACK_PAINT, OPT_AXIS_PINS, OPT_OCR1A, OPT_REPLAY_TCNT0 };
+	       OPT_STACK_PAINT, OPT_AXIS_PINS, OPT_OCR1A, OPT_REPLAY_TCNT0, OPT_EXIT_WITH_PARENT };
 	static const struct option longs[] = {
 		{"freq", required_argument, 0, OPT_FREQ},
 		{"mcu", required_argument, 0, OPT_MCU},
@@ -196,6 +230,7 @@ static int parse_args(int argc, char **argv, struct options *o, pins_t *pins)
 		{"axis-pins", required_argument, 0, OPT_AXIS_PINS},
 		{"ocr1a-at-start", required_argument, 0, OPT_OCR1A},
 		{"replay-tcnt0", no_argument, 0, OPT_REPLAY_TCNT0},
+		{"exit-with-parent", no_argument, 0, OPT_EXIT_WITH_PARENT},
 		{"verbose", no_argument, 0, 'v'},
 		{"help", no_argument, 0, 'h'},
 		{0, 0, 0, 0},
@@ -269,6 +304,7 @@ static int parse_args(int argc, char **argv, struct options *o, pins_t *pins)
 			break;
 		}
 		case OPT_REPLAY_TCNT0: o->replay_tcnt0 = 1; break;
+		case OPT_EXIT_WITH_PARENT: o->exit_with_parent = 1; break;
 		case 'v': o->verbose++; break;
 		case 'h': usage(stdout); exit(EXIT_OK);
 		default: usage(stderr); return -1;
@@ -451,6 +487,8 @@ int main(int argc, char **argv)
 	sa.sa_handler = on_reset_signal;
 	sigaction(SIGUSR1, &sa, NULL);
 	signal(SIGPIPE, SIG_IGN);
+	if (opt.exit_with_parent)
+		watch_parent();
 
 	struct run run = {
 		.avr = avr, .uart = &uart, .trace = trace, .max_speed = opt.max_speed,
@@ -466,7 +504,7 @@ int main(int argc, char **argv)
 		 * has opened (and flushed) the port would be lost. */
 		if (!opt.no_wait && uart_bridge_wait_open(&uart, &stop_signal) < 0) {
 			fprintf(stderr, "galileo-simavr: stop: %s before the port was opened; state=%s "
-				"pc=0x0000 cycle=0 (0.000000 s)\n", strsignal(stop_signal), state_name(avr->state));
+				"pc=0x0000 cycle=0 (0.000000 s)\n", stop_reason(), state_name(avr->state));
 			if (trace)
 				fclose(trace);
 			uart_bridge_close(&uart, opt.pty_link);
@@ -503,7 +541,7 @@ int main(int argc, char **argv)
 			break;
 		}
 		if (stop_signal) {
-			reason = strsignal(stop_signal);
+			reason = stop_reason();
 			break;
 		}
 		if (reset_requested) {

@@ -219,7 +219,8 @@ class SimulatedBoard:
         self.start_timeout = start_timeout
         self.realtime = realtime                # paced to wall time, as a board runs
         self._want_trace = trace
-        self._args = ["--freq", str(freq_hz)]
+        # a board outlives no host: a killed test run leaves no simulation running
+        self._args = ["--freq", str(freq_hz), "--exit-with-parent"]
         if pins is not None:
             self._args += ["--pins", ",".join(str(p) for p in pins)]
         for stop in endstops:

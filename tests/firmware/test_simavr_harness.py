@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import os
 import subprocess
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -217,6 +219,35 @@ def test_reset_restarts_the_firmware_with_the_head_where_it_stood(built):
     assert len(mark) == 1
     assert ((pin == 13) & (cycle < mark[0])).sum() >= TOGGLES        # boot toggles, then steps
     assert ((pin == 13) & (cycle > mark[0])).sum() >= TOGGLES        # and again after it
+
+
+def test_a_board_whose_host_process_dies_stops_by_itself(built):
+    """A killed test run (or console) must not leave a harness simulating on, a core
+    busy for hours: SimulatedBoard passes --exit-with-parent."""
+    host = subprocess.Popen(
+        [sys.executable, "-c",
+         "import sys, time\n"
+         "from galileo_cnc.simavr.board import SimulatedBoard\n"
+         f"board = SimulatedBoard({str(built)!r}, trace=False).start()\n"
+         "print(board._process.pid, flush=True)\n"
+         "time.sleep(120)\n"],
+        stdout=subprocess.PIPE, text=True)
+    harness = int(host.stdout.readline())
+    assert running(harness)
+    host.kill()
+    host.wait()
+    deadline = time.monotonic() + 10
+    while running(harness) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not running(harness)
+
+
+def running(pid: int) -> bool:
+    """Alive and not a zombie (an orphan's zombie may wait for a reaper that never comes)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except (FileNotFoundError, ProcessLookupError):
+        return False
 
 
 def test_home_pins_read_their_pull_ups_without_endstops(built):
