@@ -11,6 +11,7 @@ back over it), a machine without switches ($22=0: the user re-zeroes), Ctrl-C.""
 from __future__ import annotations
 
 import re
+from contextlib import contextmanager
 
 import numpy as np
 import pytest
@@ -40,6 +41,15 @@ def profile(tmp_path, monkeypatch):
     return str(path)
 
 
+@contextmanager
+def homed_at_work_zero():
+    """GRBL in simavr with its switches and G54's zero set: (board, the pins' trace of
+    that setting up, which the job's drawing follows)."""
+    with grbl_machine(HOMING, limits=LIMITS) as (board, link):
+        set_work_zero(link)
+        yield board, settled_trace(board)
+
+
 def sample_options(profile: str, board) -> plot_grbl.GrblPlotOptions:
     """`plot SAMPLE --mode centre --yes` on the board, as the first plot of a test."""
     return plot_grbl.GrblPlotOptions(SAMPLE, load_profile(profile, port=board.port),
@@ -51,9 +61,7 @@ def test_resume_after_a_lost_port_homes_and_finishes_the_job(profile, capsys):
     lines = planned_gcode(profile)
     config = load_profile(profile).config
     pen = pen_from_config(config)
-    with grbl_machine(HOMING, limits=LIMITS) as (board, link):
-        set_work_zero(link)
-        setup_end = settled_trace(board)
+    with homed_at_work_zero() as (board, setup_end):
 
         # the first plot: its port dies in the middle of the job
         port = RecordingPort(serial.Serial(board.port, 115200, timeout=0.2), die_after=45)
@@ -145,9 +153,7 @@ def test_resume_while_grbl_still_moves_goes_back_over_its_queue(profile, capsys)
     two sessions together draw the whole job."""
     lines = planned_gcode(profile)
     pen = pen_from_config(load_profile(profile).config)
-    with grbl_machine(HOMING, limits=LIMITS) as (board, link):
-        set_work_zero(link)
-        setup_end = settled_trace(board)
+    with homed_at_work_zero() as (board, setup_end):
         # the port dies while the plot sends the 61st line, in the middle of the job's
         # longest drawing (no dwell there): GRBL is frozen with its planner full
         port = FreezingPort(serial.Serial(board.port, 115200, timeout=0.2), board,
@@ -201,9 +207,7 @@ def test_resume_of_a_machine_held_when_the_port_went_goes_back_over_its_queue(pr
     two sessions together draw the whole job."""
     lines = planned_gcode(profile)
     pen = pen_from_config(load_profile(profile).config)
-    with grbl_machine(HOMING, limits=LIMITS) as (board, link):
-        set_work_zero(link)
-        setup_end = settled_trace(board)
+    with homed_at_work_zero() as (board, setup_end):
         port = HoldingPort(serial.Serial(board.port, 115200, timeout=0.2), die_after=70)
         assert plot_grbl.run_grbl_plot(sample_options(profile, board),
                                        port=port) == plot_grbl.EXIT_PORT_LOST
@@ -303,9 +307,7 @@ class CtrlCPort(RecordingPort):
 
 def test_ctrl_c_holds_then_resets_and_resume_finishes_the_job(profile, capsys):
     lines = planned_gcode(profile)
-    with grbl_machine(HOMING, limits=LIMITS) as (board, link):
-        set_work_zero(link)
-        setup_end = settled_trace(board)
+    with homed_at_work_zero() as (board, setup_end):
 
         port = CtrlCPort(serial.Serial(board.port, 115200, timeout=0.2), after=60)
         assert plot_grbl.run_grbl_plot(sample_options(profile, board),
