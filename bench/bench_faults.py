@@ -211,19 +211,20 @@ class SimavrTarget:
         build_firmware()
         build_harness()
         self.elf = ELF
-        self._resets = []               # the reset cycles of the last session's trace
+        self._runs = []                 # the last session's steps, a Trace per reset
 
     def session(self, homed=False):
-        from galileo_cnc.simavr.board import SimulatedBoard, reset_cycles
+        from galileo_cnc.simavr.board import SimulatedBoard, runs_between_resets
         board = SimulatedBoard(self.elf, endstops=self.ENDSTOPS if homed else ()).start()
 
         def trace():
             # stopped first: the harness flushes its pin record only every 100 ms, so
-            # one read while it runs can miss the last steps (40 of 100 "wrong" so)
+            # one read while it runs can miss the last steps (40 of 100 "wrong" so).
+            # The whole session's steps, or after a reset the run before it (`drawing`
+            # takes every run)
             board.stop()
-            edges = board.trace()
-            self._resets = reset_cycles(edges)
-            return _steps(edges)
+            self._runs = runs_between_resets(board.trace())
+            return self._runs[0]
         return (board.port, (lambda: open_port(board.port, timeout=0.1)), trace, board.reset,
                 board.close)
 
@@ -232,19 +233,16 @@ class SimavrTarget:
         Z origin at the reset (the harness cannot move the head by hand)."""
 
     def drawing(self, trace):
-        """(the points inked, where the head ended) in the power-up frame: the steps
-        before the first reset, then the rest from where the head stood then with the
-        pen at its Z origin."""
+        """(the points inked, where the head ended) in the power-up frame, from the
+        runs of the last trace() (`trace` is its first): the steps before the reset,
+        then the rest from where the head stood then with the pen at its Z origin."""
         from inked import inked_points
-
-        from galileo_cnc.simavr.board import CYCLES_PER_TICK
-        if not len(self._resets):
-            return inked_points(trace), end_of(trace)
-        before = trace.tick * CYCLES_PER_TICK < int(self._resets[0])
-        first, rest = _part(trace, before), _part(trace, ~before)
+        first, *after = self._runs
+        if not after:
+            return inked_points(first), end_of(first)
         x, y, _ = end_of(first)
-        drawn = inked_points(first) | inked_points(rest, start=(x, y, 0))
-        return drawn, end_of(rest, (x, y, 0))
+        drawn = inked_points(first) | inked_points(after[0], start=(x, y, 0))
+        return drawn, end_of(after[0], (x, y, 0))
 
     @staticmethod
     def same(trace, ref) -> bool:
@@ -254,23 +252,7 @@ class SimavrTarget:
 
 def end_of(trace, start=(0, 0, 0)) -> tuple[int, int, int]:
     """Where the steps of `trace` leave the head that stood at `start`."""
-    return tuple(s + int(trace.dir[trace.axis == a].sum()) for a, s in enumerate(start))
-
-
-def _steps(edges):
-    from galileo_cnc.simavr.board import step_trace
-    tick, axis, direction = step_trace(edges)
-    return _trace(tick, axis, direction)
-
-
-def _trace(tick, axis, direction):
-    from galileo_cnc.machine.trace import Trace
-    moved = [int(direction[axis == a].sum()) for a in range(3)]
-    return Trace(tick, axis, direction, tuple(moved), int(tick[-1]) if len(tick) else 0)
-
-
-def _part(trace, mask):
-    return _trace(trace.tick[mask], trace.axis[mask], trace.dir[mask])
+    return tuple(int(s + moved) for s, moved in zip(start, trace.displacement()))
 
 
 # ---- one session --------------------------------------------------------------------------

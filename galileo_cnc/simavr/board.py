@@ -25,6 +25,7 @@ import numpy as np
 
 from galileo_cnc.config.hardware import F_CPU_HZ, TIMER1_PRESCALER
 from galileo_cnc.errors import GalileoError
+from galileo_cnc.machine.trace import Trace
 
 #: The checkout this package runs from (a source tree or an editable install); after
 #: `pip install .` it is site-packages' parent and holds no firmware.
@@ -190,6 +191,23 @@ def step_trace(edges: tuple[np.ndarray, np.ndarray, np.ndarray],
     direction = np.concatenate(dirs) if dirs else np.zeros(0, np.int8)
     order = np.lexsort((axis, tick))
     return tick[order], axis[order], direction[order]
+
+
+def runs_between_resets(edges: tuple[np.ndarray, np.ndarray, np.ndarray],
+                        pins: Sequence[tuple[int, int]] = DEFAULT_AXIS_PINS,
+                        cycles_per_tick: int = CYCLES_PER_TICK) -> list[Trace]:
+    """The step pins' steps as reference traces, one per run of the firmware: the
+    first from power-up, each next one from the reset before it (`reset_cycles`).
+    A run's final_position is its net steps: where the head stood when it began is
+    the caller's to say (the end-stops keep it across a reset, Z has none)."""
+    tick, axis, direction = step_trace(edges, pins, cycles_per_tick)
+    bounds = np.searchsorted(tick * cycles_per_tick, reset_cycles(edges)).tolist()
+    runs = []
+    for lo, hi in zip([0, *bounds], [*bounds, len(tick)]):
+        t, a, d = tick[lo:hi], axis[lo:hi], direction[lo:hi]
+        moved = tuple(int(d[a == k].sum()) for k in range(3))
+        runs.append(Trace(t, a, d, moved, int(t[-1]) if len(t) else 0))
+    return runs
 
 
 class SimulatedBoard:

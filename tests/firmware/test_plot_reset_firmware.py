@@ -19,8 +19,7 @@ import numpy as np
 import pytest
 
 from galileo_cnc.cli.main import main
-from galileo_cnc.simavr.board import (CYCLES_PER_TICK, SimulatedBoard, reset_cycles,
-                                      step_trace)
+from galileo_cnc.simavr.board import SimulatedBoard, runs_between_resets, step_trace
 from galileo_cnc.sim.simulator import named_machine
 
 from firmware_support import ELF, build_firmware, build_harness
@@ -55,21 +54,12 @@ def press_reset_after_steps(board: SimulatedBoard, steps: int) -> threading.Thre
 
 
 def drawn_across_the_reset(edges):
-    tick, axis, direction = step_trace(edges)
-    resets = reset_cycles(edges)
-    assert len(resets) == 1
-    before = tick * CYCLES_PER_TICK < int(resets[0])
-    assert before.any() and (~before).any()
-    first = _trace(tick[before], axis[before], direction[before])
-    rest = _trace(tick[~before], axis[~before], direction[~before])
-    x, y = (int(direction[before][axis[before] == a].sum()) for a in range(2))
+    runs = runs_between_resets(edges)
+    assert len(runs) == 2                                # one reset
+    first, rest = runs
+    assert len(first) and len(rest)
+    x, y, _ = (int(v) for v in first.displacement())
     return inked_points(first), inked_points(rest, start=(x, y, 0))
-
-
-def _trace(tick, axis, direction):
-    from galileo_cnc.machine.trace import Trace
-    moved = tuple(int(direction[axis == a].sum()) for a in range(3))
-    return Trace(tick, axis, direction, moved, int(tick[-1]) if len(tick) else 0)
 
 
 def test_a_homed_job_reset_on_the_firmware_resumes_to_the_uninterrupted_drawing(capsys):
