@@ -45,7 +45,7 @@ from galileo_cnc.plan import gcode_order
 from galileo_cnc.plan.order import (DRAWING_KINDS, drawing_apertures, group_by_aperture,
                                    optimised_order, pure_geometry)
 from galileo_cnc.plan.paths import optimise
-from galileo_cnc.protocol.codec import range_problem
+from galileo_cnc.protocol.codec import first_range_problem
 from galileo_cnc.program.ops import (I, J, KIND, LINE, COL, NO_TOOL, TOOL, VALUE, X, Y,
                                      OpKind, Program)
 
@@ -146,6 +146,17 @@ def plan_program(program: Program, config: MachineConfig | None = None,
     pen_down: bool | None = None       # unknown until the job sets it
     at: tuple[int, int] | None = None  # position in steps; unknown at the start
     at_nm = (-ox, -oy)                 # the program's current point (nm, offset applied)
+    # every row's point in steps at once (rows without a point convert a 0 unused)
+    x_steps = config.nm_to_steps_list([row[X] - ox for _index, row in ordered])
+    y_steps = config.nm_to_steps_list([row[Y] - oy for _index, row in ordered])
+    index = NO_OP
+    commands, op_index, apertures = job.commands, job.op_index, job.aperture
+
+    def emit(command: Command) -> None:
+        """The command into the job, from the op `index` with `aperture` in force."""
+        commands.append(command)
+        op_index.append(index)
+        apertures.append(aperture)
 
     total = len(ordered)
     for done, (index, row) in enumerate(ordered):
@@ -162,31 +173,28 @@ def plan_program(program: Program, config: MachineConfig | None = None,
         if several_pens and (kind in DRAWING_KINDS or kind == OpKind.PEN_DOWN) \
                 and aperture != pen and aperture != NO_TOOL:
             if pen_down is not False:
-                job.add(PenUp(), index, aperture)
+                emit(PenUp())
                 pen_down = False
-            job.pen_changes[len(job)] = aperture
+            job.pen_changes[len(commands)] = aperture
             pen = aperture
         x_nm, y_nm = row[X] - ox, row[Y] - oy
-        target = (steps(x_nm), steps(y_nm))
-
-        def add(command: Command) -> None:
-            job.add(command, index, aperture)
+        target = (x_steps[done], y_steps[done])
 
         if kind == OpKind.MOVE:
             if target != at:
-                add(Rapid(*target))
+                emit(Rapid(*target))
                 pen_down = False
             at, at_nm = target, (x_nm, y_nm)
         elif kind == OpKind.LINE:
             if pen_down is not True:
-                add(PenDown())
+                emit(PenDown())
                 pen_down = True
             if target != at:
-                add(LineTo(*target))
+                emit(LineTo(*target))
             at, at_nm = target, (x_nm, y_nm)
         elif kind in (OpKind.ARC_CW, OpKind.ARC_CCW):
             if pen_down is not True:
-                add(PenDown())
+                emit(PenDown())
                 pen_down = True
             start = at if at is not None else (steps(at_nm[0]), steps(at_nm[1]))
             centre = (steps(at_nm[0] + row[I]), steps(at_nm[1] + row[J]))
@@ -194,10 +202,10 @@ def plan_program(program: Program, config: MachineConfig | None = None,
             sweep = arc_angles(*at_nm, x_nm, y_nm, at_nm[0] + row[I], at_nm[1] + row[J], cw)[1]
             if _chord_within_half_a_step(start, centre, target, cw, abs(sweep) < math.pi):
                 if target != start:
-                    add(LineTo(*target))
+                    emit(LineTo(*target))
             elif _within_arc_range(start, centre, target):
-                add(ArcTo(target[0], target[1], centre[0] - start[0], centre[1] - start[1],
-                          cw=cw))
+                emit(ArcTo(target[0], target[1], centre[0] - start[0], centre[1] - start[1],
+                           cw=cw))
             else:
                 # the machine's arcs reach MAX_ARC_COORD steps from the centre (204.8 mm
                 # on the seed's machine): a flatter arc is drawn as chords within half a
@@ -207,25 +215,25 @@ def plan_program(program: Program, config: MachineConfig | None = None,
                 point = start
                 for x, y in chords[1:].tolist():
                     if (step := (steps(x), steps(y))) != point:
-                        add(LineTo(*step))
+                        emit(LineTo(*step))
                         point = step
             at, at_nm = target, (x_nm, y_nm)
         elif kind == OpKind.FLASH:
             if target != at:
-                add(Rapid(*target))
-            add(Flash())
+                emit(Rapid(*target))
+            emit(Flash())
             pen_down = False
             at, at_nm = target, (x_nm, y_nm)
         elif kind == OpKind.PEN_UP:
-            add(PenUp())
+            emit(PenUp())
             pen_down = False
         elif kind == OpKind.PEN_DOWN:
-            add(PenDown())
+            emit(PenDown())
             pen_down = True
         elif kind == OpKind.DWELL:
-            add(Dwell(row[VALUE]))
+            emit(Dwell(row[VALUE]))
         elif kind == OpKind.FEED:
-            add(SetFeed(steps(row[VALUE])))
+            emit(SetFeed(steps(row[VALUE])))
         # POLARITY, REGION_BEGIN, REGION_END: nothing to do on a pen plotter.
 
     job.add(PenUp(), NO_OP, aperture)
@@ -256,15 +264,15 @@ def _label_pens(job: Job, program: Program) -> None:
 def check_job(job: Job, program: Program, config: MachineConfig) -> None:
     """Soft limits (and feed range) by the reference machine's own checks, from a
     machine at its origin; raises PlanError naming the op behind the refused command."""
-    for at, command in enumerate(job.commands):     # what the wire cannot carry
-        problem = range_problem(command)
-        if problem is not None:
-            op = job.op_index[at]
-            row = program.table[op] if op != NO_OP else None
-            pos = SourcePos(program.source, int(row[LINE]), int(row[COL])) \
-                if row is not None and row[LINE] else None
-            raise PlanError(f"{type(command).__name__}: {problem} (the machine's range)",
-                            pos, "", op)
+    found = first_range_problem(job.commands)       # what the wire cannot carry
+    if found is not None:
+        at, problem = found
+        op = job.op_index[at]
+        row = program.table[op] if op != NO_OP else None
+        pos = SourcePos(program.source, int(row[LINE]), int(row[COL])) \
+            if row is not None and row[LINE] else None
+        raise PlanError(f"{type(job.commands[at]).__name__}: {problem} (the machine's range)",
+                        pos, "", op)
     if _surely_inside(job.commands, config):
         return
     try:

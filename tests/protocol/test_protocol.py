@@ -11,6 +11,7 @@ from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.firmware_headers import config_header, protocol_header
 from galileo_cnc.job import (ArcTo, Dwell, EndJob, Flash, Home, Jog, LineTo, Motors, PenDown,
                              PenUp, Rapid, SetFeed, SetOrigin)
+from galileo_cnc.protocol.codec import first_range_problem, range_problem
 
 FIRMWARE = Path(__file__).resolve().parents[2] / "firmware" / "galileo"
 
@@ -137,6 +138,20 @@ def test_out_of_range_arguments_are_refused_on_the_host():
         P.encode_command(Dwell(-1), 1)
     with pytest.raises(P.ProtocolError):
         P.frame_line(P.SEQ_MAX + 1, "S")
+
+
+@given(st.lists(st.one_of(commands, st.builds(LineTo, coord, coord, st.integers())),
+                max_size=8),
+       st.integers(-10 ** 12, 10 ** 12), st.sampled_from([Rapid, ArcTo, Dwell, SetFeed, Jog]))
+def test_the_planners_range_check_finds_what_range_problem_finds(job, value, kind):
+    # one command with a value that may be out of range, somewhere in a valid job
+    bad = {Rapid: lambda: Rapid(0, value), ArcTo: lambda: ArcTo(1, 2, value, 0, cw=False),
+           Dwell: lambda: Dwell(value), SetFeed: lambda: SetFeed(value),
+           Jog: lambda: Jog(0, 0, value)}[kind]()
+    job = job[:len(job) // 2] + [bad] + job[len(job) // 2:]
+    expected = next(((at, problem) for at, command in enumerate(job)
+                     if (problem := range_problem(command)) is not None), None)
+    assert first_range_problem(job) == expected
 
 
 @pytest.mark.parametrize("raw, resend, code", [
