@@ -146,7 +146,7 @@ def plan_program(program: Program, config: MachineConfig | None = None,
     pen_down: bool | None = None       # unknown until the job sets it
     at: tuple[int, int] | None = None  # position in steps; unknown at the start
     at_nm = (-ox, -oy)                 # the program's current point (nm, offset applied)
-    # every row's point in steps at once (rows without a point convert a 0 unused)
+    # every row's point in steps at once (a row without a point converts what it holds, unused)
     x_steps = config.nm_to_steps_list([row[X] - ox for _index, row in ordered])
     y_steps = config.nm_to_steps_list([row[Y] - oy for _index, row in ordered])
     index = NO_OP
