@@ -18,8 +18,6 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
-import numpy as np
-
 try:  # Python 3.11+
     import tomllib
 except ModuleNotFoundError:  # pragma: no cover - Python 3.10
@@ -208,23 +206,6 @@ class MachineConfig:
             steps = (2 * abs(nm) * per_rev + half) // pitch2
             return steps if nm >= 0 else -steps
         return nm_to_steps
-
-    def nm_to_steps_list(self, values: list[int]) -> list[int]:
-        """`nm_to_steps` of every value, in int64 arithmetic when no intermediate can
-        overflow it (every value within ±10 m on any sane machine), else one by one:
-        the same integers either way."""
-        per_rev, pitch2 = self.steps_per_rev, 2 * self.pitch_nm
-        # 2 |nm| per_rev + pitch below 2^62: |nm| below this bound
-        bound = ((1 << 62) - self.pitch_nm) // (2 * per_rev) if per_rev > 0 else 0
-        try:
-            nm = np.array(values, dtype=np.int64)
-        except OverflowError:
-            nm = None
-        if nm is None or (len(nm) and not -bound < int(nm.min()) <= int(nm.max()) < bound):
-            convert = self.nm_to_steps_function()
-            return [convert(v) for v in values]
-        steps = (2 * np.abs(nm) * per_rev + self.pitch_nm) // pitch2
-        return np.where(nm >= 0, steps, -steps).tolist()
 
     def mm_to_steps(self, mm: float) -> int:
         return self.nm_to_steps(round(mm * 1_000_000))

@@ -146,17 +146,11 @@ def plan_program(program: Program, config: MachineConfig | None = None,
     pen_down: bool | None = None       # unknown until the job sets it
     at: tuple[int, int] | None = None  # position in steps; unknown at the start
     at_nm = (-ox, -oy)                 # the program's current point (nm, offset applied)
-    # every row's point in steps at once (a row without a point converts what it holds, unused)
-    x_steps = config.nm_to_steps_list([row[X] - ox for _index, row in ordered])
-    y_steps = config.nm_to_steps_list([row[Y] - oy for _index, row in ordered])
     index = NO_OP
-    commands, op_index, apertures = job.commands, job.op_index, job.aperture
 
-    def emit(command: Command) -> None:
+    def add(command: Command) -> None:
         """The command into the job, from the op `index` with `aperture` in force."""
-        commands.append(command)
-        op_index.append(index)
-        apertures.append(aperture)
+        job.add(command, index, aperture)
 
     total = len(ordered)
     for done, (index, row) in enumerate(ordered):
@@ -173,28 +167,28 @@ def plan_program(program: Program, config: MachineConfig | None = None,
         if several_pens and (kind in DRAWING_KINDS or kind == OpKind.PEN_DOWN) \
                 and aperture != pen and aperture != NO_TOOL:
             if pen_down is not False:
-                emit(PenUp())
+                add(PenUp())
                 pen_down = False
-            job.pen_changes[len(commands)] = aperture
+            job.pen_changes[len(job)] = aperture
             pen = aperture
         x_nm, y_nm = row[X] - ox, row[Y] - oy
-        target = (x_steps[done], y_steps[done])
+        target = (steps(x_nm), steps(y_nm))
 
         if kind == OpKind.MOVE:
             if target != at:
-                emit(Rapid(*target))
+                add(Rapid(*target))
                 pen_down = False
             at, at_nm = target, (x_nm, y_nm)
         elif kind == OpKind.LINE:
             if pen_down is not True:
-                emit(PenDown())
+                add(PenDown())
                 pen_down = True
             if target != at:
-                emit(LineTo(*target))
+                add(LineTo(*target))
             at, at_nm = target, (x_nm, y_nm)
         elif kind in (OpKind.ARC_CW, OpKind.ARC_CCW):
             if pen_down is not True:
-                emit(PenDown())
+                add(PenDown())
                 pen_down = True
             start = at if at is not None else (steps(at_nm[0]), steps(at_nm[1]))
             centre = (steps(at_nm[0] + row[I]), steps(at_nm[1] + row[J]))
@@ -202,10 +196,10 @@ def plan_program(program: Program, config: MachineConfig | None = None,
             sweep = arc_angles(*at_nm, x_nm, y_nm, at_nm[0] + row[I], at_nm[1] + row[J], cw)[1]
             if _chord_within_half_a_step(start, centre, target, cw, abs(sweep) < math.pi):
                 if target != start:
-                    emit(LineTo(*target))
+                    add(LineTo(*target))
             elif _within_arc_range(start, centre, target):
-                emit(ArcTo(target[0], target[1], centre[0] - start[0], centre[1] - start[1],
-                           cw=cw))
+                add(ArcTo(target[0], target[1], centre[0] - start[0], centre[1] - start[1],
+                          cw=cw))
             else:
                 # the machine's arcs reach MAX_ARC_COORD steps from the centre (204.8 mm
                 # on the seed's machine): a flatter arc is drawn as chords within half a
@@ -215,25 +209,25 @@ def plan_program(program: Program, config: MachineConfig | None = None,
                 point = start
                 for x, y in chords[1:].tolist():
                     if (step := (steps(x), steps(y))) != point:
-                        emit(LineTo(*step))
+                        add(LineTo(*step))
                         point = step
             at, at_nm = target, (x_nm, y_nm)
         elif kind == OpKind.FLASH:
             if target != at:
-                emit(Rapid(*target))
-            emit(Flash())
+                add(Rapid(*target))
+            add(Flash())
             pen_down = False
             at, at_nm = target, (x_nm, y_nm)
         elif kind == OpKind.PEN_UP:
-            emit(PenUp())
+            add(PenUp())
             pen_down = False
         elif kind == OpKind.PEN_DOWN:
-            emit(PenDown())
+            add(PenDown())
             pen_down = True
         elif kind == OpKind.DWELL:
-            emit(Dwell(row[VALUE]))
+            add(Dwell(row[VALUE]))
         elif kind == OpKind.FEED:
-            emit(SetFeed(steps(row[VALUE])))
+            add(SetFeed(steps(row[VALUE])))
         # POLARITY, REGION_BEGIN, REGION_END: nothing to do on a pen plotter.
 
     job.add(PenUp(), NO_OP, aperture)
