@@ -234,15 +234,16 @@ class SimavrTarget:
 
     def drawing(self, trace):
         """(the points inked, where the head ended) in the power-up frame, from the
-        runs of the last trace() (`trace` is its first): the steps before the reset,
-        then the rest from where the head stood then with the pen at its Z origin."""
+        runs of the last trace() (`trace` is its first): the steps before a reset,
+        then each next run from where the head stood then with the pen at its Z origin."""
         from inked import inked_points
         first, *after = self._runs
-        if not after:
-            return inked_points(first), end_of(first)
-        x, y, _ = end_of(first)
-        drawn = inked_points(first) | inked_points(after[0], start=(x, y, 0))
-        return drawn, end_of(after[0], (x, y, 0))
+        drawn, here = inked_points(first), end_of(first)
+        for run in after:               # each from where the head stood, pen at Z origin
+            start = (here[0], here[1], 0)
+            drawn |= inked_points(run, start=start)
+            here = end_of(run, start)
+        return drawn, here
 
     @staticmethod
     def same(trace, ref) -> bool:
