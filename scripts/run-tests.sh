@@ -22,4 +22,6 @@ if [ -n "$missing" ]; then
 fi
 
 python3 -m pip install --quiet --disable-pip-version-check -e '.[test]'
-exec python3 -m pytest "$@"
+# One worker per core (pytest-xdist), a test file per worker at a time: a file's
+# fixtures (a built firmware, a board's session) are made once. `-n 0` runs serially.
+exec python3 -m pytest -n auto --dist loadfile "$@"

@@ -19,6 +19,16 @@ def pytest_collection_modifyitems(config, items):
             raise pytest.UsageError(f"Gerber corpus not found at {CORPUS}")
 
 
+@pytest.fixture(scope="session", autouse=True)
+def users_home_of_the_run(tmp_path_factory):
+    """No test writes into the real user's folders (profile, journals), and the
+    pytest-xdist workers, each with a session of its own, share none: a test that
+    sets GALILEO_CNC_HOME itself still wins."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("GALILEO_CNC_HOME", str(tmp_path_factory.mktemp("home")))
+        yield
+
+
 @pytest.fixture
 def fresh_sim(tmp_path, monkeypatch):
     """A user's folders of the test's own, no port probed, and no sim:// machine

@@ -17,6 +17,7 @@ import pytest
 
 from galileo_cnc import protocol as P
 from galileo_cnc.simavr import board as simavr
+from galileo_cnc.simavr.build_lock import build_lock
 
 REPO = Path(__file__).resolve().parents[1]
 FIRMWARE_DIR = REPO / "firmware"
@@ -44,8 +45,9 @@ def build_firmware() -> dict:
     """`make -C firmware` once per session; returns the parsed avr-size figures."""
     require_packages(simavr.FIRMWARE_PACKAGES)
     if not _built:
-        result = subprocess.run(["make", "-C", str(FIRMWARE_DIR)], capture_output=True,
-                                text=True)
+        with build_lock(FIRMWARE_DIR):      # pytest-xdist: another worker may be building
+            result = subprocess.run(["make", "-C", str(FIRMWARE_DIR)], capture_output=True,
+                                    text=True)
         _built["output"] = result.stdout + result.stderr
         _built["returncode"] = result.returncode
         flash = re.search(r"Program:\s+(\d+) bytes", result.stdout)
@@ -64,8 +66,9 @@ def build_harness() -> None:
     so a checkout's older harness is never the one tested."""
     require_packages(simavr.HARNESS_PACKAGES)
     if not _harness_built:
-        result = subprocess.run(["make", "-C", str(FIRMWARE_DIR / "harness"), "harness"],
-                                capture_output=True, text=True)
+        with build_lock(FIRMWARE_DIR / "harness"):
+            result = subprocess.run(["make", "-C", str(FIRMWARE_DIR / "harness"), "harness"],
+                                    capture_output=True, text=True)
         assert result.returncode == 0, result.stdout + result.stderr
         _harness_built.append(True)
 

@@ -25,6 +25,7 @@ import numpy as np
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.simavr.board import (REPO_ROOT, SimulatedBoard, missing_debian_packages,
                                       step_trace)
+from galileo_cnc.simavr.build_lock import build_lock
 
 GRBL_SOURCE_ENV = "GALILEO_GRBL_SOURCE"
 DEFAULT_SOURCE = REPO_ROOT.parent / "shared" / "grbl-1.1h"
@@ -76,6 +77,11 @@ def build_grbl(src: Path | None = None, out_dir: Path | None = None) -> Path:
         raise GrblBuildError(f"GRBL 1.1h source not found at {src} (set {GRBL_SOURCE_ENV} "
                              f"to a grbl-1.1h folder holding its Makefile and grbl/)")
     digest = source_digest(src)
+    with build_lock(out_dir):       # another process may be building the same ELF
+        return _build_unless_current(src, out_dir, digest)
+
+
+def _build_unless_current(src: Path, out_dir: Path, digest: str) -> Path:
     elf = out_dir / ELF_NAME
     stamp = out_dir / "source.sha256"
     if elf.is_file() and (out_dir / "size.txt").is_file() and stamp.is_file() \

@@ -20,6 +20,7 @@ import serial
 
 from galileo_cnc.simavr import board as simavr
 from galileo_cnc.simavr.board import SimulatedBoard, step_trace
+from galileo_cnc.simavr.build_lock import build_lock
 
 from firmware_support import REPO
 
@@ -41,7 +42,9 @@ def built():
         if os.environ.get("CI"):
             pytest.fail(message)
         pytest.skip(message)
-    result = subprocess.run(["make", "-C", str(HARNESS_DIR)], capture_output=True, text=True)
+    with build_lock(HARNESS_DIR):       # pytest-xdist: another worker may be building
+        result = subprocess.run(["make", "-C", str(HARNESS_DIR)], capture_output=True,
+                                text=True)
     assert result.returncode == 0, result.stdout + result.stderr
     assert simavr.harness_available()
     return TESTFW
