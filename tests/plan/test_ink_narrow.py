@@ -12,13 +12,20 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
+from corpus import CORPUS
 from inked import ink_of_trace, joined_islands
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.machine.planner import simulate
 from galileo_cnc.plan.ink import clip
-from galileo_cnc.plan.ink.narrow import CLEARANCE_NM
+from galileo_cnc.plan.ink import narrow
+from galileo_cnc.plan.ink.edges import point_to_edges, segment_gaps, segments_near
+from galileo_cnc.plan.ink.geometry import dark_geometry
+from galileo_cnc.plan.ink.islands import Islands
+from galileo_cnc.plan.ink.narrow import CLEARANCE_NM, find_narrow, keep_islands_apart
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
+from galileo_cnc.readers import read_file
 
 MM = 1_000_000
 PEN = 300_000
@@ -135,3 +142,72 @@ def test_a_pad_whose_hole_leaves_a_thin_wall_is_inked_as_a_ring(tmp_path):
     assert clip.area_nm2(clip.difference(ink, pad)) <= math.pi * MM * 5_000
     text = " ".join(str(w) for w in planned.ink.warnings)
     assert "wall 0.15 mm wide round the hole" in text
+
+
+def test_segments_near_finds_every_pair_within_reach_and_measures_it():
+    # random segments of many lengths and dots: every pair whose ends come within
+    # reach of the other segment is among the candidates, and segment_gaps measures
+    # the pairs as a brute-force point-to-segment distance does
+    rng = np.random.default_rng(5)
+    starts = rng.integers(0, 20 * MM, (1200, 2))
+    ends = starts + rng.integers(-3 * MM, 3 * MM, (1200, 2)) * (rng.random((1200, 1)) < 0.8)
+    reach = 400_000
+    # and the hard case: each of the first 600 with a twin shifted sideways by just
+    # under the reach and along by up to the reach (their samples may lie a cell and
+    # a half apart)
+    direction = (ends[:600] - starts[:600]).astype(np.float64)
+    direction /= np.maximum(np.hypot(*direction.T), 1.0)[:, None]
+    side = np.stack([-direction[:, 1], direction[:, 0]], axis=1) * 0.999 * reach
+    side[np.all(direction == 0, axis=1)] = (0.999 * reach, 0)
+    along = direction * rng.random((600, 1)) * reach
+    shift = np.rint(side + along).astype(np.int64)
+    a0, a1 = starts[:600], ends[:600]
+    b0 = np.concatenate([starts[600:], starts[:600] + shift])
+    b1 = np.concatenate([ends[600:], ends[:600] + shift])
+    i, j = segments_near(a0, a1, b0, b1, reach)
+    found = set(zip(i.tolist(), j.tolist()))
+    assert len(found) == len(i)                           # each pair once
+    every_i, every_j = np.divmod(np.arange(600 * 1200), 1200)
+    p0, p1, q0, q1 = a0[every_i], a1[every_i], b0[every_j], b1[every_j]
+    gaps = segment_gaps(p0, p1, q0, q1)
+    brute = np.min([point_to_edges(e.astype(np.float64), f0, f1)[1]
+                    for e, f0, f1 in ((p0, q0, q1), (p1, q0, q1), (q0, p0, p1), (q1, p0, p1))],
+                   axis=0)
+    assert np.allclose(gaps, brute, rtol=0, atol=1e-6)
+    near = set(zip(every_i[gaps < reach].tolist(), every_j[gaps < reach].tolist()))
+    assert near <= found
+    assert 600 < len(near) < len(found) < 600 * 1200 // 4
+
+
+def test_the_first_look_at_the_whole_board_changes_no_cut():
+    # keep_islands_apart looks closely only at the features _nearby marks; marking
+    # them all (the exact look at every feature, as before) gives the same cuts on a
+    # real layer where a 0.8 mm pen makes 751 centre lines and cuts 53 of them
+    layer = CORPUS / "allegro" / "tracespace-371" / "l1_primary.art"
+    program = read_file(layer)
+    islands = Islands.of(dark_geometry(program, 1_000).native)
+    pen = 800_000
+
+    def cuts(first_look):
+        features, _zero = find_narrow(program, pen + 8_000, pen, 1_000)
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(narrow, "_nearby", first_look)
+            bridges = keep_islands_apart(features, islands, pen)
+        return ([(f.op_index, f.cut, [p.tolist() for p in f.pieces]) for f in features],
+                [(b.feature.op_index, b.at_nm, b.other_nm, b.left_out_nm,
+                  b.other.op_index if b.other else None) for b in bridges])
+
+    marked, first_look = [], narrow._nearby
+
+    def counted(features, *args):
+        marked.append(first_look(features, *args))
+        return marked[-1]
+
+    def everything(features, *_args):
+        return np.ones(len(features), dtype=bool), np.ones(len(features), dtype=bool)
+
+    pieces, bridges = cuts(counted)
+    assert (pieces, bridges) == cuts(everything)
+    assert len(bridges) == 53
+    near_copper, near_line = marked[0]
+    assert near_copper.sum() + near_line.sum() < len(pieces)   # most are never looked at

@@ -393,7 +393,7 @@ def _samples(rings: list[np.ndarray], spacing: int) -> list[np.ndarray]:
         lo = int(first[k])
         places = np.linspace(0.0, float(length[k]), wanted, endpoint=False)
         at = np.searchsorted(along[lo:lo + size], places, side="right").clip(1, size) - 1
-        picked.append(np.unique(at))
+        picked.append(at[np.concatenate([[True], at[1:] != at[:-1]])])   # at is sorted
     return picked
 
 

@@ -35,7 +35,8 @@ import numpy as np
 
 from galileo_cnc.errors import SourcePos
 from galileo_cnc.plan.ink import shapes
-from galileo_cnc.plan.ink.edges import EdgeIndex, point_to_edges, points_to_edges
+from galileo_cnc.plan.ink.edges import (EdgeIndex, point_to_edges, points_to_edges,
+                                       segment_gaps, segments_near)
 from galileo_cnc.plan.ink.islands import CLEARANCE_NM, Islands
 from galileo_cnc.program.extents import dark_mask, region_mask, start_points
 from galileo_cnc.program.ops import (COL, I, J, KIND, LINE, NO_TOOL, TOOL, X, Y,
@@ -45,6 +46,10 @@ from galileo_cnc.program.ops import (COL, I, J, KIND, LINE, NO_TOOL, TOOL, X, Y,
 SAMPLE_NM = 5_000
 #: Samples measured together against the edges near them (_distances).
 DISTANCE_BLOCK = 256
+#: The first look at the whole board (_nearby) marks a feature when it comes this
+#: much nearer than the reach or closer: the pieces of a cut line are rounded to
+#: whole nm off its segments, and the floats of the two measures may differ.
+SURE_NM = 4
 
 _LINE, _CW, _CCW, _FLASH = (int(OpKind.LINE), int(OpKind.ARC_CW), int(OpKind.ARC_CCW),
                             int(OpKind.FLASH))
@@ -287,23 +292,31 @@ def keep_islands_apart(features: list[NarrowFeature], islands: Islands,
     edge, _t, _d = copper_index.nearest_many(inside, near_copper)
     for feature, k in zip(features, edge.tolist()):
         feature.island = int(owner_of_ring[copper_index.ring[k]]) if k >= 0 else -1
+    near_other_copper, near_other_line = _nearby(features, copper_index, owner_of_ring,
+                                                 near_copper, near_ink)
     lines = _LineIndex(features, cell_nm=max(near_ink, 250_000))
     bridges: list[Bridge] = []
     for number in sorted(range(len(features)), key=lambda k: -_size(features[k])):
         feature = features[number]
         path = feature.pieces[0]
-        lo, hi = path.min(axis=0), path.max(axis=0)
-        near = copper_index.in_box(int(lo[0]) - near_copper, int(lo[1]) - near_copper,
-                                   int(hi[0]) + near_copper, int(hi[1]) + near_copper)
-        others = near[owner_of_ring[copper_index.ring[near]] != feature.island]
-        if len(others) and _segments_apart(path, copper_index.a[others],
-                                           copper_index.b[others], near_copper):
-            others = others[:0]
-        a, b, whose = lines.near(path, near_ink, feature.island)
-        if len(a) and _segments_apart(path, a, b, near_ink):
-            a = a[:0]
+        others = np.zeros(0, dtype=np.int64)
+        if near_other_copper[number]:
+            lo, hi = path.min(axis=0), path.max(axis=0)
+            near = copper_index.in_box(int(lo[0]) - near_copper, int(lo[1]) - near_copper,
+                                       int(hi[0]) + near_copper, int(hi[1]) + near_copper)
+            others = near[owner_of_ring[copper_index.ring[near]] != feature.island]
+            if len(others) and _segments_apart(path, copper_index.a[others],
+                                               copper_index.b[others], near_copper):
+                others = others[:0]
+        a = b = np.zeros((0, 2), dtype=np.int64)
+        whose = np.zeros(0, dtype=np.int64)
+        if near_other_line[number]:
+            a, b, whose = lines.near(path, near_ink, feature.island)
+            if len(a) and _segments_apart(path, a, b, near_ink):
+                a = a[:0]
         if not len(others) and not len(a):
-            lines.keep(number, path)
+            if near_other_line[number]:     # only lines of other islands near it look
+                lines.keep(number, path)
             continue
         points, vertex = _samples_and_vertices(path)
         to_copper = _distances(points, copper_index.a[others], copper_index.b[others],
@@ -316,8 +329,9 @@ def keep_islands_apart(features: list[NarrowFeature], islands: Islands,
             continue
         feature.cut = True
         feature.pieces = [_piece(points, vertex, run) for run in _runs(~close)]
-        for piece in feature.pieces:
-            lines.keep(number, piece)
+        if near_other_line[number]:
+            for piece in feature.pieces:
+                lines.keep(number, piece)
         for run in _runs(close):
             first = points[run[0]]
             length = float(np.hypot(*np.diff(points[run], axis=0).T).sum())
@@ -335,6 +349,35 @@ def keep_islands_apart(features: list[NarrowFeature], islands: Islands,
             bridges.append(Bridge(feature, (int(first[0]), int(first[1])), other,
                                   round(length), other_feature))
     return bridges
+
+
+def _nearby(features: list[NarrowFeature], copper: EdgeIndex, owner_of_ring: np.ndarray,
+            near_copper: int, near_ink: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per feature, whether its centre line comes near another island's copper (within
+    near_copper + SURE_NM) and whether near another island's centre line (near_ink +
+    SURE_NM), all features at once. A feature near neither is drawn whole and no other
+    line's check needs it: keep_islands_apart's exact look, one feature after another
+    (as much again as the rest of the planning on boards of thousands of traces), is
+    left for the few that are."""
+    paths = [feature.pieces[0] for feature in features]
+    sizes = np.array([max(len(path) - 1, 1) for path in paths])
+    owner = np.repeat(np.arange(len(features)), sizes)
+    # each polyline's segments; a dot is a segment from the point to itself
+    start = np.concatenate([path[:-1] if len(path) > 1 else path for path in paths])
+    end = np.concatenate([path[1:] if len(path) > 1 else path for path in paths])
+    island = np.array([feature.island for feature in features], dtype=np.int64)[owner]
+    marked = []
+    for b0, b1, their_island, reach in (
+            (copper.a, copper.b, owner_of_ring[copper.ring], near_copper),
+            (start, end, island, near_ink)):
+        i, j = segments_near(start, end, b0, b1, reach + SURE_NM)
+        apart = island[i] != their_island[j]
+        i, j = i[apart], j[apart]
+        near = segment_gaps(start[i], end[i], b0[j], b1[j]) < reach + SURE_NM
+        flags = np.zeros(len(features), dtype=bool)
+        flags[owner[i[near]]] = True
+        marked.append(flags)
+    return marked[0], marked[1]
 
 
 def _size(feature: NarrowFeature) -> int:
