@@ -75,3 +75,32 @@ def test_a_result_never_asked_for_leaves_no_process_behind():
     del work                                   # the coverage of a plan nobody printed
     with pytest.raises(ChildProcessError):     # killed and reaped: no child of that pid
         os.waitpid(pid, os.WNOHANG)
+
+
+def test_a_fill_whose_later_batches_are_forked_equals_one_without(monkeypatch):
+    # twelve pads and a pour with holes, filled in batches of a few islands: the
+    # batches after the middle of the work go to a forked process
+    pour = [[[0, 0], [12 * MM, 0], [6 * MM, 9 * MM]],
+            [[4 * MM, 2 * MM], [5 * MM, 4 * MM], [6 * MM, 2 * MM]]]
+    pads = [[[x, y], [x + MM, y], [x + MM, y + MM], [x, y + MM]]
+            for x in range(0, 12 * MM, 2 * MM) for y in (10 * MM, 12 * MM)]
+    region = clip.union(pour + pads)
+    forks = []
+
+    class Counted(fill.Deferred):
+        def __init__(self, fn, *args, fork=True):
+            forks.append((fn.__name__, fork))
+            super().__init__(fn, *args, fork=fork)
+
+    monkeypatch.setattr(fill, "Deferred", Counted)
+    monkeypatch.setattr(fill, "BACKGROUND_VERTICES", 0)
+    forked = fill.fill_region(region, 300_000, 1_000, batch_vertices=4)
+    assert ("_fill_batches", True) in forks
+    monkeypatch.setattr(fill, "BACKGROUND_VERTICES", 10 ** 12)
+    inline = fill.fill_region(region, 300_000, 1_000, batch_vertices=4)
+    assert len(forked.recipes) == len(inline.recipes) > 6
+    assert forked.rings == inline.rings and forked.gap_strokes == inline.gap_strokes
+    assert len(forked.paths) == len(inline.paths)
+    assert all(np.array_equal(a, b) for a, b in zip(forked.paths, inline.paths))
+    assert all(np.array_equal(a, b) for a, b in zip(forked.coarse, inline.coarse))
+    assert clip.area_nm2(forked.ink) == clip.area_nm2(inline.ink)

@@ -117,9 +117,26 @@ def fill_region(region: list, width_nm: int, tolerance_nm: int, *,
     fill = PenFill(width_nm)
     avoid = clip.offset(keep_out, width_nm // 2, tolerance_nm) if keep_out else []
     boxes = _boxes(avoid)
-    for batch in island_batches(region, batch_vertices):
-        near = [avoid[k] for k in _meeting(boxes, batch).tolist()]
-        part = _fill_batch(batch, width_nm, tolerance_nm, overlap, edge_margin_nm, near)
+    batches = [(batch, [avoid[k] for k in _meeting(boxes, batch).tolist()])
+               for batch in island_batches(region, batch_vertices)]
+    if not batches:
+        return fill
+    # the batches are independent: the later half of the work is done in a forked
+    # process meanwhile (background.py), the parts joined in batch order. A batch's
+    # work grows faster than its outline (LimeSDR GTL: 45k vertices 6 s CPU, 4k 0.13 s):
+    # it is weighed as vertices ** 1.5
+    sizes = np.array([sum(len(ring) for ring in batch) for batch, _near in batches])
+    work = np.cumsum(sizes.astype(np.float64) ** 1.5)
+    half = int(np.searchsorted(work, work[-1] / 2)) + 1
+    later = Deferred(_fill_batches, batches[half:], width_nm, tolerance_nm, overlap,
+                     edge_margin_nm, fork=half < len(batches)
+                     and sizes.sum() >= BACKGROUND_VERTICES)
+    try:
+        parts = _fill_batches(batches[:half], width_nm, tolerance_nm, overlap,
+                              edge_margin_nm) + later.result()
+    finally:
+        later.cancel()
+    for part in parts:
         fill.paths.extend(part.paths)
         fill.coarse.extend(part.coarse)
         fill.rings += part.rings
@@ -170,6 +187,12 @@ def island_batches(region: list, most_vertices: int = BATCH_VERTICES) -> list[li
     by left edge and cut into runs of at most `most_vertices` (an island bigger than
     that is a batch of its own), so a batch is a narrow vertical strip of the board."""
     return clip.strips(region, most_vertices)
+
+
+def _fill_batches(batches: list[tuple[list, list]], width_nm: int, tolerance_nm: int,
+                  overlap: float, edge_margin_nm: int) -> list[PenFill]:
+    return [_fill_batch(batch, width_nm, tolerance_nm, overlap, edge_margin_nm, near)
+            for batch, near in batches]
 
 
 def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
