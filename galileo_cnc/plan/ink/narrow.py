@@ -168,6 +168,9 @@ def find_narrow(program: Program, limit_nm: int, pen_nm: int,
     starts = start_points(table)
     widths = {code: aperture_width(ap) for code, ap in program.apertures.items()
               if ap.shape != "block"}
+    # per aperture, once (a macro's hull: 2 s for LimeSDR's 8,000 flashes one by one)
+    walls: dict[int, int] = {}
+    axes: dict[int, tuple | None] = {}
     features, zero = [], 0
     for op in np.flatnonzero(candidates).tolist():
         row = table[op].tolist()
@@ -182,14 +185,18 @@ def find_narrow(program: Program, limit_nm: int, pen_nm: int,
         start = (int(starts[op][0]), int(starts[op][1]))
         pos = SourcePos(program.source, row[LINE], row[COL])
         if width >= limit_nm:
-            wall = wall_width(aperture) if row[KIND] == _FLASH else width
+            if row[KIND] == _FLASH and code not in walls:
+                walls[code] = wall_width(aperture)
+            wall = walls[code] if row[KIND] == _FLASH else width
             if wall >= limit_nm:
                 continue
             path, inside = _wall_loop(row[X], row[Y], aperture, pen_nm, tolerance_nm)
             features.append(NarrowFeature(op, pos, wall, pen_nm, row, start, [path],
                                           inside_nm=inside))
             continue
-        path = _centre_line(row, start, aperture, pen_nm, tolerance_nm)
+        if aperture.shape == "macro" and code not in axes:
+            axes[code] = _macro_axis(aperture)
+        path = _centre_line(row, start, aperture, pen_nm, tolerance_nm, axes.get(code))
         features.append(NarrowFeature(op, pos, width, pen_nm, row, start, [path]))
     return features, zero
 
@@ -242,7 +249,9 @@ def _wall_loop(x: int, y: int, aperture: Aperture, pen_nm: int, tolerance_nm: in
 
 
 def _centre_line(row: list[int], start: tuple[int, int], aperture: Aperture, pen_nm: int,
-                 tolerance_nm: int) -> np.ndarray:
+                 tolerance_nm: int, axis: tuple | None = None) -> np.ndarray:
+    """The centre line of a draw or arc, or a flash's dot or stroke; `axis`: a macro's
+    _macro_axis."""
     kind, x, y = row[KIND], row[X], row[Y]
     if kind == _LINE:
         return np.array([start, (x, y)], dtype=np.int64)
@@ -256,7 +265,6 @@ def _centre_line(row: list[int], start: tuple[int, int], aperture: Aperture, pen
     radius = pen_nm // 2
     if aperture.shape == "circle" or aperture.shape == "polygon":
         return np.array([(x, y)], dtype=np.int64)
-    axis = _macro_axis(aperture) if aperture.shape == "macro" else None
     if axis is not None:            # along the hull's long axis, whatever its angle
         _width, direction, centre, length = axis
         half = max(0.0, length / 2 - radius)
