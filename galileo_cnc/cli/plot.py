@@ -222,7 +222,7 @@ def _say_ink(ink, out: TextIO) -> None:
     share = 100 * ink.inked_nm2 / ink.copper_nm2 if ink.copper_nm2 else 100.0
     out.write(f"ink: pens {pens} mm, {share:.1f} % of the copper inked, "
               f"{len(ink.narrow)} narrow features as centre lines\n")
-    for warning in ink.warnings:
+    for warning in ink.warnings_to_show():
         out.write(f"{warning}\n")
 
 

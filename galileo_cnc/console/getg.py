@@ -43,8 +43,8 @@ def run(console, arguments: list[str]) -> None:
         console.say(f"offsets     X {_mm(planned.offset_nm[0])} mm, Y {_mm(planned.offset_nm[1])} "
                     "mm (the ink reaches past the centre lines)")
     if planned.ink is not None:
-        for warning in planned.ink.warnings:
-            console.say(str(warning))
+        for warning in planned.ink.warnings_to_show():
+            console.say(warning)
     console.backend.plot(console, planned, config)
 
 

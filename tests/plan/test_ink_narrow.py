@@ -9,6 +9,7 @@ planner keeps narrow.CLEARANCE_NM (less the stepping, 2 x 4.4 um) between inks.
 
 from __future__ import annotations
 
+import io
 import math
 
 import numpy as np
@@ -19,7 +20,8 @@ from inked import ink_of_trace, joined_islands
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.machine.planner import simulate
 from galileo_cnc.plan.ink import clip
-from galileo_cnc.plan.ink import narrow
+from galileo_cnc.cli import plot as plot_cli
+from galileo_cnc.plan.ink import inking, narrow
 from galileo_cnc.plan.ink.edges import point_to_edges, segment_gaps, segments_near
 from galileo_cnc.plan.ink.geometry import dark_geometry
 from galileo_cnc.plan.ink.islands import Islands
@@ -211,3 +213,28 @@ def test_the_first_look_at_the_whole_board_changes_no_cut():
     assert len(bridges) == 53
     near_copper, near_line = marked[0]
     assert near_copper.sum() + near_line.sum() < len(pieces)   # most are never looked at
+
+
+def test_before_a_job_only_the_first_bridges_are_named_and_the_rest_counted(tmp_path,
+                                                                            monkeypatch):
+    # three pairs of traces too close for both inks: three cuts, three warnings; plot
+    # (and getg, with the same list) names the first and counts the other two
+    pair = ("X0Y{y}D02*\nX10000000Y{y}D01*\n"
+            "X2000000Y{q}D02*\nX6000000Y{q}D01*\n")
+    body = "%ADD11C,0.15*%\nD11*\n" + "".join(
+        pair.format(y=k * 2 * MM, q=k * 2 * MM + 310_000) for k in range(3))
+    planned, _ink, _copper = plot(tmp_path, body)
+    texts = [str(w) for w in planned.ink.warnings]
+    bridges = [t for t in texts if "would join the ink of line" in t]
+    assert len(bridges) == len(planned.ink.bridges) == 3
+    assert planned.ink.warnings_to_show() == texts             # 20 are shown whole
+    monkeypatch.setattr(inking, "SHOWN_BRIDGES", 1)
+    shown = planned.ink.warnings_to_show()
+    assert [t for t in shown if "would join" in t] == bridges[:1]
+    assert "... and 2 more places where a centre line is left short of another copper " \
+           "island (galileo-cnc info lists every one)" in shown
+    assert [t for t in shown if "would join" not in t and "... and" not in t] == \
+        [t for t in texts if t not in bridges]                # the other warnings all stay
+    out = io.StringIO()
+    plot_cli._say_ink(planned.ink, out)
+    assert out.getvalue().splitlines()[1:] == shown

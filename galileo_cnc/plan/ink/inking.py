@@ -37,6 +37,11 @@ from galileo_cnc.program.ops import (COL, KIND, LINE, NM_PER_MM, NO_TOOL, TOOL, 
                                      OpKind, Program, ProgramBuilder)
 from galileo_cnc.readers.gerber.transformed import aperture_label
 
+#: Bridge warnings shown before a job (plot, getg): a board of tight traces has
+#: pages of them (arduino-uno.cmp with the default 0.4 mm pen: 1,548) before the pen
+#: prompt; one line counts the rest, and `info` lists every one.
+SHOWN_BRIDGES = 20
+
 #: Default pen margin from the copper's edge: the stepped path strays up to ~0.7 step
 #: from the planned one, half of that is the usual error (docs/ink.md, "Edge margin").
 DEFAULT_EDGE_MARGIN_NM = 2_000
@@ -62,6 +67,19 @@ class InkPlan:
     coverage: Deferred | tuple[float, float]
     warnings: list[ReaderWarning] = field(default_factory=list)
     seconds: float = 0.0
+    bridge_warnings: slice = field(default_factory=lambda: slice(0, 0))  # theirs in `warnings`
+
+    def warnings_to_show(self) -> list[str]:
+        """The warnings to print before a job: all but the bridges' past the first
+        SHOWN_BRIDGES, which one line counts."""
+        texts = [str(w) for w in self.warnings]
+        first, end = self.bridge_warnings.start, self.bridge_warnings.stop
+        hidden = end - first - SHOWN_BRIDGES
+        if hidden <= 0:
+            return texts
+        return texts[:first + SHOWN_BRIDGES] + [
+            f"... and {hidden:,} more places where a centre line is left short of another "
+            "copper island (galileo-cnc info lists every one)"] + texts[end:]
 
     @property
     def filled_nm2(self) -> float:
@@ -133,7 +151,7 @@ def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
                         fork=sum(len(ring) for ring in region) >= BACKGROUND_VERTICES)
     plan = InkPlan(_rows(program, pens, fills, narrow), pens, copper, fills, narrow, bridges,
                    zero_size, close, clip.area_nm2(region), coverage)
-    plan.warnings = _warnings(program, plan)
+    plan.warnings, plan.bridge_warnings = _warnings(program, plan)
     plan.program.warnings = list(program.warnings) + plan.warnings
     plan.seconds = time.perf_counter() - began
     return plan
@@ -204,9 +222,10 @@ def _emit_feature(out: ProgramBuilder, feature: NarrowFeature, key: int) -> None
         _emit_path(out, piece, key, line, col)
 
 
-def _warnings(program: Program, plan: InkPlan) -> list[ReaderWarning]:
+def _warnings(program: Program, plan: InkPlan) -> tuple[list[ReaderWarning], slice]:
     """One warning per aperture drawn as centre lines (and one per aperture whose
-    flashes' walls are drawn as loops), one per bridge avoided."""
+    flashes' walls are drawn as loops), one per bridge avoided; and where the
+    bridges' are in the list."""
     found: list[ReaderWarning] = []
     by_aperture: dict[tuple[int, bool], list[NarrowFeature]] = {}
     for feature in plan.narrow:
@@ -230,6 +249,7 @@ def _warnings(program: Program, plan: InkPlan) -> list[ReaderWarning]:
         found.append(ReaderWarning(first.pos, (
             f"{what} ({mm_text(first.width_nm)} mm wide) too narrow to fill with the {pen} mm pen: "
             f"drawn as centre lines, {mm_text(first.overdraw_nm)} mm overdraw per side{where}")))
+    first_bridge = len(found)
     for bridge in plan.bridges:
         other = "another copper island" if bridge.other is None else \
             f"the ink of line {bridge.other.pos.line} (another copper island)"
@@ -237,6 +257,7 @@ def _warnings(program: Program, plan: InkPlan) -> list[ReaderWarning]:
             f"the centre line would join {other} at "
             f"{_xy(bridge.other_nm)}: left out for {mm_text(bridge.left_out_nm)} mm "
             f"from {_xy(bridge.at_nm)}")))
+    bridges = slice(first_bridge, len(found))
     close = plan.close
     if close.count:
         found.append(ReaderWarning(SourcePos(program.source, 0, 0), (
@@ -249,7 +270,7 @@ def _warnings(program: Program, plan: InkPlan) -> list[ReaderWarning]:
         found.append(ReaderWarning(SourcePos(program.source, 0, 0), (
             f"{plan.zero_size} draw{'s' * (plan.zero_size != 1)} with zero-size apertures "
             "make no copper and are not inked (--mode centre draws them)")))
-    return found
+    return found, bridges
 
 
 def _xy(point: tuple[int, int]) -> str:
