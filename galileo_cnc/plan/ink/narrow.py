@@ -168,7 +168,7 @@ def find_narrow(program: Program, limit_nm: int, pen_nm: int,
     starts = start_points(table)
     widths = {code: aperture_width(ap) for code, ap in program.apertures.items()
               if ap.shape != "block"}
-    # per aperture, once (a macro's hull: 2 s for LimeSDR's 8,000 flashes one by one)
+    # per aperture, once (a macro's hull, per flash: 0.9 s of LimeSDR GTL's 1.0 s here)
     walls: dict[int, int] = {}
     axes: dict[int, tuple | None] = {}
     features, zero = [], 0
@@ -323,7 +323,7 @@ def keep_islands_apart(features: list[NarrowFeature], islands: Islands,
             if len(a) and _segments_apart(path, a, b, near_ink):
                 a = a[:0]
         if not len(others) and not len(a):
-            if near_other_line[number]:     # only lines of other islands near it look
+            if near_other_line[number]:     # only then may another line look it up
                 lines.keep(number, path)
             continue
         points, vertex = _samples_and_vertices(path)
@@ -365,8 +365,8 @@ def _nearby(features: list[NarrowFeature], copper: EdgeIndex, owner_of_ring: np.
     near_copper + SURE_NM) and whether near another island's centre line (near_ink +
     SURE_NM), all features at once. A feature near neither is drawn whole and no other
     line's check needs it: keep_islands_apart's exact look, one feature after another
-    (as much again as the rest of the planning on boards of thousands of traces), is
-    left for the few that are."""
+    (7 of MinnowMax lyr1's 17 s of planning when every feature had it), is left for
+    the features that are."""
     paths = [feature.pieces[0] for feature in features]
     sizes = np.array([max(len(path) - 1, 1) for path in paths])
     owner = np.repeat(np.arange(len(features)), sizes)
