@@ -252,20 +252,9 @@ def segment_gaps(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray)
     """For each k, the least distance from an end of segment a0[k]-a1[k] to segment
     b0[k]-b1[k] or from an end of that one to this one: the distance between the two
     unless they cross."""
-    gaps = [_point_segment(p, q0, q1) for p, q0, q1 in
+    gaps = [point_to_edges(p.astype(np.float64), q0, q1)[1] for p, q0, q1 in
             ((a0, b0, b1), (a1, b0, b1), (b0, a0, a1), (b1, a0, a1))]
     return np.minimum(np.minimum(gaps[0], gaps[1]), np.minimum(gaps[2], gaps[3]))
-
-
-def _point_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Distance from each p[k] to segment a[k]-b[k] (as point_to_edges)."""
-    p, a = p.astype(np.float64), a.astype(np.float64)
-    d = b.astype(np.float64) - a
-    length2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]
-    t = ((p[:, 0] - a[:, 0]) * d[:, 0] + (p[:, 1] - a[:, 1]) * d[:, 1]) \
-        / np.where(length2 > 0, length2, 1.0)
-    t = np.clip(t, 0.0, 1.0)
-    return np.hypot(a[:, 0] + d[:, 0] * t - p[:, 0], a[:, 1] + d[:, 1] * t - p[:, 1])
 
 
 def point_to_edges(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -32,7 +32,7 @@ import pyclipper as pc
 
 from galileo_cnc.plan.ink import clip
 from galileo_cnc.plan.ink.background import Deferred
-from galileo_cnc.plan.ink.edges import EdgeIndex
+from galileo_cnc.plan.ink.edges import EdgeIndex, distinct
 
 #: Share of the pen width that neighbouring rings overlap: spacing = width * (1 - overlap).
 DEFAULT_OVERLAP = 0.2
@@ -416,7 +416,7 @@ def _samples(rings: list[np.ndarray], spacing: int) -> list[np.ndarray]:
         lo = int(first[k])
         places = np.linspace(0.0, float(length[k]), wanted, endpoint=False)
         at = np.searchsorted(along[lo:lo + size], places, side="right").clip(1, size) - 1
-        picked.append(at[np.concatenate([[True], at[1:] != at[:-1]])])   # at is sorted
+        picked.append(distinct(at))
     return picked
 
 
