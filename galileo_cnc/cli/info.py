@@ -6,6 +6,8 @@ the returned summary (the edge where floats are allowed).
 
 from __future__ import annotations
 
+from typing import Callable
+
 import numpy as np
 
 from galileo_cnc.config.machine import MachineConfig
@@ -80,9 +82,15 @@ def summarize(artwork: Artwork) -> dict:
     }
 
 
-def ink_summary(artwork: Artwork, config: MachineConfig, options: PlanOptions) -> dict:
-    """What the pens make of the copper: areas, pen-down length, lifts, narrow features."""
-    planned = plan_file(artwork, config, "auto", options=options)
+def ink_summary(artwork: Artwork, config: MachineConfig, options: PlanOptions,
+                on_stage: Callable[[str], None] | None = None) -> dict:
+    """What the pens make of the copper: areas, pen-down length, lifts, narrow features
+    (`on_stage`: see plan_file)."""
+    if artwork.misfit(config) is not None:
+        # the ink of a board too big for this machine is still worth knowing (the
+        # summary says it does not fit): measured on a machine whose travel holds it
+        config = _holding(config, artwork)
+    planned = plan_file(artwork, config, "auto", options=options, on_stage=on_stage)
     ink = planned.ink
     lengths = job_lengths(planned.job)
     mm_per_step = config.nm_per_step / NM_PER_MM
@@ -101,6 +109,14 @@ def ink_summary(artwork: Artwork, config: MachineConfig, options: PlanOptions) -
         "planning_s": round(ink.seconds, 2),
         "warnings": [str(w) for w in ink.warnings],
     }
+
+
+def _holding(config: MachineConfig, artwork: Artwork) -> MachineConfig:
+    """`config` with travel for the artwork, its margin and the ink past its centre
+    lines (twice its size on each axis: the ink reaches a pen radius past the copper)."""
+    x0, y0, x1, y1 = artwork.visited_box_nm
+    return config.replace(x_travel_mm=max(config.x_travel_mm, 2 * (x1 - x0) / NM_PER_MM),
+                          y_travel_mm=max(config.y_travel_mm, 2 * (y1 - y0) / NM_PER_MM))
 
 
 def format_summary(summary: dict) -> str:
@@ -138,6 +154,8 @@ def format_summary(summary: dict) -> str:
                      f"(minimum minus a {summary['margin_mm']} mm margin)")
     else:
         lines.append("extent      nothing is drawn")
+    if summary.get("misfit"):
+        lines.append(f"travel      does not fit: {summary['misfit'].split(': ', 1)[-1]}")
     ink = summary.get("ink")
     if ink:
         copper = ink["copper_mm2"] or 1.0

@@ -52,12 +52,15 @@ def _run_info(args: argparse.Namespace) -> int:
     artwork = load_artwork(args.file, margin_nm=round(args.margin * NM_PER_MM),
                            layers=_layers(args), units=args.units)
     summary = summarize(artwork)
+    summary["misfit"] = artwork.misfit(_profile(args).config)   # None: the job fits
     options = _plan_options(args)
     if options.optimize and artwork.program.format == "gcode":
         _check_reorder(artwork.program)
     if options.mode_for(artwork.program) == "ink":
         from galileo_cnc.cli.info import ink_summary
-        summary["ink"] = ink_summary(artwork, _profile(args).config, options)
+        from galileo_cnc.cli.plot import stages_on_terminal
+        with stages_on_terminal(sys.stderr) as on_stage:   # stdout: the summary (maybe JSON)
+            summary["ink"] = ink_summary(artwork, _profile(args).config, options, on_stage)
     if args.json:
         print(json.dumps(summary, indent=2))
     else:
@@ -152,13 +155,11 @@ def _run_grbl_plot(args: argparse.Namespace, profile, port: str, plan, handle=No
 
 def _run_preview(args: argparse.Namespace) -> int:
     from galileo_cnc.machine.planner import JobSteps
-    from galileo_cnc.plan.pipeline import plan_file
     from galileo_cnc.preview.render import render_preview
 
     check_output(args.output, "--output")
     config = _profile(args).config
-    planned = plan_file(args.file, config, args.offset, margin_nm=round(args.margin * NM_PER_MM),
-                        options=_plan_options(args))
+    planned = _plan(args, config)
     # stepped piece by piece as the preview reads it: no whole trace in memory
     steps = JobSteps(planned.job.commands, config)
     try:
@@ -170,15 +171,25 @@ def _run_preview(args: argparse.Namespace) -> int:
     return 0
 
 
+def _plan(args: argparse.Namespace, config):
+    """plan_file for preview and convert: their result goes to stdout, so the ink's
+    stages go to stderr, and only on a terminal."""
+    from galileo_cnc.cli.plot import stages_on_terminal
+    from galileo_cnc.plan.pipeline import plan_file
+
+    with stages_on_terminal(sys.stderr) as on_stage:
+        return plan_file(args.file, config, args.offset,
+                         margin_nm=round(args.margin * NM_PER_MM),
+                         options=_plan_options(args), on_stage=on_stage)
+
+
 def _run_convert(args: argparse.Namespace) -> int:
     from galileo_cnc.plan.convert import converted_gcode
     from galileo_cnc.plan.measure import job_lengths
-    from galileo_cnc.plan.pipeline import plan_file
 
     check_output(args.output, "--output")
     config = _profile(args).config
-    planned = plan_file(args.file, config, args.offset, margin_nm=round(args.margin * NM_PER_MM),
-                        options=_plan_options(args))
+    planned = _plan(args, config)
     lines = 0
     try:
         with open(args.output, "w", encoding="ascii", newline="\n") as out:

@@ -17,9 +17,10 @@ from __future__ import annotations
 
 import sys
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TextIO
+from typing import Any, Callable, Iterator, TextIO
 
 from galileo_cnc.config.profile import Profile
 from galileo_cnc.errors import GalileoError
@@ -48,6 +49,7 @@ class TextProgress:
         self.out = out
         self.tty = out.isatty()
         self._shown = -1
+        self._open_line = False        # a stage() line waits to be cleared
 
     def __call__(self, p: Progress) -> None:
         percent = 100 * p.confirmed // max(p.total, 1)
@@ -63,9 +65,27 @@ class TextProgress:
             self._shown = percent // 10
             self.out.write(text + "\n")
 
+    def stage(self, text: str) -> None:
+        """What the ink of a large file is at (plan_file's on_stage): seconds a stage on
+        the largest layers. One rewritten line on a terminal, a line each elsewhere."""
+        if self.tty:
+            self.out.write(f"\rinking: {text} ...\x1b[K")
+            self._open_line = True
+        else:
+            self.out.write(f"inking: {text} ...\n")
+        self.out.flush()
+
+    def end_line(self) -> None:
+        """Clear a terminal line that stage() left open (before other output)."""
+        if self._open_line:
+            self.out.write("\r\x1b[K")
+            self.out.flush()
+            self._open_line = False
+
     def planning(self, done: int, total: int) -> None:
         """Planning a large file takes seconds: say so, and how far it got on a terminal."""
         if done == 0 and total >= PLANNING_NOTICE_OPS:
+            self.end_line()
             self.out.write(f"planning {total} operations ...")
             self.out.write("\n" if not self.tty else "")
         elif self.tty and total >= PLANNING_NOTICE_OPS:
@@ -76,6 +96,18 @@ class TextProgress:
     def message(self, text: str) -> None:
         self.out.write(("\r\x1b[K" if self.tty else "") + text + "\n")
         self.out.flush()
+
+
+@contextmanager
+def stages_on_terminal(stream: TextIO) -> Iterator[Callable[[str], None] | None]:
+    """plan_file's on_stage for commands whose stdout is their result (info, preview,
+    convert): the ink's stages on `stream` (stderr) if it is a terminal, else none;
+    the line is cleared when planning ends."""
+    progress = TextProgress(stream)
+    try:
+        yield progress.stage if progress.tty else None
+    finally:
+        progress.end_line()
 
 
 @dataclass
@@ -111,9 +143,11 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
     if not options.resume:              # a resumed job is planned from its journal
         planned = plan_file(options.file, profile.config, options.offset,
                             margin_nm=options.margin_nm, on_progress=progress.planning,
+                            on_stage=progress.stage,
                             options=PlanOptions(mode=options.mode, file_order=not options.group,
                                                 layers=options.layers, units=options.units,
                                                 optimize=options.optimize))
+        progress.end_line()                 # an ink stage's line, if planning said nothing
 
     # no port: cli/main's open_board probed every port already and found no board
     port = with_step_trace(profile.port) if options.trace and profile.port else \

@@ -101,7 +101,9 @@ def run_grbl_plot(options: GrblPlotOptions, out: TextIO | None = None, port=None
     else:
         config = options.profile.config
         planned = plan_file(options.file, config, options.offset, margin_nm=options.margin_nm,
-                            on_progress=progress.planning, options=options.plan)
+                            on_progress=progress.planning, on_stage=progress.stage,
+                            options=options.plan)
+        progress.end_line()
     if port is None:                    # simavr:// records GRBL's pins for --trace
         port = open_grbl_port(with_step_trace(options.port) if options.trace else
                               options.port, options.profile.baud)

@@ -29,7 +29,8 @@ Box = tuple[int, int, int, int]
 #: (G-code from elsewhere keeps its order unless --optimize: milling files carry state a
 #: reorder breaks)
 ORDERED_FORMATS = ("gerber", "dxf")
-#: files with fewer ops plan in well under a second: front ends show no progress for them
+#: files with fewer ops plan in well under a second: front ends show no progress for them,
+#: and plan_file tells them no ink stages
 PLANNING_NOTICE_OPS = 5000
 #: "auto" (the proposal), "none" (the file's own coordinates), "X,Y" in mm, or (x, y) nm.
 OffsetChoice = Union[str, tuple[int, int]]
@@ -157,11 +158,15 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
               offset: OffsetChoice = "auto", *, options: PlanOptions = PlanOptions(),
               margin_nm: int = DEFAULT_MARGIN_NM, group: bool = True,
               optimize: bool | None = None,
-              on_progress: Callable[[int, int], None] | None = None) -> PlannedFile:
+              on_progress: Callable[[int, int], None] | None = None,
+              on_stage: Callable[[str], None] | None = None) -> PlannedFile:
     """Read (unless given an Artwork), offset, ink (in ink mode) and plan; PlanError says
     why a job cannot run: too big for the travel (before any planning), or the op that
     leaves it. `group=False` is the older spelling of options.file_order; `optimize`
-    (None: unless file order) is for replanning a journaled job exactly as it was."""
+    (None: unless file order) is for replanning a journaled job exactly as it was.
+    `on_stage(text)` hears the ink's stages (inking.ink_program) of files of
+    PLANNING_NOTICE_OPS ops or more: the largest take seconds before the first
+    `on_progress`."""
     config = config or MachineConfig()
     artwork = source if isinstance(source, Artwork) else \
         load_artwork(source, margin_nm, layers=options.layers, units=options.units)
@@ -173,7 +178,9 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
     # centre lines and dots are the same under %LM/%LR/%LS: one pen per D code of the file
     plotted = with_source_apertures(artwork.program)
     if mode == "ink":
-        ink = ink_program(artwork.program, options.pens_nm or config.pen_widths_nm)
+        large = len(artwork.program) >= PLANNING_NOTICE_OPS
+        ink = ink_program(artwork.program, options.pens_nm or config.pen_widths_nm,
+                          on_stage=on_stage if large else None)
         plotted = ink.program
         if offset == "auto":
             # fills reach out to the copper's edges, past the centre lines and flash

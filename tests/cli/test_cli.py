@@ -143,6 +143,16 @@ def test_a_profile_sets_the_machine_and_the_port(tmp_path):
     assert result.returncode == 1
     assert "the job is 40.0 mm wide" in result.stderr
     assert "the machine's travel is 30 mm" in result.stderr
+    # info still tells all about it, the ink too, and says it does not fit
+    result = galileo("info", "samples/led-blinker.gbr", "--json", home=tmp_path)
+    assert result.returncode == 0, result.stderr
+    summary = json.loads(result.stdout)
+    assert "the job is 40.0 mm wide" in summary["misfit"]
+    roomy = json.loads(galileo("info", "samples/led-blinker.gbr", "--json").stdout)
+    assert roomy["misfit"] is None
+    assert summary["ink"]["inked_mm2"] == roomy["ink"]["inked_mm2"] > 0
+    text = galileo("info", "samples/led-blinker.gbr", home=tmp_path).stdout
+    assert "travel      does not fit: the job is 40.0 mm wide" in text
     result = galileo("plot", "samples/square-and-circle.nc", "--yes", home=tmp_path)
     assert result.returncode == 0, result.stderr
     assert "connected to sim://?speed=0" in result.stdout

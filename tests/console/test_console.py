@@ -35,6 +35,7 @@ from galileo_cnc.console.helptext import load_help
 from galileo_cnc.console.keypad import REFRESH_S, KeypadJog
 from galileo_cnc.console.units import jog_units_to_steps
 from galileo_cnc.machine import Trace, simulate
+from galileo_cnc.plan import pipeline
 from galileo_cnc.plan.offsets import proposed_offset
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 from galileo_cnc.plan.planner import plan_program
@@ -707,6 +708,8 @@ def test_a_whole_evening_on_sim(home, monkeypatch, stop):
         return port
 
     monkeypatch.setattr(link_module, "open_port", open_faulty)
+    # the sample counts as large: getg says what the ink is at, as it does for big layers
+    monkeypatch.setattr(pipeline, "PLANNING_NOTICE_OPS", 1)
     try:
         with console_in_thread(home, port, TWO_PENS) as user:
             an_evening(user, BOARD, pens=2,
@@ -716,6 +719,11 @@ def test_a_whole_evening_on_sim(home, monkeypatch, stop):
     finally:
         forget_named_machines()
     assert state == "idle" and tuple(position) == whole.final_position
+    said = user.screen.text
+    assert said.count("inking: filling with the 0.8 mm pen ...") == 3      # three getg
+    assert said.index("inking: working out the copper ...") \
+        < said.index("inking: filling with the 0.8 mm pen ...") \
+        < said.index("inking: filling with the 0.3 mm pen ...") < said.index("insert the 0.8 mm pen")
     # three jobs of the same board (one stopped and resumed), jogs pen up: together
     # they inked exactly what one uninterrupted run inks
     assert inked_points(trace) == inked_points(whole)
