@@ -174,7 +174,8 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
             entry = journal.pending()
             if entry is None or Path(entry.source) != Path(options.file).resolve():
                 raise GalileoError(f"no interrupted job of {options.file} to resume")
-            point = plan_resume(link, entry)
+            point = plan_resume(link, entry, on_stage=progress.stage)
+            progress.end_line()
             job, artwork, start, lead_in = point.job, point.artwork, point.start, point.lead_in
             job_start, plotted, homed = point.job_start, point.program, point.homed
             offset = job.offset_nm                  # the interrupted job's, not --offset

@@ -97,7 +97,8 @@ def run_grbl_plot(options: GrblPlotOptions, out: TextIO | None = None, port=None
     if options.resume:                  # planned again from the journal, as it was
         entry = pending_job(journal, options.file)
         config = journal_config(entry)
-        planned = replan(entry, config)
+        planned = replan(entry, config, on_stage=progress.stage)
+        progress.end_line()
     else:
         config = options.profile.config
         planned = plan_file(options.file, config, options.offset, margin_nm=options.margin_nm,

@@ -23,7 +23,8 @@ def resume_job(console) -> None:
     if entry is None:
         console.say("no interrupted job to resume")
         return
-    point = plan_resume(console.link, entry)           # ResumeError says why not
+    point = plan_resume(console.link, entry,           # ResumeError says why not
+                        on_stage=console.say_ink_stage)
     console.say(f"{entry.source}: {point.start} of {len(point.job)} commands were done"
                 f"{' (' + entry.reason + ')' if entry.reason else ''}")
     if point.home:

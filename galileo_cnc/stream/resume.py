@@ -27,6 +27,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -151,9 +152,10 @@ def _passes_through(trace, begin: tuple[int, int, int], here: tuple[int, int, in
     return bool(np.all(where[event_ends] == np.asarray(here), axis=1).any())
 
 
-def plan_resume(link: MachineLink, entry: JournalEntry) -> ResumePoint:
+def plan_resume(link: MachineLink, entry: JournalEntry,
+                on_stage: Callable[[str], None] | None = None) -> ResumePoint:
     """Replan the journal's job and find where to continue; ResumeError if the file
-    changed or the machine was reset or moved since."""
+    changed or the machine was reset or moved since. `on_stage`: see plan_file."""
     if not Path(entry.source).exists():
         raise ResumeError(f"{entry.source}: the file of the interrupted job is gone")
     if file_digest(entry.source) != entry.digest:
@@ -164,7 +166,7 @@ def plan_resume(link: MachineLink, entry: JournalEntry) -> ResumePoint:
                         options=PlanOptions(mode=entry.mode, file_order=not entry.group,
                                             pens_nm=tuple(entry.pens_nm),
                                             layers=tuple(entry.layers), units=entry.units),
-                        optimize=entry.ordered)
+                        optimize=entry.ordered, on_stage=on_stage)
     job, artwork = planned.job, planned.artwork
     if len(job) != entry.total:
         raise ResumeError("the replanned job differs from the interrupted one")

@@ -720,7 +720,8 @@ def test_a_whole_evening_on_sim(home, monkeypatch, stop):
         forget_named_machines()
     assert state == "idle" and tuple(position) == whole.final_position
     said = user.screen.text
-    assert said.count("inking: filling with the 0.8 mm pen ...") == 3      # three getg
+    # three getg and the resume, which plans the job again
+    assert said.count("inking: filling with the 0.8 mm pen ...") == 4
     assert said.index("inking: working out the copper ...") \
         < said.index("inking: filling with the 0.8 mm pen ...") \
         < said.index("inking: filling with the 0.3 mm pen ...") < said.index("insert the 0.8 mm pen")
