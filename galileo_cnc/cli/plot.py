@@ -66,13 +66,14 @@ class TextProgress:
             self.out.write(text + "\n")
 
     def stage(self, text: str) -> None:
-        """What the ink of a large file is at (plan_file's on_stage): seconds a stage on
-        the largest layers. One rewritten line on a terminal, a line each elsewhere."""
+        """What the planning of a large file is at (plan_file's on_stage): seconds a
+        stage on the largest layers. One rewritten line on a terminal, a line each
+        elsewhere."""
         if self.tty:
-            self.out.write(f"\rinking: {text} ...\x1b[K")
+            self.out.write(f"\r{text} ...\x1b[K")
             self._open_line = True
         else:
-            self.out.write(f"inking: {text} ...\n")
+            self.out.write(f"{text} ...\n")
         self.out.flush()
 
     def end_line(self) -> None:

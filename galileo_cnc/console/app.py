@@ -55,9 +55,10 @@ class Console:
         """Print a line; above the prompt or progress bar when one is showing."""
         print_formatted_text(text)
 
-    def say_ink_stage(self, text: str) -> None:
-        """What the ink of a large file is at (plan_file's on_stage): seconds a stage."""
-        self.say(f"inking: {text} ...")
+    def say_stage(self, text: str) -> None:
+        """What the planning of a large file is at (plan_file's on_stage): seconds a
+        stage on the largest layers."""
+        self.say(f"{text} ...")
 
     def say_from_thread(self, text: str) -> None:
         """`say` for the link's reader thread, which does not know our terminal."""

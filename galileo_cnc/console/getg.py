@@ -39,7 +39,7 @@ def run(console, arguments: list[str]) -> None:
     # the accepted proposal is "auto": in ink mode the fills may need more room
     choice = "auto" if offset_nm == artwork.proposal_nm else offset_nm
     planned = plan_file(artwork, config, choice, options=options,  # PlanError: file:line
-                        on_stage=console.say_ink_stage)
+                        on_stage=console.say_stage)
     if planned.offset_nm != offset_nm:
         console.say(f"offsets     X {_mm(planned.offset_nm[0])} mm, Y {_mm(planned.offset_nm[1])} "
                     "mm (the ink reaches past the centre lines)")

@@ -164,9 +164,9 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
     why a job cannot run: too big for the travel (before any planning), or the op that
     leaves it. `group=False` is the older spelling of options.file_order; `optimize`
     (None: unless file order) is for replanning a journaled job exactly as it was.
-    `on_stage(text)` hears the ink's stages (inking.ink_program) of files of
-    PLANNING_NOTICE_OPS ops or more: the largest take seconds before the first
-    `on_progress`."""
+    `on_stage(text)` hears the stages (the ink's, inking.ink_program, then path order)
+    of files of PLANNING_NOTICE_OPS ops or more: the largest take seconds a stage
+    before the first `on_progress`."""
     config = config or MachineConfig()
     artwork = source if isinstance(source, Artwork) else \
         load_artwork(source, margin_nm, layers=options.layers, units=options.units)
@@ -174,13 +174,14 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
         raise PlanError(problem)
     offset_nm = resolve_offset(artwork, offset)
     mode = options.mode_for(artwork.program)
+    stage = on_stage if on_stage is not None and len(artwork.program) >= PLANNING_NOTICE_OPS \
+        else (lambda _text: None)
     ink = None
     # centre lines and dots are the same under %LM/%LR/%LS: one pen per D code of the file
     plotted = with_source_apertures(artwork.program)
     if mode == "ink":
-        large = len(artwork.program) >= PLANNING_NOTICE_OPS
         ink = ink_program(artwork.program, options.pens_nm or config.pen_widths_nm,
-                          on_stage=on_stage if large else None)
+                          on_stage=stage)
         plotted = ink.program
         if offset == "auto":
             # fills reach out to the copper's edges, past the centre lines and flash
@@ -191,6 +192,8 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
     file_order = options.file_order or not group
     if optimize is None:
         optimize = not file_order and (plotted.format in ORDERED_FORMATS or options.optimize)
+    if optimize:
+        stage("ordering the paths to cut pen-up travel")
     job = plan_program(plotted, config, offset_nm, group=not file_order,
                        on_progress=on_progress, optimize=optimize)
     job.mode = mode

@@ -1,7 +1,8 @@
-"""What plot, info, preview and getg show while a large layer is inked and planned.
+"""What plot, info, preview and getg show while a large file is inked and planned.
 
-The largest copper layers take seconds per ink stage before the first planning
-percentage: the front ends hear each stage from plan_file (on_stage) and say it.
+The largest copper layers take seconds per stage (the ink's, then path order)
+before the first planning percentage: the front ends hear each stage from
+plan_file (on_stage) and say it.
 """
 
 from __future__ import annotations
@@ -12,9 +13,11 @@ from pathlib import Path
 from galileo_cnc.cli.plot import TextProgress, stages_on_terminal
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.plan import pipeline
-from galileo_cnc.plan.pipeline import plan_file
+from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 
-BOARD = Path(__file__).resolve().parents[2] / "samples" / "led-blinker.gbr"
+SAMPLES = Path(__file__).resolve().parents[2] / "samples"
+BOARD = SAMPLES / "led-blinker.gbr"
+DRAWING = SAMPLES / "square-and-circle.nc"
 TWO_PENS = MachineConfig().replace(pen_widths_mm=(0.3, 0.8))
 
 
@@ -27,9 +30,10 @@ def test_the_ink_stages_of_a_large_file_in_order(monkeypatch):
     monkeypatch.setattr(pipeline, "PLANNING_NOTICE_OPS", 1)    # the sample counts as large
     heard: list[str] = []
     plan_file(BOARD, TWO_PENS, on_stage=heard.append)
-    assert heard == ["working out the copper", "filling with the 0.8 mm pen",
-                     "filling with the 0.3 mm pen", "finding features too narrow to fill",
-                     "fitting arcs"]
+    assert heard == ["inking: working out the copper", "inking: filling with the 0.8 mm pen",
+                     "inking: filling with the 0.3 mm pen",
+                     "inking: finding features too narrow to fill", "inking: fitting arcs",
+                     "ordering the paths to cut pen-up travel"]
 
 
 def test_a_small_file_plans_without_a_word():
@@ -38,11 +42,20 @@ def test_a_small_file_plans_without_a_word():
     assert heard == []
 
 
+def test_a_large_drawing_in_file_order_hears_no_stage(monkeypatch):
+    monkeypatch.setattr(pipeline, "PLANNING_NOTICE_OPS", 1)
+    heard: list[str] = []
+    plan_file(DRAWING, options=PlanOptions(file_order=True), on_stage=heard.append)
+    assert heard == []                  # no ink, no path order: the percentage says it all
+    plan_file(DRAWING, options=PlanOptions(optimize=True), on_stage=heard.append)
+    assert heard == ["ordering the paths to cut pen-up travel"]
+
+
 def test_a_terminal_sees_one_line_rewritten_then_the_planning_percentage():
     screen = Terminal()
     progress = TextProgress(screen)
-    progress.stage("working out the copper")
-    progress.stage("filling with the 0.3 mm pen")
+    progress.stage("inking: working out the copper")
+    progress.stage("inking: filling with the 0.3 mm pen")
     progress.planning(0, 10_000)
     progress.planning(10_000, 10_000)
     assert screen.getvalue() == (
@@ -56,7 +69,7 @@ def test_a_terminal_sees_one_line_rewritten_then_the_planning_percentage():
 def test_a_log_gets_a_line_per_stage():
     log = io.StringIO()
     progress = TextProgress(log)
-    progress.stage("working out the copper")
+    progress.stage("inking: working out the copper")
     progress.end_line()                             # nothing open: nothing written
     assert log.getvalue() == "inking: working out the copper ...\n"
 
@@ -66,5 +79,5 @@ def test_info_and_preview_tell_stages_to_a_terminal_only():
         assert on_stage is None                     # stderr piped: stdout stays the result
     screen = Terminal()
     with stages_on_terminal(screen) as on_stage:
-        on_stage("fitting arcs")
+        on_stage("inking: fitting arcs")
     assert screen.getvalue() == "\rinking: fitting arcs ...\x1b[K\r\x1b[K"

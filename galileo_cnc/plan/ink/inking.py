@@ -114,14 +114,14 @@ def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
                 edge_margin_nm: int = DEFAULT_EDGE_MARGIN_NM,
                 on_stage: Callable[[str], None] | None = None) -> InkPlan:
     """The ink of a Gerber Program for the pens (widths in nm, any order).
-    `on_stage(text)` hears what it starts on ("filling with the 0.3 mm pen"): the
+    `on_stage(text)` hears what it starts on ("inking: filling with the 0.3 mm pen"): the
     largest layers take seconds a stage, and a front end can say so."""
     began = time.perf_counter()
     pens = tuple(sorted({int(p) for p in pens_nm if int(p) > 0}, reverse=True))
     if not pens:
         raise ValueError("no pen: give at least one pen width above 0")
     stage = on_stage or (lambda _text: None)
-    stage("working out the copper")
+    stage("inking: working out the copper")
     copper = dark_geometry(program, tolerance_nm)
     region = copper.native
     islands = Islands.of(region)
@@ -130,7 +130,7 @@ def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
     fills: list[PenFill] = []
     inked: list = []                      # what the wider pens ink, for the narrower ones
     for number, width in enumerate(pens):
-        stage(f"filling with the {mm_text(width)} mm pen")
+        stage(f"inking: filling with the {mm_text(width)} mm pen")
         radius = width // 2
         if number == 0:
             target = region
@@ -149,7 +149,7 @@ def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
 
     smallest = pens[-1]
     limit = smallest + 2 * edge_margin_nm + 4 * tolerance_nm
-    stage("finding features too narrow to fill")
+    stage("inking: finding features too narrow to fill")
     narrow, zero_size = find_narrow(program, limit, smallest, tolerance_nm)
     bridges = keep_islands_apart(narrow, islands, smallest)
     # the coverage figures need the ink as polygons (fill.InkRecipe): on a large board
@@ -157,7 +157,7 @@ def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
     coverage = Deferred(_coverage, fills, [piece for f in narrow for piece in f.pieces],
                         smallest // 2, region, tolerance_nm,
                         fork=sum(len(ring) for ring in region) >= BACKGROUND_VERTICES)
-    stage("fitting arcs")
+    stage("inking: fitting arcs")
     plan = InkPlan(_rows(program, pens, fills, narrow), pens, copper, fills, narrow, bridges,
                    zero_size, close, clip.area_nm2(region), coverage)
     plan.warnings, plan.bridge_warnings = _warnings(program, plan)
