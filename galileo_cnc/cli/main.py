@@ -172,8 +172,8 @@ def _run_preview(args: argparse.Namespace) -> int:
 
 
 def _plan(args: argparse.Namespace, config):
-    """plan_file for preview and convert: their result goes to stdout, so the ink's
-    stages go to stderr, and only on a terminal."""
+    """plan_file for preview and convert: their result goes to stdout, so the stages
+    of planning go to stderr, and only on a terminal."""
     from galileo_cnc.cli.plot import stages_on_terminal
     from galileo_cnc.plan.pipeline import plan_file
 

@@ -102,8 +102,8 @@ class TextProgress:
 @contextmanager
 def stages_on_terminal(stream: TextIO) -> Iterator[Callable[[str], None] | None]:
     """plan_file's on_stage for commands whose stdout is their result (info, preview,
-    convert): the ink's stages on `stream` (stderr) if it is a terminal, else none;
-    the line is cleared when planning ends."""
+    convert): the stages on `stream` (stderr) if it is a terminal, else none; the
+    line is cleared when planning ends, or fails."""
     progress = TextProgress(stream)
     try:
         yield progress.stage if progress.tty else None
@@ -142,13 +142,16 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
     if options.home:
         check_homeable(profile.config)      # before anything is planned, opened or moved
     if not options.resume:              # a resumed job is planned from its journal
-        planned = plan_file(options.file, profile.config, options.offset,
-                            margin_nm=options.margin_nm, on_progress=progress.planning,
-                            on_stage=progress.stage,
-                            options=PlanOptions(mode=options.mode, file_order=not options.group,
-                                                layers=options.layers, units=options.units,
-                                                optimize=options.optimize))
-        progress.end_line()                 # an ink stage's line, if planning said nothing
+        try:
+            planned = plan_file(options.file, profile.config, options.offset,
+                                margin_nm=options.margin_nm, on_progress=progress.planning,
+                                on_stage=progress.stage,
+                                options=PlanOptions(mode=options.mode,
+                                                    file_order=not options.group,
+                                                    layers=options.layers, units=options.units,
+                                                    optimize=options.optimize))
+        finally:
+            progress.end_line()             # a stage's line, before the next or an error
 
     # no port: cli/main's open_board probed every port already and found no board
     port = with_step_trace(profile.port) if options.trace and profile.port else \
@@ -175,8 +178,10 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
             entry = journal.pending()
             if entry is None or Path(entry.source) != Path(options.file).resolve():
                 raise GalileoError(f"no interrupted job of {options.file} to resume")
-            point = plan_resume(link, entry, on_stage=progress.stage)
-            progress.end_line()
+            try:
+                point = plan_resume(link, entry, on_stage=progress.stage)
+            finally:
+                progress.end_line()
             job, artwork, start, lead_in = point.job, point.artwork, point.start, point.lead_in
             job_start, plotted, homed = point.job_start, point.program, point.homed
             offset = job.offset_nm                  # the interrupted job's, not --offset

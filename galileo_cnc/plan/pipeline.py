@@ -30,7 +30,7 @@ Box = tuple[int, int, int, int]
 #: reorder breaks)
 ORDERED_FORMATS = ("gerber", "dxf")
 #: files with fewer ops plan in well under a second: front ends show no progress for them,
-#: and plan_file tells them no ink stages
+#: and plan_file tells them no stages
 PLANNING_NOTICE_OPS = 5000
 #: "auto" (the proposal), "none" (the file's own coordinates), "X,Y" in mm, or (x, y) nm.
 OffsetChoice = Union[str, tuple[int, int]]

@@ -10,9 +10,13 @@ from __future__ import annotations
 import io
 from pathlib import Path
 
-from galileo_cnc.cli.plot import TextProgress, stages_on_terminal
+import pytest
+
+from galileo_cnc.cli.plot import PlotOptions, TextProgress, run_plot, stages_on_terminal
 from galileo_cnc.config.machine import MachineConfig
+from galileo_cnc.config.profile import Profile
 from galileo_cnc.plan import pipeline
+from galileo_cnc.plan.planner import PlanError
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 
 SAMPLES = Path(__file__).resolve().parents[2] / "samples"
@@ -81,3 +85,16 @@ def test_info_and_preview_tell_stages_to_a_terminal_only():
     with stages_on_terminal(screen) as on_stage:
         on_stage("inking: fitting arcs")
     assert screen.getvalue() == "\rinking: fitting arcs ...\x1b[K\r\x1b[K"
+
+
+def test_a_plan_that_fails_leaves_no_stage_line_before_its_error(monkeypatch):
+    # the ink plans, then path order and the travel check refuse the job: the error
+    # must start on a clean line, not after "inking: fitting arcs ..."
+    monkeypatch.setattr(pipeline, "PLANNING_NOTICE_OPS", 1)
+    screen = Terminal()
+    options = PlotOptions(file=str(BOARD), profile=Profile(TWO_PENS, "sim://?speed=0"),
+                          offset="60,0", yes=True)
+    with pytest.raises(PlanError, match="would reach"):
+        run_plot(options, out=screen)
+    assert "\rinking: fitting arcs ...\x1b[K" in screen.getvalue()
+    assert screen.getvalue().endswith("\r\x1b[K")
