@@ -22,6 +22,7 @@ from galileo_cnc import __version__
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.console.backend import Backend, MachineView, open_backend
 from galileo_cnc.console.commands import build_registry
+from galileo_cnc.console.plans import PlanCache
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.transport.link import MachineAlarm, PortGone
 
@@ -41,6 +42,7 @@ class Console:
         self.backend: Backend | None = None
         self.last_status: MachineView | None = None
         self.leaving = False
+        self.plans = PlanCache()                # getg again, resume: the last plan kept
         self.registry = build_registry()
         self.session: PromptSession = PromptSession(
             history=_open_history(history_path), completer=self.registry.completer(),

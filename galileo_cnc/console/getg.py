@@ -14,8 +14,7 @@ from prompt_toolkit.completion import PathCompleter
 from galileo_cnc.config.machine import pen_widths_from_text
 from galileo_cnc.plan.offsets import offset_from_text
 from galileo_cnc.errors import GalileoError
-from galileo_cnc.plan.pipeline import (PLANNING_NOTICE_OPS, Artwork, PlanOptions, load_artwork,
-                                       plan_file)
+from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, Artwork, PlanOptions, load_artwork
 from galileo_cnc.program.ops import NM_PER_MM
 
 
@@ -38,8 +37,8 @@ def run(console, arguments: list[str]) -> None:
         console.say(f"planning {len(artwork.program)} operations ...")
     # the accepted proposal is "auto": in ink mode the fills may need more room
     choice = "auto" if offset_nm == artwork.proposal_nm else offset_nm
-    planned = plan_file(artwork, config, choice, options=options,  # PlanError: file:line
-                        on_stage=console.say_stage)
+    planned = console.plans.plan_file(artwork, config, choice,  # PlanError: file:line
+                                      options=options, on_stage=console.say_stage)
     if planned.offset_nm != offset_nm:
         console.say(f"offsets     X {_mm(planned.offset_nm[0])} mm, Y {_mm(planned.offset_nm[1])} "
                     "mm (the ink reaches past the centre lines)")

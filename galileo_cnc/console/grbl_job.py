@@ -278,7 +278,7 @@ def resume_on_grbl(console, backend) -> None:
     link = backend.link
     config = journal_config(entry)
     refuse_other_scale(link, config.steps_per_mm, backend.config_path, backend.port_name)
-    planned = replan(entry, config, on_stage=console.say_stage)
+    planned = replan(entry, config, on_stage=console.say_stage, plan=console.plans.plan_file)
     lines = job_gcode(link, planned, config)
     check_same_job(entry, lines)
     start, why = resume_start(lines, entry.confirmed, entry.first_index,

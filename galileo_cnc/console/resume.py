@@ -24,7 +24,7 @@ def resume_job(console) -> None:
         console.say("no interrupted job to resume")
         return
     point = plan_resume(console.link, entry,           # ResumeError says why not
-                        on_stage=console.say_stage)
+                        on_stage=console.say_stage, plan=console.plans.plan_file)
     console.say(f"{entry.source}: {point.start} of {len(point.job)} commands were done"
                 f"{' (' + entry.reason + ')' if entry.reason else ''}")
     if point.home:

@@ -172,15 +172,17 @@ def stream_job(link: GrblLink, lines: list[GcodeLine], pen_changes: dict[int, in
                  where, show, on_reply)
 
 
-def replan(entry, config, on_stage: Callable[[str], None] | None = None) -> PlannedFile:
+def replan(entry, config, on_stage: Callable[[str], None] | None = None,
+           plan: Callable[..., PlannedFile] = plan_file) -> PlannedFile:
     """The interrupted job, planned again exactly as it was from its journal entry
     (stream/journal.JournalEntry: file, offset, mode, order, pens, layers, units; the
-    planner is deterministic). `on_stage`: see plan_file."""
-    return plan_file(entry.source, config, tuple(entry.offset_nm),
-                     options=PlanOptions(mode=entry.mode, file_order=not entry.group,
-                                         pens_nm=tuple(entry.pens_nm),
-                                         layers=tuple(entry.layers), units=entry.units),
-                     optimize=entry.ordered, on_stage=on_stage)
+    planner is deterministic). `on_stage`: see plan_file; `plan`: plan_file, or one
+    that keeps plans (the console's PlanCache)."""
+    return plan(entry.source, config, tuple(entry.offset_nm),
+                options=PlanOptions(mode=entry.mode, file_order=not entry.group,
+                                    pens_nm=tuple(entry.pens_nm),
+                                    layers=tuple(entry.layers), units=entry.units),
+                optimize=entry.ordered, on_stage=on_stage)
 
 
 def find_position(link: GrblLink, scale: AxisScale, pen: GrblPen, say, at_work_zero) -> bool:

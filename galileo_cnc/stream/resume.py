@@ -36,7 +36,7 @@ from galileo_cnc.config.machine import MachineConfig, tomllib
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.job import Command, Job, PenDown, Rapid, SetFeed
 from galileo_cnc.machine import ReferenceMachine
-from galileo_cnc.plan.pipeline import Artwork, PlanOptions, plan_file
+from galileo_cnc.plan.pipeline import Artwork, PlannedFile, PlanOptions, plan_file
 from galileo_cnc.program.ops import Program
 from galileo_cnc.stream.homing import home_after_reset
 from galileo_cnc.stream.journal import ABORTED, RESET, Journal, JournalEntry, file_digest
@@ -153,20 +153,22 @@ def _passes_through(trace, begin: tuple[int, int, int], here: tuple[int, int, in
 
 
 def plan_resume(link: MachineLink, entry: JournalEntry,
-                on_stage: Callable[[str], None] | None = None) -> ResumePoint:
+                on_stage: Callable[[str], None] | None = None,
+                plan: Callable[..., PlannedFile] = plan_file) -> ResumePoint:
     """Replan the journal's job and find where to continue; ResumeError if the file
-    changed or the machine was reset or moved since. `on_stage`: see plan_file."""
+    changed or the machine was reset or moved since. `on_stage`: see plan_file;
+    `plan`: plan_file, or one that keeps plans (the console's PlanCache)."""
     if not Path(entry.source).exists():
         raise ResumeError(f"{entry.source}: the file of the interrupted job is gone")
     if file_digest(entry.source) != entry.digest:
         raise ResumeError(f"{entry.source} changed since the job was planned; "
                           f"start it again with getg")
     config = MachineConfig.from_mapping(tomllib.loads(entry.profile), "journal")
-    planned = plan_file(entry.source, config, entry.offset_nm,
-                        options=PlanOptions(mode=entry.mode, file_order=not entry.group,
-                                            pens_nm=tuple(entry.pens_nm),
-                                            layers=tuple(entry.layers), units=entry.units),
-                        optimize=entry.ordered, on_stage=on_stage)
+    planned = plan(entry.source, config, entry.offset_nm,
+                   options=PlanOptions(mode=entry.mode, file_order=not entry.group,
+                                       pens_nm=tuple(entry.pens_nm),
+                                       layers=tuple(entry.layers), units=entry.units),
+                   optimize=entry.ordered, on_stage=on_stage)
     job, artwork = planned.job, planned.artwork
     if len(job) != entry.total:
         raise ResumeError("the replanned job differs from the interrupted one")
