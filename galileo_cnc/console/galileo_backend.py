@@ -13,7 +13,7 @@ from galileo_cnc.console.job_screen import JobScreen, report
 from galileo_cnc.console.keypad import jog_with_keypad
 from galileo_cnc.console.units import position_mm_text
 from galileo_cnc.job import Home, SetFeed
-from galileo_cnc.machine.timing import duration_text, job_timing
+from galileo_cnc.machine.timing import duration_text
 from galileo_cnc.protocol import Unlock
 from galileo_cnc.stream.journal import Journal
 from galileo_cnc.stream.streamer import JobStreamer
@@ -124,7 +124,7 @@ class GalileoBackend(Backend):
 
     def plot(self, console, planned, config: MachineConfig) -> None:
         job, program = planned.job, planned.plotted
-        timing = job_timing(job.commands, console.config)
+        timing = console.plans.timing(job, console.config)   # kept: getg again, resume
         pens = len(job.pen_changes)
         console.say(f"{len(job)} machine commands, {pens} pen change{'s' * (pens != 1)}, "
                     f"estimated time {duration_text(timing.total_s)}")

@@ -5,7 +5,9 @@ again for a second copy, stop it with q and `resume`. Each plan is the same: the
 planner is deterministic, and `resume` already relies on that (it replans the
 journal's job and checks it has as many commands). On the largest layers a plan
 takes 14-30 s, so the console keeps its last one and hands it out again when the
-same file (by its bytes) is planned the same way for the same machine.
+same file (by its bytes) is planned the same way for the same machine. It keeps
+the job's timing too (the estimate and the ETA): stepping hellboard's job on the
+reference machine for it takes longer than planning it.
 
 "The same way" is compared in two forms. As asked: what `getg` gives plan_file
 (an offset of "auto" included). As planned: the offset, mode, pens, grouping and
@@ -21,6 +23,8 @@ from pathlib import Path
 from typing import Callable
 
 from galileo_cnc.config.machine import MachineConfig
+from galileo_cnc.job import Job
+from galileo_cnc.machine.timing import JobTiming, job_timing
 from galileo_cnc.plan.pipeline import Artwork, OffsetChoice, PlannedFile, PlanOptions, plan_file
 from galileo_cnc.stream.journal import file_digest
 
@@ -31,7 +35,17 @@ class PlanCache:
     def __init__(self) -> None:
         self._keys: tuple = ()
         self._plan: PlannedFile | None = None
+        self._timing: tuple[Job, MachineConfig, JobTiming] | None = None
         self.reused = 0                      # plans handed out again (for the tests)
+
+    def timing(self, job: Job, config: MachineConfig) -> JobTiming:
+        """job_timing(job.commands, config), kept for the last job it was asked for."""
+        kept = self._timing
+        if kept is not None and kept[0] is job and kept[1] == config:
+            return kept[2]
+        timing = job_timing(job.commands, config)
+        self._timing = (job, config, timing)
+        return timing
 
     def plan_file(self, source: str | os.PathLike | Artwork, config: MachineConfig,
                   offset: OffsetChoice = "auto", *, options: PlanOptions = PlanOptions(),

@@ -39,6 +39,7 @@ def resume_job(console) -> None:
         home_after_reset(console.link)
     streamer = JobStreamer(console.link, point.job, point.program, journal=journal,
                            start=point.start, lead_in=point.lead_in,
-                           job_start=point.job_start, homed=point.homed)
+                           job_start=point.job_start, homed=point.homed,
+                           timing=console.plans.timing(point.job, console.link.config))
     screen = JobScreen(console, point.program.source, len(point.job) - point.start)
     report(console, screen.run(streamer.run, streamer.abort))

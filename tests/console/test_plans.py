@@ -9,6 +9,7 @@ from pathlib import Path
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.console.plans import PlanCache
+from galileo_cnc.machine.timing import job_timing
 from galileo_cnc.plan.pipeline import PlanOptions, load_artwork, plan_file
 
 BOARD = Path(__file__).resolve().parents[2] / "samples" / "led-blinker.gbr"
@@ -63,3 +64,13 @@ def test_a_file_that_changed_is_planned_again_even_for_resume(tmp_path):
     board.write_text(text.replace("M02*", "G04 edited*\nM02*"))
     again = plans.plan_file(str(board), TWO_PENS, **as_resume_asks(first))
     assert again is not first and plans.reused == 0
+
+
+def test_the_timing_is_kept_with_the_job_for_its_machine():
+    plans = PlanCache()
+    job = plans.plan_file(str(BOARD), TWO_PENS).job
+    timing = plans.timing(job, TWO_PENS)
+    assert plans.timing(job, TWO_PENS) is timing
+    assert list(timing.end_ticks) == list(job_timing(job.commands, TWO_PENS).end_ticks)
+    slower = TWO_PENS.replace(feed_mm_s=2.0)
+    assert plans.timing(job, slower).total_s > timing.total_s       # another machine
