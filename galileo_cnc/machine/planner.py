@@ -34,6 +34,8 @@ class ReferenceMachine:
     def __init__(self, config: MachineConfig | None = None,
                  position: tuple[int, int, int] = (0, 0, 0)):
         self.config = config or MachineConfig()
+        # looked up for every move: the config works them out from mm on each call
+        self._travel = (self.config.travel_min_steps, self.config.travel_max_steps)
         self.position = list(position)          # machine steps
         self.origin = [0, 0, 0]                 # machine steps of work zero
         self.phys_offset = [0, 0, 0]            # simulated world: physical - machine
@@ -123,7 +125,7 @@ class ReferenceMachine:
 
     def _check_travel(self, lo: Sequence[int], hi: Sequence[int]) -> None:
         """Refuse a move whose visited box [lo, hi] (machine steps) leaves the travel."""
-        tmin, tmax = self.config.travel_min_steps, self.config.travel_max_steps
+        tmin, tmax = self._travel
         for a in range(3):
             if lo[a] < tmin[a]:
                 raise self._fail(f"{AXIS_NAMES[a]} would reach {lo[a]} steps, below the "

@@ -139,6 +139,16 @@ def run_ticks(base_sub: np.ndarray, runs: list[Run], t0: int = 0, tail_ticks: in
     return ticks, starts, end
 
 
+def ramp_sum(length: int, ramp: int) -> int:
+    """sum over a run's events k of (R - m_k): what the ramps add to its intervals, in
+    steps of step_sub. Every event of a run that reaches its cruise within 2R + 2
+    events is on a ramp (m_k = min(k, L-1-k) there, summing to floor((L-1)^2 / 4));
+    a longer run adds R (R + 1), half on each ramp."""
+    if length <= 2 * ramp + 2:
+        return length * ramp - (length - 1) ** 2 // 4
+    return ramp * (ramp + 1)
+
+
 def _ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
     """Concatenation of arange(s, s + l) for every (s, l), vectorised."""
     total = int(lengths.sum())

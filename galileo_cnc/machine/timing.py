@@ -15,7 +15,6 @@ from galileo_cnc.config.hardware import TICKS_PER_S
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.machine import ReferenceMachine
 from galileo_cnc.machine import vector
-from galileo_cnc.machine.blocks import Pause
 
 @dataclass(frozen=True, slots=True)
 class JobTiming:
@@ -39,27 +38,25 @@ class JobTiming:
 
 def job_timing(commands, config: MachineConfig | None = None,
                position: tuple[int, int, int] = (0, 0, 0)) -> JobTiming:
-    """One vectorised run of the whole job; command k ends with its last step event.
-
-    Every step event has its own tick (steps of one event share it), so the
-    event count of each command's planned moves locates its last event in the
-    trace. A command without steps (a dwell, a feed) ends where the one before
-    it did; its time shows up in the next moving command. The total is exact.
+    """The job planned on the reference machine; command k ends with its last step
+    event, at the tick the trace gives it (vector.last_event_ticks: the ticks alone,
+    not the steps). A command without steps (a dwell, a feed) ends where the one
+    before it did; its time shows up in the next moving command. The total is exact.
     """
     commands = list(commands)
     machine = ReferenceMachine(config, position)
-    items, events = [], np.zeros(len(commands), dtype=np.int64)
+    items, owner = [], []
     for k, command in enumerate(commands):
         planned = machine.plan([command])
         items.extend(planned)
-        events[k] = sum(item.n for item in planned if not isinstance(item, Pause))
-    tick, _axis, _dir, end, _ = vector.execute(items, 0)
-    event_ticks = tick[np.flatnonzero(np.r_[True, tick[1:] != tick[:-1]])] if len(tick) else tick
-    done = np.cumsum(events)
-    ends = np.where(done > 0, event_ticks[np.maximum(done - 1, 0)] if len(tick) else 0, 0)
+        owner.extend([k] * len(planned))
+    last, end = vector.last_event_ticks(items, 0)
+    ends = np.zeros(len(commands), dtype=np.int64)
+    np.maximum.at(ends, np.asarray(owner, dtype=np.int64), last)   # no steps: 0
+    np.maximum.accumulate(ends, out=ends)      # ticks only grow: the last event so far
     if len(ends):
         ends[-1] = end
-    return JobTiming(ends.astype(np.int64))
+    return JobTiming(ends)
 
 
 def duration_text(seconds: float) -> str:

@@ -14,7 +14,7 @@ import numpy as np
 from galileo_cnc.machine.arcs import arc_points
 from galileo_cnc.machine.blocks import ArcMove, Hold, Item, LineMove, Pause, SeekMove
 from galileo_cnc.machine.lines import bresenham_points, fill_line_steps
-from galileo_cnc.machine.ramps import Run, run_ticks
+from galileo_cnc.machine.ramps import FRAC_BITS, Run, ramp_sum, run_ticks
 
 
 def build_events(items: Sequence[Item]) -> tuple[np.ndarray, np.ndarray, list[Run], int]:
@@ -78,14 +78,52 @@ def _fill_arc(table: np.ndarray, base: np.ndarray, offset: int, move: ArcMove) -
     steps[:, 1] *= 2
     table[offset:offset + g.n, :2] = steps
     table[offset:offset + g.n, 2] = 0
+    base[offset:offset + g.n] = _arc_bases(move, keys)
+
+
+def _arc_bases(move: ArcMove, keys: np.ndarray) -> np.ndarray:
+    """The cruise interval of each of the arc's events: its band's along the arc (by
+    each point's key), the last band's through the end correction."""
+    g = move.geom
     bases = np.asarray(move.band_base_sub, dtype=np.int64)
-    if g.n_arc:
-        band = np.searchsorted(np.asarray(g.band_v), keys, side="right") - 1
-        base[offset:offset + g.n_arc] = bases[band]
-        last = int(band[-1])
-    else:
-        last = 0
-    base[offset + g.n_arc:offset + g.n] = bases[last]
+    if not g.n_arc:
+        return np.full(g.n, bases[0], dtype=np.int64)
+    band = np.searchsorted(np.asarray(g.band_v), keys, side="right") - 1
+    return np.concatenate([bases[band], np.full(g.n - g.n_arc, bases[band[-1]])])
+
+
+def last_event_ticks(items: Sequence[Item], t0: int = 0) -> tuple[np.ndarray, int]:
+    """The tick of each item's last step event (-1 for a pause or an item without
+    steps), and the end tick: the ticks of `execute`'s trace, without making it.
+
+    A run's events fire at (256 * start + running interval sum) >> 8 (run_ticks), so
+    its last one fires at start + (sum of its intervals >> 8); the sum is the events'
+    cruise intervals plus step_sub * ramp_sum. Only an arc's intervals need its points
+    (each point's band); a line's are n * base. job_timing wants only these ticks:
+    stepping hellboard's job for them took 7.7 s of the 21 s its timing took."""
+    last = np.full(len(items), -1, dtype=np.int64)
+    moving, sums, pauses = [], [], []
+    pause = 0
+    for index, item in enumerate(items):
+        if isinstance(item, Pause):
+            pause += item.ticks
+            continue
+        if item.n == 0:
+            continue
+        if isinstance(item, ArcMove):
+            bases = int(_arc_bases(item, arc_points(item.geom)[1]).sum())
+        else:
+            bases = item.n * item.base_sub
+        moving.append(index)
+        sums.append(bases + item.step_sub * ramp_sum(item.n, item.ramp))
+        pauses.append(pause)
+        pause = 0
+    if not moving:
+        return last, t0 + pause
+    duration = np.array(sums, dtype=np.int64) >> FRAC_BITS
+    starts = t0 + np.cumsum(pauses) + np.concatenate(([0], np.cumsum(duration)[:-1]))
+    last[moving] = starts + duration
+    return last, int(starts[-1] + duration[-1]) + pause
 
 
 def apply_holds(base: np.ndarray, runs: list[Run], tail: int, t0: int,
