@@ -141,9 +141,9 @@ def run_ticks(base_sub: np.ndarray, runs: list[Run], t0: int = 0, tail_ticks: in
 
 def ramp_sum(length: int, ramp: int) -> int:
     """sum over a run's events k of (R - m_k): what the ramps add to its intervals, in
-    steps of step_sub. Every event of a run that reaches its cruise within 2R + 2
-    events is on a ramp (m_k = min(k, L-1-k) there, summing to floor((L-1)^2 / 4));
-    a longer run adds R (R + 1), half on each ramp."""
+    steps of step_sub. In a run of at most 2R + 2 events m_k = min(k, L-1-k) (it never
+    exceeds R there), and those sum to floor((L-1)^2 / 4); a longer run adds R (R + 1),
+    half on each ramp."""
     if length <= 2 * ramp + 2:
         return length * ramp - (length - 1) ** 2 // 4
     return ramp * (ramp + 1)
