@@ -21,6 +21,7 @@ A point on a diagonal (|x| == |y|) belongs to the side the travel enters next.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from math import isqrt
 
 import numpy as np
@@ -403,6 +404,17 @@ def arc_bbox(g: ArcGeometry) -> tuple[int, int, int, int]:
             xs.append(x)
             ys.append(y)
     return min(xs), max(xs), min(ys), max(ys)
+
+
+@lru_cache(maxsize=1 << 14)
+def arc_setup(start: tuple[int, int], end: tuple[int, int],
+              ccw: bool) -> tuple[ArcGeometry, tuple[int, int, int, int]]:
+    """arc_geometry and its arc_bbox, kept: both depend on the arc relative to its
+    centre alone, and inked boards repeat their arcs (hellboard's job: 48,491 arcs,
+    4,793 different), while the setup is most of planning a job on the reference
+    machine (the travel check, the timing)."""
+    geom = arc_geometry(start, end, ccw)
+    return geom, arc_bbox(geom)
 
 
 # ---- vectorised closed form -------------------------------------------------------

@@ -18,7 +18,7 @@ from galileo_cnc.job import (AXIS_NAMES, ArcTo, Command, Dwell, EndJob, Flash, H
                              LineTo, MachineError, Motors, PenDown, PenUp, Rapid, SetFeed,
                              SetOrigin)
 from galileo_cnc.machine import stepper as loop, vector
-from galileo_cnc.machine.arcs import MAX_ARC_COORD, arc_bbox, arc_geometry
+from galileo_cnc.machine.arcs import MAX_ARC_COORD, arc_setup
 from galileo_cnc.machine.blocks import ArcMove, Hold, Item, LineMove, Pause, SeekMove
 from galileo_cnc.machine.ramps import (FRAC_BITS, TICKS_PER_MS, axial_interval_sub,
                                        line_rho_q15, ramp_events, ramp_step_sub,
@@ -184,8 +184,7 @@ class ReferenceMachine:
         if max(abs(rel_s[0]), abs(rel_s[1]), abs(rel_e[0]), abs(rel_e[1])) > MAX_ARC_COORD:
             raise self._fail(f"arc radius too large (more than {MAX_ARC_COORD} steps "
                              f"from the centre on an axis)")
-        geom = arc_geometry(rel_s, rel_e, not cmd.cw)
-        x0, x1, y0, y1 = arc_bbox(geom)
+        geom, (x0, x1, y0, y1) = arc_setup(rel_s, rel_e, not cmd.cw)
         z = self.position[2]
         self._check_travel([x0 + center[0], y0 + center[1], z], [x1 + center[0], y1 + center[1], z])
         if geom.n == 0:

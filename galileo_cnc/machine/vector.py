@@ -7,11 +7,12 @@ separate: a feed hold only changes the timing, never the steps (§6).
 from __future__ import annotations
 
 from dataclasses import replace
+from functools import lru_cache
 from typing import Sequence
 
 import numpy as np
 
-from galileo_cnc.machine.arcs import arc_points
+from galileo_cnc.machine.arcs import arc_points, arc_setup
 from galileo_cnc.machine.blocks import ArcMove, Hold, Item, LineMove, Pause, SeekMove
 from galileo_cnc.machine.lines import bresenham_points, fill_line_steps
 from galileo_cnc.machine.ramps import FRAC_BITS, Run, ramp_sum, run_ticks
@@ -84,12 +85,23 @@ def _fill_arc(table: np.ndarray, base: np.ndarray, offset: int, move: ArcMove) -
 def _arc_bases(move: ArcMove, keys: np.ndarray) -> np.ndarray:
     """The cruise interval of each of the arc's events: its band's along the arc (by
     each point's key), the last band's through the end correction."""
-    g = move.geom
-    bases = np.asarray(move.band_base_sub, dtype=np.int64)
+    return np.asarray(move.band_base_sub, dtype=np.int64)[_event_bands(move.geom, keys)]
+
+
+def _event_bands(g, keys: np.ndarray) -> np.ndarray:
+    """The band of each of the arc's events (see _arc_bases)."""
     if not g.n_arc:
-        return np.full(g.n, bases[0], dtype=np.int64)
+        return np.zeros(g.n, dtype=np.int64)
     band = np.searchsorted(np.asarray(g.band_v), keys, side="right") - 1
-    return np.concatenate([bases[band], np.full(g.n - g.n_arc, bases[band[-1]])])
+    return np.concatenate([band, np.full(g.n - g.n_arc, band[-1])])
+
+
+@lru_cache(maxsize=1 << 14)
+def _band_counts(start: tuple[int, int], end: tuple[int, int], ccw: bool) -> np.ndarray:
+    """Events per band of the arc (relative to its centre): what its intervals sum
+    needs; kept, as arcs repeat (arcs.arc_setup)."""
+    g = arc_setup(start, end, ccw)[0]
+    return np.bincount(_event_bands(g, arc_points(g)[1]), minlength=len(g.band_v))
 
 
 def last_event_ticks(items: Sequence[Item], t0: int = 0) -> tuple[np.ndarray, int]:
@@ -111,7 +123,9 @@ def last_event_ticks(items: Sequence[Item], t0: int = 0) -> tuple[np.ndarray, in
         if item.n == 0:
             continue
         if isinstance(item, ArcMove):
-            bases = int(_arc_bases(item, arc_points(item.geom)[1]).sum())
+            g = item.geom
+            bases = int(_band_counts(g.start, g.end, g.ccw)
+                        @ np.asarray(item.band_base_sub, dtype=np.int64))
         else:
             bases = item.n * item.base_sub
         moving.append(index)

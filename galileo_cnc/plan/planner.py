@@ -37,7 +37,7 @@ from galileo_cnc.errors import GalileoError, SourcePos
 from galileo_cnc.job import (NO_OP, ArcTo, Command, Dwell, EndJob, Flash, Job, LineTo,
                              MachineError, PenDown, PenUp, Rapid, SetFeed)
 from galileo_cnc.machine import ReferenceMachine
-from galileo_cnc.machine.arcs import MAX_ARC_COORD, arc_bbox, arc_geometry
+from galileo_cnc.machine.arcs import MAX_ARC_COORD, arc_setup
 from galileo_cnc.plan.ink.inking import mm_text
 from galileo_cnc.plan.ink.narrow import aperture_width
 from galileo_cnc.plan.ink.shapes import arc_angles, arc_points
@@ -323,7 +323,7 @@ def _surely_inside(commands: list[Command], config: MachineConfig) -> bool:
             if x_min <= cx - radius and cx + radius <= x_max \
                     and y_min <= cy - radius and cy + radius <= y_max:
                 continue
-            low_x, high_x, low_y, high_y = arc_bbox(arc_geometry(start, end, not command.cw))
+            low_x, high_x, low_y, high_y = arc_setup(start, end, not command.cw)[1]
             if not (x_min <= cx + low_x and cx + high_x <= x_max
                     and y_min <= cy + low_y and cy + high_y <= y_max):
                 return False
