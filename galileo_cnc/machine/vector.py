@@ -96,7 +96,7 @@ def _event_bands(g, keys: np.ndarray) -> np.ndarray:
     return np.concatenate([band, np.full(g.n - g.n_arc, band[-1])])
 
 
-@lru_cache(maxsize=1 << 14)
+@lru_cache(maxsize=1 << 13)
 def _band_counts(start: tuple[int, int], end: tuple[int, int], ccw: bool) -> np.ndarray:
     """Events per band of the arc (relative to its centre): what its intervals sum
     needs; kept, as arcs repeat (arcs.arc_setup)."""
