@@ -98,8 +98,8 @@ def _event_bands(g, keys: np.ndarray) -> np.ndarray:
 
 @lru_cache(maxsize=1 << 13)
 def _band_counts(start: tuple[int, int], end: tuple[int, int], ccw: bool) -> np.ndarray:
-    """Events per band of the arc (relative to its centre): what its intervals sum
-    needs; kept, as arcs repeat (arcs.arc_setup)."""
+    """Events per band of the arc (relative to its centre): all the sum of its
+    intervals needs of its points; kept, as arcs repeat (arcs.arc_setup)."""
     g = arc_setup(start, end, ccw)[0]
     return np.bincount(_event_bands(g, arc_points(g)[1]), minlength=len(g.band_v))
 
