@@ -730,7 +730,8 @@ def test_a_whole_evening_on_sim(home, monkeypatch, stop):
         < said.index("commands were done (")
     assert said.index("inking: working out the copper ...") \
         < said.index("inking: filling with the 0.8 mm pen ...") \
-        < said.index("inking: filling with the 0.3 mm pen ...") < said.index("insert the 0.8 mm pen")
+        < said.index("inking: filling with the 0.3 mm pen ...") \
+        < said.index("insert the 0.8 mm pen")
     # three jobs of the same board (one stopped and resumed), jogs pen up: together
     # they inked exactly what one uninterrupted run inks
     assert inked_points(trace) == inked_points(whole)
