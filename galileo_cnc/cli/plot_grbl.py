@@ -39,7 +39,7 @@ from galileo_cnc.grbl.link import GrblLink
 from galileo_cnc.grbl.reports import GrblError
 from galileo_cnc.grbl.resume import lead_in, resume_start
 from galileo_cnc.grbl.session import (describe, find_position, hold_and_reset, position_text,
-                                      refuse_other_scale, replan, source_line, stream_job)
+                                      refuse_other_scale, source_line, stream_job)
 from galileo_cnc.grbl.stream import GrblStreamError
 from galileo_cnc.grbl.travel import applies, check_travel
 from galileo_cnc.machine.timing import duration_text
@@ -48,6 +48,7 @@ from galileo_cnc.plan.pipeline import PlannedFile, PlanOptions, plan_file
 from galileo_cnc.program.ops import NM_PER_MM
 from galileo_cnc.simavr.grbl_firmware import grbl_step_trace
 from galileo_cnc.stream.journal import ABORTED, FAILED, FINISHED, INTERRUPTED
+from galileo_cnc.stream.resume import replan
 from galileo_cnc.stream.streamer import PenChange, describe_aperture
 from galileo_cnc.transport.port import open_port, port_error_text, with_step_trace
 

@@ -43,7 +43,6 @@ from galileo_cnc.grbl.session import (
     hold_and_reset,
     position_text,
     refuse_other_scale,
-    replan,
     source_line,
     stream_job,
 )
@@ -54,6 +53,7 @@ from galileo_cnc.plan.pipeline import PlannedFile
 from galileo_cnc.program.ops import NM_PER_MM
 from galileo_cnc.stream.journal import (ABORTED, FAILED, FINISHED, INTERRUPTED, RUNNING,
                                         Journal, JournalEntry, file_digest)
+from galileo_cnc.stream.resume import replan
 from galileo_cnc.stream.streamer import (
     PenChange,
     Progress,

@@ -5,8 +5,9 @@ The connection line, the steps/mm check against the profile, the job cut into
 pieces at its pen changes and streamed (`stream_job`, a resume's lead-in first),
 one piece streamed to a stop with refusals and alarms named by their line in the
 whole job, a stop on the user's word (feed hold, then soft reset, so no step is
-lost), and for a resume: the job planned again from its journal entry (`replan`)
-and the position found again (`find_position`: $H, or the user re-zeroes).
+lost), and for a resume the position found again (`find_position`: $H, or the
+user re-zeroes); the job is planned again from its journal entry by
+stream/resume.py's `replan`, as for our firmware.
 The journal itself (stream/journal.py) sits beside grbl/ and is bound to a job in
 console/grbl_job.py.
 """
@@ -14,7 +15,6 @@ console/grbl_job.py.
 from __future__ import annotations
 
 import time
-from typing import Callable
 
 import numpy as np
 
@@ -25,7 +25,7 @@ from galileo_cnc.grbl.link import FEED_HOLD, GrblLink
 from galileo_cnc.grbl.numbers import read_float, steps_per_mm_f32
 from galileo_cnc.grbl.reports import GrblError, alarm_text, error_text
 from galileo_cnc.grbl.stream import GrblStreamError, stream
-from galileo_cnc.plan.pipeline import PlannedFile, PlanOptions, plan_file
+from galileo_cnc.plan.pipeline import PlannedFile
 from galileo_cnc.program.ops import NM_PER_MM
 from galileo_cnc.transport.port import SIMAVR_URL
 
@@ -170,19 +170,6 @@ def stream_job(link: GrblLink, lines: list[GcodeLine], pen_changes: dict[int, in
         ask_pen(first, aperture, False)
     stream_piece(link, chunk + lines[position:total], numbers + list(range(position, total)),
                  where, show, on_reply)
-
-
-def replan(entry, config, on_stage: Callable[[str], None] | None = None,
-           plan: Callable[..., PlannedFile] = plan_file) -> PlannedFile:
-    """The interrupted job, planned again exactly as it was from its journal entry
-    (stream/journal.JournalEntry: file, offset, mode, order, pens, layers, units; the
-    planner is deterministic). `on_stage`: see plan_file; `plan`: plan_file, or one
-    that keeps plans (the console's PlanCache)."""
-    return plan(entry.source, config, tuple(entry.offset_nm),
-                options=PlanOptions(mode=entry.mode, file_order=not entry.group,
-                                    pens_nm=tuple(entry.pens_nm),
-                                    layers=tuple(entry.layers), units=entry.units),
-                optimize=entry.ordered, on_stage=on_stage)
 
 
 def find_position(link: GrblLink, scale: AxisScale, pen: GrblPen, say, at_work_zero) -> bool:

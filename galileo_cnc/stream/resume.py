@@ -152,23 +152,32 @@ def _passes_through(trace, begin: tuple[int, int, int], here: tuple[int, int, in
     return bool(np.all(where[event_ends] == np.asarray(here), axis=1).any())
 
 
+def replan(entry: JournalEntry, config: MachineConfig,
+           on_stage: Callable[[str], None] | None = None,
+           plan: Callable[..., PlannedFile] = plan_file) -> PlannedFile:
+    """The journal's job planned again exactly as it was (file, offset, mode, order,
+    pens, layers, units; the planner is deterministic), for our firmware's resume and
+    GRBL's. `on_stage`: see plan_file; `plan`: plan_file, or one that keeps plans
+    (the console's PlanCache)."""
+    return plan(entry.source, config, tuple(entry.offset_nm),
+                options=PlanOptions(mode=entry.mode, file_order=not entry.group,
+                                    pens_nm=tuple(entry.pens_nm),
+                                    layers=tuple(entry.layers), units=entry.units),
+                optimize=entry.ordered, on_stage=on_stage)
+
+
 def plan_resume(link: MachineLink, entry: JournalEntry,
                 on_stage: Callable[[str], None] | None = None,
                 plan: Callable[..., PlannedFile] = plan_file) -> ResumePoint:
     """Replan the journal's job and find where to continue; ResumeError if the file
-    changed or the machine was reset or moved since. `on_stage`: see plan_file;
-    `plan`: plan_file, or one that keeps plans (the console's PlanCache)."""
+    changed or the machine was reset or moved since. `on_stage`, `plan`: see replan."""
     if not Path(entry.source).exists():
         raise ResumeError(f"{entry.source}: the file of the interrupted job is gone")
     if file_digest(entry.source) != entry.digest:
         raise ResumeError(f"{entry.source} changed since the job was planned; "
                           f"start it again with getg")
     config = MachineConfig.from_mapping(tomllib.loads(entry.profile), "journal")
-    planned = plan(entry.source, config, entry.offset_nm,
-                   options=PlanOptions(mode=entry.mode, file_order=not entry.group,
-                                       pens_nm=tuple(entry.pens_nm),
-                                       layers=tuple(entry.layers), units=entry.units),
-                   optimize=entry.ordered, on_stage=on_stage)
+    planned = replan(entry, config, on_stage, plan)
     job, artwork = planned.job, planned.artwork
     if len(job) != entry.total:
         raise ResumeError("the replanned job differs from the interrupted one")
