@@ -52,7 +52,8 @@ def _run_info(args: argparse.Namespace) -> int:
     artwork = load_artwork(args.file, margin_nm=round(args.margin * NM_PER_MM),
                            layers=_layers(args), units=args.units)
     summary = summarize(artwork)
-    summary["misfit"] = artwork.misfit(_profile(args).config)   # None: the job fits
+    config = _profile(args).config
+    summary["misfit"] = artwork.misfit(config)          # None: the job fits
     options = _plan_options(args)
     if options.optimize and artwork.program.format == "gcode":
         _check_reorder(artwork.program)
@@ -60,7 +61,7 @@ def _run_info(args: argparse.Namespace) -> int:
         from galileo_cnc.cli.info import ink_summary
         from galileo_cnc.cli.plot import stages_on_terminal
         with stages_on_terminal(sys.stderr) as on_stage:   # stdout: the summary (maybe JSON)
-            summary["ink"] = ink_summary(artwork, _profile(args).config, options, on_stage)
+            summary["ink"] = ink_summary(artwork, config, options, on_stage)
     if args.json:
         print(json.dumps(summary, indent=2))
     else:

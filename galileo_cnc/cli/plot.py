@@ -83,6 +83,15 @@ class TextProgress:
             self.out.flush()
             self._open_line = False
 
+    @contextmanager
+    def staging(self) -> Iterator[Callable[[str], None]]:
+        """`stage` for a planning, and the line cleared when the planning ends or
+        fails (so an error starts on a line of its own)."""
+        try:
+            yield self.stage
+        finally:
+            self.end_line()
+
     def planning(self, done: int, total: int) -> None:
         """Planning a large file takes seconds: say so, and how far it got on a terminal."""
         if done == 0 and total >= PLANNING_NOTICE_OPS:
@@ -105,10 +114,11 @@ def stages_on_terminal(stream: TextIO) -> Iterator[Callable[[str], None] | None]
     convert): the stages on `stream` (stderr) if it is a terminal, else none; the
     line is cleared when planning ends, or fails."""
     progress = TextProgress(stream)
-    try:
-        yield progress.stage if progress.tty else None
-    finally:
-        progress.end_line()
+    if not progress.tty:
+        yield None
+        return
+    with progress.staging() as on_stage:
+        yield on_stage
 
 
 @dataclass
@@ -142,16 +152,14 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
     if options.home:
         check_homeable(profile.config)      # before anything is planned, opened or moved
     if not options.resume:              # a resumed job is planned from its journal
-        try:
+        with progress.staging() as on_stage:
             planned = plan_file(options.file, profile.config, options.offset,
                                 margin_nm=options.margin_nm, on_progress=progress.planning,
-                                on_stage=progress.stage,
+                                on_stage=on_stage,
                                 options=PlanOptions(mode=options.mode,
                                                     file_order=not options.group,
                                                     layers=options.layers, units=options.units,
                                                     optimize=options.optimize))
-        finally:
-            progress.end_line()             # a stage's line, before the next or an error
 
     # no port: cli/main's open_board probed every port already and found no board
     port = with_step_trace(profile.port) if options.trace and profile.port else \
@@ -178,10 +186,8 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
             entry = journal.pending()
             if entry is None or Path(entry.source) != Path(options.file).resolve():
                 raise GalileoError(f"no interrupted job of {options.file} to resume")
-            try:
-                point = plan_resume(link, entry, on_stage=progress.stage)
-            finally:
-                progress.end_line()
+            with progress.staging() as on_stage:
+                point = plan_resume(link, entry, on_stage=on_stage)
             job, artwork, start, lead_in = point.job, point.artwork, point.start, point.lead_in
             job_start, plotted, homed = point.job_start, point.program, point.homed
             offset = job.offset_nm                  # the interrupted job's, not --offset

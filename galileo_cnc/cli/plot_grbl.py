@@ -95,18 +95,16 @@ def run_grbl_plot(options: GrblPlotOptions, out: TextIO | None = None, port=None
     progress = GrblProgress(out)
     journal = grbl_journal()
     entry = None
-    try:
+    with progress.staging() as on_stage:
         if options.resume:              # planned again from the journal, as it was
             entry = pending_job(journal, options.file)
             config = journal_config(entry)
-            planned = replan(entry, config, on_stage=progress.stage)
+            planned = replan(entry, config, on_stage=on_stage)
         else:
             config = options.profile.config
             planned = plan_file(options.file, config, options.offset,
                                 margin_nm=options.margin_nm, on_progress=progress.planning,
-                                on_stage=progress.stage, options=options.plan)
-    finally:
-        progress.end_line()             # a stage's line, before the next or an error
+                                on_stage=on_stage, options=options.plan)
     if port is None:                    # simavr:// records GRBL's pins for --trace
         port = open_grbl_port(with_step_trace(options.port) if options.trace else
                               options.port, options.profile.baud)
