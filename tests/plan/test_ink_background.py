@@ -43,6 +43,16 @@ def test_cancel_ends_the_child_and_result_is_not_needed():
     assert work.result()[1] == 1        # asked anyway: done here
 
 
+class Counted(fill.Deferred):
+    """Deferred, noting each piece of work and whether it may fork."""
+
+    made: list = []
+
+    def __init__(self, fn, *args, fork=True):
+        Counted.made.append((fn.__name__, args[3:5] if fn is fill._gaps else (), fork))
+        super().__init__(fn, *args, fork=fork)
+
+
 def test_a_fill_with_its_gap_tests_forked_equals_one_without(monkeypatch):
     # a pour with sharp corners and holes (gaps at several depths), and pads
     pour = [[[0, 0], [12 * MM, 0], [6 * MM, 9 * MM]],
@@ -50,8 +60,15 @@ def test_a_fill_with_its_gap_tests_forked_equals_one_without(monkeypatch):
     pads = [[[x, 10 * MM], [x + MM, 10 * MM], [x + MM, 11 * MM], [x, 11 * MM]]
             for x in range(0, 10 * MM, 2 * MM)]
     region = clip.union(pour + pads)
+    monkeypatch.setattr(fill, "Deferred", Counted)
+    monkeypatch.setattr(Counted, "made", [])
     monkeypatch.setattr(fill, "BACKGROUND_VERTICES", 0)
     forked = fill.fill_region(region, 300_000, 1_000)
+    # per batch: depth 0's gap test while the deeper rings are made, then the next
+    # depths' while the joins are made (the rest here)
+    gap_work = [made for made in Counted.made if made[0] == "_gaps"]
+    assert gap_work and all(fork for _name, _depths, fork in gap_work)
+    assert [depths for _name, depths, _fork in gap_work][:2] == [(0, 1), (1, gap_work[1][1][1])]
     monkeypatch.setattr(fill, "BACKGROUND_VERTICES", 10 ** 12)
     inline = fill.fill_region(region, 300_000, 1_000)
     assert forked.gap_strokes == inline.gap_strokes > 0
@@ -85,17 +102,11 @@ def test_a_fill_whose_later_batches_are_forked_equals_one_without(monkeypatch):
     pads = [[[x, y], [x + MM, y], [x + MM, y + MM], [x, y + MM]]
             for x in range(0, 12 * MM, 2 * MM) for y in (10 * MM, 12 * MM)]
     region = clip.union(pour + pads)
-    forks = []
-
-    class Counted(fill.Deferred):
-        def __init__(self, fn, *args, fork=True):
-            forks.append((fn.__name__, fork))
-            super().__init__(fn, *args, fork=fork)
-
     monkeypatch.setattr(fill, "Deferred", Counted)
+    monkeypatch.setattr(Counted, "made", [])
     monkeypatch.setattr(fill, "BACKGROUND_VERTICES", 0)
     forked = fill.fill_region(region, 300_000, 1_000, batch_vertices=4)
-    assert ("_fill_batches", True) in forks
+    assert ("_fill_batches", (), True) in Counted.made
     monkeypatch.setattr(fill, "BACKGROUND_VERTICES", 10 ** 12)
     inline = fill.fill_region(region, 300_000, 1_000, batch_vertices=4)
     assert len(forked.recipes) == len(inline.recipes) > 6

@@ -47,14 +47,17 @@ BATCH_VERTICES = 4_000
 #: forked process (background.py): a fork costs milliseconds, this many vertices'
 #: gap tests a few tenths of a second.
 BACKGROUND_VERTICES = 20_000
-#: The share of the gap tests done there: the joins between the rings take this
-#: process about half as long as all the gap tests (hellboard: 1.7 and 3.0 s CPU).
-BACKGROUND_SHARE = 0.75
+#: The share of the gap tests below depth 0 done there (depth 0's has a process of its
+#: own while the deeper rings are made): at this share hellboard's planner no longer
+#: waits for it after the joins between the rings.
+BACKGROUND_SHARE = 0.65
 #: The rings inside E0 and the gap tests are offset with this many times the tolerance
 #: (E0 keeps it: it runs along the copper's edge), and those rings' arcs are fitted to
-#: it: hellboard's fill 11 -> 7 s CPU and 344k -> 140k rows; ten layers measured from
-#: the steps inked within 0.012 % of before (docs/ink.md, "Measured on the corpus").
-DEEP_TOLERANCE = 4
+#: it: 8 um, just over a motor step. 4 um took hellboard's fill from 11 to 7 s CPU and
+#: 344k to 140k rows, 8 um (and the deep rings started from E0 cleaned to it) 140k to
+#: 127k rows; each time eight or ten layers measured from the steps inked within
+#: 0.012 % of before (docs/ink.md, "Measured on the corpus").
+DEEP_TOLERANCE = 8
 
 
 @dataclass
@@ -206,22 +209,34 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     if not centre_area:
         fill.recipes = [(region, InkRecipe([], [], [], radius, tolerance_nm))]   # no ink
         return fill
-    areas = _concentric(centre_area, spacing, tolerance_nm * DEEP_TOLERANCE)
-    # the gap tests (a third of a large pour's fill) in a second process, meanwhile
-    # the joins between rings here: the same result either way
-    split = _gap_split(areas)
-    gaps_found = Deferred(_gaps, areas, radius, tolerance_nm * DEEP_TOLERANCE, 0, split,
-                          fork=sum(len(ring) for ring in centre_area) >= BACKGROUND_VERTICES)
+    deep = tolerance_nm * DEEP_TOLERANCE
+    # E0's own ring keeps the fine tolerance (it runs along the copper's edge); the
+    # rings inside it and the gap tests start from E0 cleaned to theirs, which drops a
+    # third of its vertices (arcs of 1 um chords) and of their offsets' work
+    start = clip.clean(centre_area, deep) or centre_area
+    first = clip.offset(start, -spacing, deep, cleaned=True)
+    big = sum(len(ring) for ring in centre_area) >= BACKGROUND_VERTICES
+    # the gap tests (a third of a large pour's fill) in second processes: depth 0's
+    # (the largest) while the deeper rings are made, most of the others while the
+    # joins between rings are made here; the same result either way
+    outermost = Deferred(_gaps, [start, first], radius, deep, 0, 1, fork=big)
+    others = None
     try:
+        coarse = [start] + _concentric(first, spacing, deep)
+        areas = [centre_area] + coarse[1:]
+        split = _gap_split(coarse, 1)
+        others = Deferred(_gaps, coarse, radius, deep, 1, split, fork=big)
         depths = [clip.rings_as_arrays(area) for area in areas]
         fill.rings = sum(len(rings) for rings in depths)
         ring_joins = _ring_joins(depths, spacing)
         every_ring = EdgeIndex([ring for at_depth in depths for ring in at_depth],
                                cell_nm=spacing)        # where the gap strokes join
-        deeper = _gaps(areas, radius, tolerance_nm * DEEP_TOLERANCE, split)
-        gaps = clip.union(gaps_found.result() + deeper)
+        deeper = _gaps(coarse, radius, deep, split)
+        gaps = clip.union(outermost.result() + others.result() + deeper)
     finally:
-        gaps_found.cancel()
+        outermost.cancel()
+        if others is not None:
+            others.cancel()
     opened = clip.opening(gaps, GAP_NM, tolerance_nm)
     strokes = _gap_strokes(opened, centre_area, radius) if opened else []
     fill.gap_strokes = len(strokes)
@@ -230,7 +245,7 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     fill.paths = [np.ascontiguousarray(walk[:, :2]) for walk in walks]
     # the arcs of a ring inside E0 may stray as far as its chords (fit_paths); E0's
     # own vertices and the ends of joins (on E0's outline too) keep the fine tolerance
-    fill.coarse = [np.where(walk[:, 2] != 0, tolerance_nm * DEEP_TOLERANCE, tolerance_nm)
+    fill.coarse = [np.where(walk[:, 2] != 0, deep, tolerance_nm)
                    for walk in walks]
     return fill
 
@@ -526,13 +541,15 @@ def _gaps(areas: list[list], radius: int, tolerance_nm: int, first: int = 0,
     return gaps
 
 
-def _gap_split(areas: list[list]) -> int:
-    """The depth up to which the background process tests for gaps: BACKGROUND_SHARE
-    of the work (counted in the vertices of E(k) and E(k+1)); the rest is done here,
-    after the joins between rings."""
+def _gap_split(areas: list[list], first: int = 0) -> int:
+    """The depth up to which the background process tests for gaps from depth `first`:
+    BACKGROUND_SHARE of the work (counted in the vertices of E(k) and E(k+1)); the
+    rest is done here, after the joins between rings."""
     sizes = [sum(len(ring) for ring in area) for area in areas] + [0]
-    cost = np.cumsum([sizes[k] + sizes[k + 1] for k in range(len(areas))])
-    return int(np.searchsorted(cost, BACKGROUND_SHARE * cost[-1])) + 1 if len(cost) else 0
+    cost = np.cumsum([sizes[k] + sizes[k + 1] for k in range(first, len(areas))])
+    if not len(cost):
+        return first
+    return first + int(np.searchsorted(cost, BACKGROUND_SHARE * cost[-1])) + 1
 
 
 def _gap_strokes(gaps: list, centre_area: list, radius: int) -> list[np.ndarray]:
