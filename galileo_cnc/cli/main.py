@@ -303,11 +303,12 @@ def _add_ink_options(parser: argparse.ArgumentParser) -> None:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="galileo-cnc",
-        description="Plot Gerber RS-274X artwork and G-code drawings on a home-built CNC plotter.")
+        description="Plot Gerber RS-274X artwork, G-code and DXF drawings on a home-built "
+                    "CNC plotter.")
     parser.add_argument("--version", action="version", version=f"galileo-cnc {__version__}")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND")
 
-    info = commands.add_parser("info", help="describe a Gerber or G-code file")
+    info = commands.add_parser("info", help="describe a Gerber, G-code or DXF file")
     info.add_argument("file", help="Gerber (RS-274X), G-code or DXF file")
     info.add_argument("--json", action="store_true", help="print machine-readable JSON")
     info.add_argument("--margin", type=margin_mm, default=1.0, metavar="MM",

@@ -16,7 +16,7 @@ def build_registry() -> Registry:
     return Registry([
         ConsoleCommand("help", "help [COMMAND]", "print the help, or one command's",
                        show_help.run, arguments=lambda names: WordCompleter(names)),
-        ConsoleCommand("getg", "getg [FILE]", "plot a Gerber or G-code file",
+        ConsoleCommand("getg", "getg [FILE]", "plot a Gerber, G-code or DXF file",
                        getg.run, needs_machine=True,
                        arguments=PathCompleter(expanduser=True)),
         ConsoleCommand("setup", "setup", "jog the head with the keypad, set the feed rate",
