@@ -56,11 +56,13 @@ class Artwork:
         if self.visited_box_nm is None:
             return None
         x0, y0, x1, y1 = self.visited_box_nm
-        for axis, size, travel in (("wide", x1 - x0, config.x_travel_mm),
-                                   ("tall", y1 - y0, config.y_travel_mm)):
+        for axis, size, travel, key in (("wide", x1 - x0, config.x_travel_mm, "x_travel_mm"),
+                                        ("tall", y1 - y0, config.y_travel_mm, "y_travel_mm")):
             if size > round(travel * NM_PER_MM):
+                # where a bigger machine says so: the profile ([machine], docs/streaming.md)
                 return (f"{self.program.source}: the job is {size / NM_PER_MM:.1f} mm {axis} "
-                        f"(with its travel moves); the machine's travel is {travel:g} mm")
+                        f"(with its travel moves); the machine's travel is {travel:g} mm "
+                        f"({key} in the profile)")
         return None
 
 

@@ -142,7 +142,7 @@ def test_a_profile_sets_the_machine_and_the_port(tmp_path):
     result = galileo("plot", "samples/led-blinker.gbr", "--yes", home=tmp_path)
     assert result.returncode == 1
     assert "the job is 40.0 mm wide" in result.stderr
-    assert "the machine's travel is 30 mm" in result.stderr
+    assert "the machine's travel is 30 mm (x_travel_mm in the profile)" in result.stderr
     # info still tells all about it, the ink too, and says it does not fit
     result = galileo("info", "samples/led-blinker.gbr", "--json", home=tmp_path)
     assert result.returncode == 0, result.stderr
