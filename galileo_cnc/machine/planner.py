@@ -9,6 +9,7 @@ vectorised reference or, for cross-checks, by the per-step loop.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Iterable, Sequence
 
 import numpy as np
@@ -197,8 +198,7 @@ class ReferenceMachine:
         # minimum step period still bounds the major axis (§5.6).
         floor = cfg.min_step_period_ticks << FRAC_BITS
         items.append(ArcMove(tuple(self.position), center, geom,
-                             tuple(max(weighted_interval_sub(axial, r), floor)
-                                   for r in geom.band_rho),
+                             band_intervals(geom.band_rho, axial, floor),
                              geom.n, ramp, ramp_step_sub(axial, ramp, cfg.ramp_start_factor)))
         self.position = [end[0], end[1], z]
 
@@ -315,3 +315,11 @@ class JobSteps:
 def estimate_seconds(commands: Iterable[Command], config: MachineConfig | None = None) -> float:
     """Job duration from the same computation that makes the trace."""
     return simulate(commands, config).seconds
+
+
+@lru_cache(maxsize=1 << 13)
+def band_intervals(band_rho: tuple[int, ...], axial_sub: int, floor_sub: int) -> tuple[int, ...]:
+    """The subticks per event of each band of an arc at one feed, never below the
+    minimum step period: kept, as arc_setup is (the same arc shapes at the same feed
+    recur thousands of times in an inked job; a third of its timing was this)."""
+    return tuple(max(weighted_interval_sub(axial_sub, r), floor_sub) for r in band_rho)
