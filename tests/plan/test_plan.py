@@ -321,3 +321,22 @@ def test_the_quick_travel_check_never_passes_a_job_the_machine_refuses():
             raise AssertionError(f"passed quickly, refused by the machine: {problem}; "
                                  f"{commands}") from None
     assert quick > 50
+
+
+def test_a_job_too_big_names_the_axis_and_the_profile_key_that_sets_the_travel(tmp_path):
+    from dataclasses import replace
+
+    from galileo_cnc.plan.pipeline import load_artwork
+
+    tall = tmp_path / "tall.nc"                 # 10 mm wide, 150 mm tall
+    tall.write_text("G21 G90\nG0 X0 Y0\nM3\nG1 X10 Y150\nM5\n")
+    artwork = load_artwork(tall)
+    assert artwork.misfit(MachineConfig()) is None
+    narrow = replace(MachineConfig(), x_travel_mm=8.0)
+    assert artwork.misfit(narrow).endswith(
+        "the job is 10.0 mm wide (with its travel moves); the machine's travel is 8 mm "
+        "(x_travel_mm in the profile)")
+    short = replace(MachineConfig(), y_travel_mm=100.0)
+    assert artwork.misfit(short).endswith(
+        "the job is 150.0 mm tall (with its travel moves); the machine's travel is 100 mm "
+        "(y_travel_mm in the profile)")
