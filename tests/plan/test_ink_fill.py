@@ -244,3 +244,26 @@ def test_a_walk_draws_its_longest_join_once_and_every_other_twice():
     if not np.array_equal(walk[0], walk[first - 1]):
         saved += sum(math.dist(*s) for s in _segments(walk[:first]))
     assert all(math.dist(*s) <= saved + 1 for s, n in counts.items() if n == 2)
+
+
+#: A ring of freeduino.sol's pen-centre area (0.3 mm pen), moved to the origin: an
+#: island 11.3 mm long and 39 um thick. Cleaned at 2 um, Clipper turns it round.
+SLIVER = [[19640, 15580], [51122, 30443], [99846, 38464], [11246764, 38464],
+          [11281349, 34477], [11322110, 17961], [11288987, 37834], [11287609, 38317],
+          [11279201, 39264], [46609, 39264], [38331, 38331], [0, 0]]
+
+
+def test_cleaning_never_turns_a_thin_island_round_and_the_rings_inside_still_come():
+    import pyclipper
+
+    assert pyclipper.Area(SLIVER) > 0
+    assert pyclipper.Area(pyclipper.CleanPolygons([SLIVER], 2_000.0)[0]) < 0   # the trap
+    cleaned = clip.clean([SLIVER], 8_000)
+    assert len(cleaned) == 1 and pyclipper.Area(cleaned[0]) > 0
+    # the sliver holds the set's lowest vertex: turned round, it turned the whole set
+    # round in Clipper's offset, and a pour above it got no rings inside E0
+    pour = [[0, MM], [10 * MM, MM], [10 * MM, 11 * MM], [0, 11 * MM]]
+    inner = clip.offset(clip.clean([pour, SLIVER], 8_000), -240_000, 8_000, cleaned=True)
+    assert clip.area_nm2(inner) == pytest.approx((10 * MM - 480_000) ** 2, rel=1e-3)
+    fill = fill_region([pour, SLIVER], 300_000, 1_000, edge_margin_nm=2_000)
+    assert fill.rings > 15          # 10 mm shrunk by 0.24 mm a ring: ~20 depths, not 1

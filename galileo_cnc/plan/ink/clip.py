@@ -37,9 +37,19 @@ def offset(polygons: PolygonSet, delta_nm: int, tolerance_nm: int, *,
 
 def clean(polygons: PolygonSet, tolerance_nm: int) -> PolygonSet:
     """The set without vertices that move the outline by less than tolerance / 4
-    (Clipper's CleanPolygons); rings left with fewer than three points are dropped."""
+    (Clipper's CleanPolygons); rings left with fewer than three points are dropped.
+
+    A ring of a few vertices across can come out turned the other way round (a tiny
+    island as a hole): such a ring is kept as it was. Turned round, it would be wrong,
+    and if it held the lowest vertex of the set, Clipper's offset, which orients the
+    whole set by that ring, would turn every ring round and return nothing."""
     cleaned = pc.CleanPolygons(polygons, max(tolerance_nm / 4, 1.0))
-    return [ring for ring in cleaned if len(ring) >= 3]
+    kept = []
+    for before, after in zip(polygons, cleaned):    # one cleaned ring per ring, in order
+        if len(after) < 3:
+            continue
+        kept.append(after if (pc.Area(after) > 0) == (pc.Area(before) > 0) else before)
+    return kept
 
 
 def stroke(paths: list, radius_nm: int, tolerance_nm: int) -> PolygonSet:
