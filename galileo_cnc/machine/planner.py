@@ -321,5 +321,5 @@ def estimate_seconds(commands: Iterable[Command], config: MachineConfig | None =
 def band_intervals(band_rho: tuple[int, ...], axial_sub: int, floor_sub: int) -> tuple[int, ...]:
     """The subticks per event of each band of an arc at one feed, never below the
     minimum step period: kept, as arc_setup is (the same arc shapes at the same feed
-    recur thousands of times in an inked job; a third of its timing was this)."""
+    recur thousands of times in an inked job; a fifth of its timing was this)."""
     return tuple(max(weighted_interval_sub(axial_sub, r), floor_sub) for r in band_rho)

@@ -39,8 +39,8 @@ def clean(polygons: PolygonSet, tolerance_nm: int) -> PolygonSet:
     """The set without vertices that move the outline by less than tolerance / 4
     (Clipper's CleanPolygons); rings left with fewer than three points are dropped.
 
-    A ring of a few vertices across can come out turned the other way round (a tiny
-    island as a hole): such a ring is kept as it was. Turned round, it would be wrong,
+    A ring only a few cleaning distances thin can come out turned the other way round
+    (a thin island as a hole): such a ring is kept as it was. Turned round, it would be wrong,
     and if it held the lowest vertex of the set, Clipper's offset, which orients the
     whole set by that ring, would turn every ring round and return nothing."""
     cleaned = pc.CleanPolygons(polygons, max(tolerance_nm / 4, 1.0))
