@@ -298,17 +298,22 @@ def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray], spacing: i
     than the ring point, so the join stays inside E0 too."""
     rings = [ring for at_depth in depths for ring in at_depth]
     inner = len(depths[0]) if depths else 0         # nodes from here on: inside E0
-    nodes = [np.column_stack([node, np.full(len(node), int(inner <= k < len(rings)),
-                                            dtype=np.int64)])
-             for k, node in enumerate(rings + strokes)]
+    sizes = [len(node) for node in rings + strokes]
+    rows = np.concatenate(rings + strokes) if sizes else np.zeros((0, 2), np.int64)
+    rows = np.column_stack([rows, np.repeat(
+        (np.arange(len(sizes)) >= inner) & (np.arange(len(sizes)) < len(rings)), sizes)])
+    nodes = np.split(rows.astype(np.int64, copy=False), np.cumsum(sizes)[:-1])
     joins = []          # (length, node a, stop on a, node b, stop on b)
     if strokes and rings:
         heads = np.array([path[0] for path in strokes], dtype=np.int64)
-        found = every_ring.nearest_many(heads, spacing)
-        for number, (k, t, distance) in enumerate(zip(*(f.tolist() for f in found))):
-            q = (int(heads[number][0]), int(heads[number][1]))
-            joins.append((distance, len(rings) + number, (0, 0.0, q), int(every_ring.ring[k]),
-                          (int(every_ring.edge[k]), t, _point_on(every_ring, k, t))))
+        k, t, distance = every_ring.nearest_many(heads, spacing)
+        a, b = every_ring.a[k], every_ring.b[k]
+        on = np.round(a + (b - a) * t[:, None]).astype(np.int64)     # as _point_on does
+        joins.extend((d, len(rings) + number, (0, 0.0, (hx, hy)), ring, (edge, tt, (px, py)))
+                     for number, (d, hx, hy, ring, edge, tt, px, py) in enumerate(zip(
+                         distance.tolist(), heads[:, 0].tolist(), heads[:, 1].tolist(),
+                         every_ring.ring[k].tolist(), every_ring.edge[k].tolist(), t.tolist(),
+                         on[:, 0].tolist(), on[:, 1].tolist())))
     joins.extend(ring_joins)
     stops: list[list[_Stop]] = [[] for _ in nodes]
     parent = list(range(len(nodes)))
@@ -328,14 +333,17 @@ def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray], spacing: i
         stops[a].append(_Stop(*here, join=number, other=b))
         stops[b].append(_Stop(*there, join=number, other=a))
 
-    opened = _opened_joins(nodes, stops, joins, len(rings), root)
+    lengths = [0.0] * len(rings) + [float(np.hypot(*np.diff(stroke, axis=0).T).sum())
+                                    for stroke in strokes]
+    opened = _opened_joins(lengths, stops, joins, len(rings), root)
+    walker = _Walker(nodes, stops)
     tours = []
     done = [False] * len(nodes)
     for start in range(len(nodes)):       # outermost rings first: each tree in its turn
         if done[start]:
             continue
         if root(start) not in opened:     # a ring alone: round from its vertex 0
-            tours.append(_walk_tree(start, nodes, stops, done))
+            tours.append(walker.tree(start, done))
             continue
         # one side of the opened join as a closed walk from the join (a gap stroke at
         # the end of it: from its far end in), over the join, and the other side as a
@@ -345,20 +353,21 @@ def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray], spacing: i
             done[side] = True
             head = nodes[side][::-1]
         else:
-            head = _walk_tree(side, nodes, stops, done, entry=stop)
-        back = next(s for s in stops[stop.other] if s.join == stop.join)
+            head = walker.tree(side, done, walker.stop_number(side, stop))
+        back = walker.back[walker.stop_number(side, stop)]
         tours.append(_without_repeats(np.concatenate(
-            [head, _walk_tree(stop.other, nodes, stops, done, entry=back)])))
+            [head, walker.tree(stop.other, done, back)])))
     return tours
 
 
-def _opened_joins(nodes: list[np.ndarray], stops: list[list[_Stop]], joins: list[tuple],
+def _opened_joins(lengths: list[float], stops: list[list[_Stop]], joins: list[tuple],
                   strokes_from: int, root) -> dict[int, tuple[int, _Stop]]:
     """Per tree of joined nodes (by its root), the join its walk draws once: the node
     on the side walked first and its stop on the join. A walk is one stroke with two
     ends: at most one join can be drawn once (any other would leave more than two
     nodes of odd degree), and with a gap stroke at its end, that stroke too. So: the
-    join that saves most, its length plus its stroke's (ties: the first join)."""
+    join that saves most, its length plus its stroke's (`lengths`: per node; ties: the
+    first join)."""
     best: dict[int, tuple[float, int, int, _Stop]] = {}
     for node, at in enumerate(stops):
         for stop in at:
@@ -366,7 +375,7 @@ def _opened_joins(nodes: list[np.ndarray], stops: list[list[_Stop]], joins: list
             if node != first:
                 continue                  # each join once, from its first node's side
             if node >= strokes_from and len(at) == 1:
-                length += float(np.hypot(*np.diff(nodes[node][:, :2], axis=0).T).sum())
+                length += lengths[node]
             key = root(node)
             if key not in best or (length, -stop.join) > (best[key][0], -best[key][1]):
                 best[key] = (length, stop.join, node, stop)
@@ -436,24 +445,126 @@ def _samples(rings: list[np.ndarray], spacing: int) -> list[np.ndarray]:
     return picked
 
 
-def _walk_tree(start: int, nodes: list[np.ndarray], stops: list[list[_Stop]],
-               done: list[bool], entry: _Stop | None = None) -> np.ndarray:
-    """The tree of rings holding `start` (but for nodes done already), drawn as one
-    closed walk from its vertex 0, or from its stop `entry` (not crossed)."""
-    pieces: list[np.ndarray] = []
-    stack = [_walk_ring(entry, nodes[start], stops[start])]
-    done[start] = True
-    while stack:
-        item = next(stack[-1], None)
-        if item is None:
-            stack.pop()
-        elif isinstance(item, _Stop):       # cross the join, walk the ring behind it
-            done[item.other] = True
-            back = next(s for s in stops[item.other] if s.join == item.join)
-            stack.append(_walk_ring(back, nodes[item.other], stops[item.other]))
+class _Walker:
+    """Walks trees of rings (and gap strokes) joined at their stops, as one closed path
+    each (`tree`).
+
+    Every node's vertices and stops are put in order along it once, for all nodes at
+    once (vertex k of a ring sits at (k, 0) along it, a stop at (edge, t), a stop on a
+    vertex after that vertex; stops at one place keep their order). A walk then only
+    chooses ranges of that order, and one gather at the end makes the points: the
+    nodes (thousands on a large pour) cost a few integer steps each, not array work."""
+
+    def __init__(self, nodes: list[np.ndarray], stops: list[list[_Stop]]):
+        self.stops = stops
+        sizes = np.array([len(node) for node in nodes], dtype=np.int64)
+        counts = np.array([len(at) for at in stops], dtype=np.int64)
+        vertices = int(sizes.sum())
+        flat = [stop for at in stops for stop in at]
+        owner = np.repeat(np.arange(len(nodes)), counts)
+        edge = np.array([stop.edge for stop in flat], dtype=np.int64)
+        t = np.array([stop.t for stop in flat], dtype=np.float64)
+        points = np.array([stop.point for stop in flat], dtype=np.int64).reshape(-1, 2)
+        first = np.cumsum(sizes) - sizes
+        size = sizes[owner]
+        # rows: every vertex of every node, then every stop's point (inner where the
+        # stop sits on an inner vertex of its edge)
+        vertex_rows = np.concatenate(nodes) if nodes else np.zeros((0, 3), np.int64)
+        inner = np.zeros(len(flat), dtype=np.int64)
+        for end in (edge % size, (edge + 1) % size):
+            row = vertex_rows[first[owner] + end]
+            on = np.all(row[:, :2] == points, axis=1)
+            inner = np.maximum(inner, np.where(on, row[:, 2], 0))
+        self.rows = np.concatenate([vertex_rows, np.column_stack([points, inner])])
+        # the order along each node: node, place, t, vertices before stops, then as given
+        wrap = t >= 1.0
+        place = np.concatenate([np.arange(vertices) - np.repeat(first, sizes),
+                                np.where(wrap, (edge + 1) % size, edge)])
+        along = np.concatenate([np.zeros(vertices), np.where(wrap, 0.0, t)])
+        kind = np.concatenate([np.zeros(vertices, np.int8), np.ones(len(flat), np.int8)])
+        node = np.concatenate([np.repeat(np.arange(len(nodes)), sizes), owner])
+        self.order = np.lexsort((kind, along, place, node))
+        where = np.empty(len(self.order), dtype=np.int64)
+        where[self.order] = np.arange(len(self.order))
+        self.lo = (np.cumsum(sizes + counts) - sizes - counts).tolist()
+        self.hi = np.cumsum(sizes + counts).tolist()
+        # each stop's place in the order, and per node its stops' places, in order
+        self.at = where[vertices:].tolist()
+        first_stop = (np.cumsum(counts) - counts).tolist()
+        self.first_stop = first_stop
+        self.places = [sorted(self.at[f:f + c]) for f, c in zip(first_stop, counts.tolist())]
+        self.stop_at: dict[int, int] = {}          # a stop's place -> its number
+        self.back = [0] * len(flat)                # the stop at a join's other end
+        ends: dict[int, int] = {}
+        for number, stop in enumerate(flat):
+            self.stop_at[self.at[number]] = number
+            partner = ends.setdefault(stop.join, number)
+            if partner != number:
+                self.back[number], self.back[partner] = partner, number
+        self.other = [stop.other for stop in flat]
+
+    def stop_number(self, node: int, stop: _Stop) -> int:
+        """The global number of `stop`, one of node's stops."""
+        return self.first_stop[node] + next(k for k, s in enumerate(self.stops[node])
+                                            if s is stop)
+
+    def tree(self, start: int, done: list[bool], entry: int | None = None) -> np.ndarray:
+        """The tree of nodes holding `start` (but for nodes done already) as one closed
+        walk from its vertex 0, or from its stop number `entry` (not crossed)."""
+        ranges: list[int] = []             # begin, end, begin, end, ... in the order
+        lo, hi, stop_at, other, back = self.lo, self.hi, self.stop_at, self.other, self.back
+        done[start] = True
+        stack = [self._enter(start, entry, -1, ranges)]
+        while stack:
+            frame = stack[-1]
+            node, begin, ahead, k, here, come_back = frame
+            low, high = lo[node], hi[node]
+            span = high - low
+            if k == len(ahead):                 # on round to where it began
+                self._run(ranges, here, begin + span, low, high)
+                ranges += (begin, begin + 1)
+                if come_back >= 0:              # the stop it was entered by, again
+                    ranges += (come_back, come_back + 1)
+                stack.pop()
+                continue
+            place = ahead[k]
+            unrolled = place if place > begin else place + span
+            self._run(ranges, here, unrolled, low, high)
+            ranges += (place, place + 1)        # the stop: cross, walk the node behind
+            frame[3], frame[4] = k + 1, unrolled + 1
+            number = stop_at[place]
+            done[other[number]] = True
+            stack.append(self._enter(other[number], back[number], place, ranges))
+        return self.gather(ranges)
+
+    def _enter(self, node: int, entry: int | None, come_back: int, ranges: list[int]) -> list:
+        """A walk's frame: node, where it begins in the order, the places of the stops
+        ahead, how many are passed, the place next, the parent's stop to return to; the
+        walk of the node starts at its beginning's point."""
+        begin = self.lo[node] if entry is None else self.at[entry]
+        ranges += (begin, begin + 1)
+        places = self.places[node]
+        ahead = [p for p in places if p > begin] + [p for p in places if p < begin]
+        return [node, begin, ahead, 0, begin + 1, come_back]
+
+    @staticmethod
+    def _run(ranges: list[int], start: int, stop: int, low: int, high: int) -> None:
+        """The places start..stop-1 of a node walked round (past `high`: from `low`)."""
+        if stop <= start:
+            return
+        if stop <= high:
+            ranges += (start, stop)
+        elif start >= high:
+            ranges += (start - (high - low), stop - (high - low))
         else:
-            pieces.append(item)
-    return _without_repeats(np.concatenate(pieces))
+            ranges += (start, high, low, stop - (high - low))
+
+    def gather(self, ranges: list[int]) -> np.ndarray:
+        """The rows of the places in `ranges` (begin, end, begin, end, ...), in turn."""
+        pairs = np.array(ranges, dtype=np.int64).reshape(-1, 2)
+        lengths = pairs[:, 1] - pairs[:, 0]
+        skip = np.repeat(np.cumsum(lengths) - lengths - pairs[:, 0], lengths)
+        return _without_repeats(self.rows[self.order[np.arange(int(lengths.sum())) - skip]])
 
 
 def _without_repeats(path: np.ndarray) -> np.ndarray:
@@ -465,64 +576,6 @@ def _without_repeats(path: np.ndarray) -> np.ndarray:
     out = path[keep]
     out[:, 2] = np.maximum.reduceat(path[:, 2], np.flatnonzero(keep))
     return out
-
-
-def _walk_ring(entry: _Stop | None, ring: np.ndarray, stops: list[_Stop]):
-    """Yield the ring's points (as arrays) once round from `entry` back to it, and at
-    every other stop: the stop's point, the stop (to cross), and its point again.
-    Vertex k sits at (k, 0) along the ring, a stop at (edge, t), a stop after a vertex
-    at the same place; stops at one place keep their order."""
-    count = len(ring)
-    if not stops or (len(stops) == 1 and stops[0] is entry):     # nothing to cross
-        if entry is None:
-            first = ring[:1]
-            yield from (first, ring[1:], first)
-            return
-        after = entry.edge if entry.t < 1.0 else (entry.edge + 1) % count
-        first = _stop_point(ring, entry)
-        yield from (first, ring[after + 1:], ring[:after + 1], first)
-        return
-    edge = np.array([s.edge for s in stops], dtype=np.int64)
-    t = np.array([s.t for s in stops], dtype=np.float64)
-    wrap = t >= 1.0
-    edge = np.where(wrap, (edge + 1) % count, edge)
-    t = np.where(wrap, 0.0, t)
-    kind = np.concatenate([np.zeros(count, np.int8), np.ones(len(stops), np.int8)])
-    order = np.lexsort((kind, np.concatenate([np.zeros(count), t]),
-                        np.concatenate([np.arange(count), edge])))
-    begin = 0 if entry is None else int(np.flatnonzero(
-        order == count + next(k for k, s in enumerate(stops) if s is entry))[0])
-    ordered = np.concatenate([order[begin:], order[:begin]])
-
-    def point(event: int) -> np.ndarray:
-        return ring[event:event + 1] if event < count else _stop_point(ring, stops[event - count])
-
-    first_point = point(int(ordered[0]))
-    yield first_point
-    here = 1
-    for at in (np.flatnonzero(ordered[1:] >= count) + 1).tolist():
-        if at > here:
-            yield ring[ordered[here:at]]
-        stop = stops[int(ordered[at]) - count]
-        yield point(int(ordered[at]))
-        yield stop
-        yield point(int(ordered[at]))
-        here = at + 1
-    if here < len(ordered):
-        yield ring[ordered[here:]]
-    yield first_point
-
-
-def _stop_point(ring: np.ndarray, stop: _Stop) -> np.ndarray:
-    """The stop as a (1, 3) row; a stop on one of the ring's vertices is that vertex
-    (its tolerance class too)."""
-    count = len(ring)
-    inner = 0
-    for x, y, vertex_inner in (ring[stop.edge % count].tolist(),
-                               ring[(stop.edge + 1) % count].tolist()):
-        if (x, y) == stop.point:
-            inner = max(inner, vertex_inner)
-    return np.array([[*stop.point, inner]], dtype=np.int64)
 
 
 # ---- gaps ----------------------------------------------------------------------------
