@@ -32,7 +32,7 @@ import pyclipper as pc
 
 from galileo_cnc.plan.ink import clip
 from galileo_cnc.plan.ink.background import Deferred
-from galileo_cnc.plan.ink.edges import EdgeIndex, distinct
+from galileo_cnc.plan.ink.edges import EdgeIndex
 
 #: Share of the pen width that neighbouring rings overlap: spacing = width * (1 - overlap).
 DEFAULT_OVERLAP = 0.2
@@ -307,8 +307,7 @@ def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray], spacing: i
     if strokes and rings:
         heads = np.array([path[0] for path in strokes], dtype=np.int64)
         k, t, distance = every_ring.nearest_many(heads, spacing)
-        a, b = every_ring.a[k], every_ring.b[k]
-        on = np.round(a + (b - a) * t[:, None]).astype(np.int64)     # as _point_on does
+        on = _points_on(every_ring, k, t)
         joins.extend((d, len(rings) + number, (0, 0.0, (hx, hy)), ring, (edge, tt, (px, py)))
                      for number, (d, hx, hy, ring, edge, tt, px, py) in enumerate(zip(
                          distance.tolist(), heads[:, 0].tolist(), heads[:, 1].tolist(),
@@ -400,19 +399,20 @@ def _joins_out(inner: list[np.ndarray], outer: list[np.ndarray], first_inner: in
     order = np.lexsort((np.arange(len(node)), distance, target, node))
     first = np.ones(len(order), dtype=bool)
     first[1:] = (node[order][1:] != node[order][:-1]) | (target[order][1:] != target[order][:-1])
-    joins = []
-    for s in order[first].tolist():
-        k, tt = int(edge[s]), float(t[s])
-        q = (int(points[s][0]), int(points[s][1]))
-        joins.append((float(distance[s]), first_inner + int(node[s]), (int(vertex[s]), 0.0, q),
-                      first_outer + int(target[s]),
-                      (int(index.edge[k]), tt, _point_on(index, k, tt))))
-    return joins
+    chosen = order[first]
+    k, tt = edge[chosen], t[chosen]
+    on = _points_on(index, k, tt)
+    return [(d, first_inner + n, (v, 0.0, (qx, qy)), first_outer + r, (e, u, (px, py)))
+            for d, n, v, qx, qy, r, e, u, px, py in zip(
+                distance[chosen].tolist(), node[chosen].tolist(), vertex[chosen].tolist(),
+                points[chosen, 0].tolist(), points[chosen, 1].tolist(), target[chosen].tolist(),
+                index.edge[k].tolist(), tt.tolist(), on[:, 0].tolist(), on[:, 1].tolist())]
 
 
-def _point_on(index: EdgeIndex, k: int, t: float) -> tuple[int, int]:
+def _points_on(index: EdgeIndex, k: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """(n, 2): the points at t along the index's edges k, rounded to nm."""
     a, b = index.a[k], index.b[k]
-    return (int(round(a[0] + (b[0] - a[0]) * t)), int(round(a[1] + (b[1] - a[1]) * t)))
+    return np.round(a + (b - a) * t[:, None]).astype(np.int64)
 
 
 def _samples(rings: list[np.ndarray], spacing: int) -> list[np.ndarray]:
@@ -433,16 +433,25 @@ def _samples(rings: list[np.ndarray], spacing: int) -> list[np.ndarray]:
     length = np.maximum(ends[first + sizes - 1] - ends[first] + edges[first], 0)
     count = np.maximum(np.minimum(length / (JOIN_EVERY * spacing), JOIN_MOST).astype(np.int64),
                        JOIN_SAMPLES)
-    picked = []
-    for k, (size, wanted) in enumerate(zip(sizes.tolist(), count.tolist())):
-        if size <= wanted:
-            picked.append(np.arange(size, dtype=np.int64))
-            continue
-        lo = int(first[k])
-        places = np.linspace(0.0, float(length[k]), wanted, endpoint=False)
-        at = np.searchsorted(along[lo:lo + size], places, side="right").clip(1, size) - 1
-        picked.append(distinct(at))
-    return picked
+    # rings with more vertices than wanted: `wanted` places evenly along (as
+    # np.linspace(0, length, wanted, endpoint=False) puts them), each the last vertex
+    # at or before it; searched for all rings at once, the ring number as the first key
+    # (complex numbers sort by their real part, then their imaginary part)
+    few = sizes <= count
+    wanted = np.where(few, 0, count)
+    ring = np.repeat(np.arange(len(rings)), wanted)
+    j = np.arange(int(wanted.sum())) - np.repeat(np.cumsum(wanted) - wanted, wanted)
+    places = j * (length / np.maximum(count, 1))[ring]
+    keys = np.repeat(np.arange(len(rings)), sizes) + 1j * along
+    at = np.searchsorted(keys, ring + 1j * places, side="right") - first[ring]
+    at = at.clip(1, sizes[ring]) - 1
+    # the places rise along a ring, so equal vertices are neighbours: keep the first
+    keep = np.ones(len(at), dtype=bool)
+    keep[1:] = (at[1:] != at[:-1]) | (ring[1:] != ring[:-1])
+    kept = np.bincount(ring[keep], minlength=len(rings))
+    sampled = np.split(at[keep], np.cumsum(kept)[:-1])
+    return [np.arange(size, dtype=np.int64) if all_of else chosen
+            for size, all_of, chosen in zip(sizes.tolist(), few.tolist(), sampled)]
 
 
 class _Walker:
