@@ -21,12 +21,11 @@ only to choose, never to place.
 
 from __future__ import annotations
 
-import gc
 import math
 from collections import deque
-from contextlib import contextmanager
 
 from galileo_cnc.plan.chains import chain
+from galileo_cnc.plan.collector import collector_paused
 from galileo_cnc.plan.nearby import distances_to
 from galileo_cnc.plan.pieces import Piece, Point, Row, cut_pieces
 from galileo_cnc.plan.repeats import drop_repeats
@@ -134,7 +133,7 @@ def optimise(rows: list[tuple[int, Row]], start: Point, join_nm: int,
     (what the pen would draw twice drawn once: plan/repeats.py), ending, with `goal`,
     near where the next pen's work starts (see `order`). A path whose MOVE's op index
     is in `whole` is a stroke already (pieces.WHOLE_PATHS): it is ordered as it is."""
-    with _collector_paused():
+    with collector_paused():
         pieces = cut_pieces(rows, start)
         kept = [p for p in pieces if p.rows[0][0] in whole]
         others = [p for p in pieces if p.rows[0][0] not in whole]
@@ -164,18 +163,3 @@ def touching(paths: list[Piece], others: list[Piece], join_nm: int) -> list[bool
             near.update((cx + dx, cy + dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1))
     return [any((row[X] // cell, row[Y] // cell) in near for _index, row in p.rows)
             for p in paths]
-
-
-@contextmanager
-def _collector_paused():
-    """Python's cycle collector off while optimising: the optimiser makes and drops
-    hundreds of thousands of small lists and tuples (none in a cycle: reference
-    counting frees them), and every collection it would trigger walks all the live
-    objects of the process, the whole program included, for nothing."""
-    was_on = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if was_on:
-            gc.enable()

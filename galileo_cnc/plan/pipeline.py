@@ -15,6 +15,7 @@ from typing import Callable, Union
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.job import Job
+from galileo_cnc.plan.collector import collector_paused
 from galileo_cnc.plan.ink.inking import InkPlan, ink_program
 from galileo_cnc.plan.offsets import (DEFAULT_MARGIN_NM, OffsetError, offset_for_box,
                                       offset_from_text)
@@ -169,36 +170,37 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
     `on_stage(text)` hears the stages (the ink's, inking.ink_program, then path order)
     of files of PLANNING_NOTICE_OPS ops or more: the largest take seconds a stage
     before the first `on_progress`."""
-    config = config or MachineConfig()
-    artwork = source if isinstance(source, Artwork) else \
-        load_artwork(source, margin_nm, layers=options.layers, units=options.units)
-    if (problem := artwork.misfit(config)) is not None:
-        raise PlanError(problem)
-    offset_nm = resolve_offset(artwork, offset)
-    mode = options.mode_for(artwork.program)
-    stage = on_stage if on_stage is not None and len(artwork.program) >= PLANNING_NOTICE_OPS \
-        else (lambda _text: None)
-    ink = None
-    # centre lines and dots are the same under %LM/%LR/%LS: one pen per D code of the file
-    plotted = with_source_apertures(artwork.program)
-    if mode == "ink":
-        ink = ink_program(artwork.program, options.pens_nm or config.pen_widths_nm,
-                          on_stage=stage)
-        plotted = ink.program
-        if offset == "auto":
-            # fills reach out to the copper's edges, past the centre lines and flash
-            # points the proposal was made from: the margin is kept from the ink
-            ink_box = extents(plotted, visited=True)
-            offset_nm = offset_for_box(_union_box(artwork.visited_box_nm, ink_box),
-                                       artwork.margin_nm)
-    file_order = options.file_order or not group
-    if optimize is None:
-        optimize = not file_order and (plotted.format in ORDERED_FORMATS or options.optimize)
-    if optimize:
-        stage("ordering the paths to cut pen-up travel")
-    job = plan_program(plotted, config, offset_nm, group=not file_order,
-                       on_progress=on_progress, optimize=optimize)
-    job.mode = mode
-    job.pens_nm = ink.pens_nm if ink is not None else ()
-    job.layers, job.units = tuple(options.layers), options.units
-    return PlannedFile(artwork, offset_nm, job, plotted, mode, ink)
+    with collector_paused():        # millions of objects, none in a cycle (collector.py)
+        config = config or MachineConfig()
+        artwork = source if isinstance(source, Artwork) else \
+            load_artwork(source, margin_nm, layers=options.layers, units=options.units)
+        if (problem := artwork.misfit(config)) is not None:
+            raise PlanError(problem)
+        offset_nm = resolve_offset(artwork, offset)
+        mode = options.mode_for(artwork.program)
+        stage = on_stage if on_stage is not None and len(artwork.program) >= PLANNING_NOTICE_OPS \
+            else (lambda _text: None)
+        ink = None
+        # centre lines and dots are the same under %LM/%LR/%LS: one pen per D code of the file
+        plotted = with_source_apertures(artwork.program)
+        if mode == "ink":
+            ink = ink_program(artwork.program, options.pens_nm or config.pen_widths_nm,
+                              on_stage=stage)
+            plotted = ink.program
+            if offset == "auto":
+                # fills reach out to the copper's edges, past the centre lines and flash
+                # points the proposal was made from: the margin is kept from the ink
+                ink_box = extents(plotted, visited=True)
+                offset_nm = offset_for_box(_union_box(artwork.visited_box_nm, ink_box),
+                                           artwork.margin_nm)
+        file_order = options.file_order or not group
+        if optimize is None:
+            optimize = not file_order and (plotted.format in ORDERED_FORMATS or options.optimize)
+        if optimize:
+            stage("ordering the paths to cut pen-up travel")
+        job = plan_program(plotted, config, offset_nm, group=not file_order,
+                           on_progress=on_progress, optimize=optimize)
+        job.mode = mode
+        job.pens_nm = ink.pens_nm if ink is not None else ()
+        job.layers, job.units = tuple(options.layers), options.units
+        return PlannedFile(artwork, offset_nm, job, plotted, mode, ink)

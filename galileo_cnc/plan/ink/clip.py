@@ -140,7 +140,21 @@ def components(polygons: PolygonSet, strict: bool = False
             holes.append(np.asarray(hole.Contour, dtype=np.int64))
             stack.extend(hole.Childs)
         found.append((np.asarray(outer.Contour, dtype=np.int64), holes))
+    free_tree(tree)
     return found
+
+
+def free_tree(tree) -> None:
+    """Take a PolyTree apart: each node points to its parent and its children, a
+    cycle that only the cycle collector would free (with every contour point a list
+    of its own: hellboard's copper, 270k lists), and the planner pauses it
+    (plan/collector.py). Without the links reference counting frees it all."""
+    stack = [tree]
+    while stack:
+        node = stack.pop()
+        stack.extend(node.Childs)
+        node.Childs = []
+        node.Parent = None
 
 
 def strips(polygons: PolygonSet, most_vertices: int) -> list[list[np.ndarray]]:

@@ -642,5 +642,7 @@ def _gap_strokes(gaps: list, centre_area: list, radius: int) -> list[np.ndarray]
     except pc.ClipperException:
         return []
     tree = clipper.Execute2(pc.CT_INTERSECTION, pc.PFT_NONZERO, pc.PFT_POSITIVE)
-    return [np.asarray(path, dtype=np.int64) for path in pc.OpenPathsFromPolyTree(tree)
-            if len(path) >= 2]
+    paths = [np.asarray(path, dtype=np.int64) for path in pc.OpenPathsFromPolyTree(tree)
+             if len(path) >= 2]
+    clip.free_tree(tree)
+    return paths
