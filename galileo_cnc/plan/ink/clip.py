@@ -157,10 +157,13 @@ def free_tree(tree) -> None:
         node.Parent = None
 
 
-def strips(polygons: PolygonSet, most_vertices: int) -> list[list[np.ndarray]]:
+def strips(polygons: PolygonSet, most_vertices: int,
+           pieces: list[tuple[np.ndarray, list[np.ndarray]]] | None = None
+           ) -> list[list[np.ndarray]]:
     """The set's islands (outer ring and holes) sorted by left edge, in runs of at
-    most `most_vertices` outline vertices (a bigger island is a run of its own)."""
-    pieces = components(polygons)
+    most `most_vertices` outline vertices (a bigger island is a run of its own).
+    `pieces`: components(polygons), where the caller has them already."""
+    pieces = list(components(polygons) if pieces is None else pieces)
     pieces.sort(key=lambda piece: (int(piece[0][:, 0].min()), int(piece[0][:, 1].min())))
     strips, strip, count = [], [], 0
     for outer, holes in pieces:

@@ -110,11 +110,13 @@ class PenFill:
 
 def fill_region(region: list, width_nm: int, tolerance_nm: int, *,
                 overlap: float = DEFAULT_OVERLAP, edge_margin_nm: int = 0,
-                batch_vertices: int = BATCH_VERTICES, keep_out: list | None = None) -> PenFill:
+                batch_vertices: int = BATCH_VERTICES, keep_out: list | None = None,
+                islands: list | None = None) -> PenFill:
     """Rings, gap strokes and joins of one pen over `region` (a polygon set).
 
     `keep_out`: a polygon set the ink stays out of (where two islands come too close
     to keep their inks apart, islands.py): the pen's centre keeps its radius from it.
+    `islands`: clip.components(region), where the caller has them already.
     Islands never share ink, so they are filled in batches of neighbours (see
     `island_batches`): each polygon operation then sweeps a few islands, not the
     board (Clipper's sweep slows with every outline a scanline crosses)."""
@@ -122,7 +124,7 @@ def fill_region(region: list, width_nm: int, tolerance_nm: int, *,
     avoid = clip.offset(keep_out, width_nm // 2, tolerance_nm) if keep_out else []
     boxes = _boxes(avoid)
     batches = [(batch, [avoid[k] for k in _meeting(boxes, batch).tolist()])
-               for batch in island_batches(region, batch_vertices)]
+               for batch in island_batches(region, batch_vertices, islands)]
     if not batches:
         return fill
     # the batches are independent: the later half of the work is done in a forked
@@ -186,11 +188,13 @@ def _meeting(boxes: np.ndarray, batch: list) -> np.ndarray:
                           & (boxes[:, 1] <= high[1]) & (boxes[:, 3] >= low[1]))
 
 
-def island_batches(region: list, most_vertices: int = BATCH_VERTICES) -> list[list]:
+def island_batches(region: list, most_vertices: int = BATCH_VERTICES,
+                   islands: list | None = None) -> list[list]:
     """The region's islands (outer ring and holes) as polygon sets of neighbours: sorted
     by left edge and cut into runs of at most `most_vertices` (an island bigger than
-    that is a batch of its own), so a batch is a narrow vertical strip of the board."""
-    return clip.strips(region, most_vertices)
+    that is a batch of its own), so a batch is a narrow vertical strip of the board.
+    `islands`: clip.components(region), where the caller has them already."""
+    return clip.strips(region, most_vertices, islands)
 
 
 def _fill_batches(batches: list[tuple[list, list]], width_nm: int, tolerance_nm: int,

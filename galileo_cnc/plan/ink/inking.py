@@ -141,8 +141,9 @@ def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
             target = (clip.intersection(clip.offset(left, 2 * radius + edge_margin_nm,
                                                     tolerance_nm), region) if left else [])
         fill = fill_region(target, width, tolerance_nm, overlap=overlap,
-                           edge_margin_nm=edge_margin_nm,
-                           keep_out=keep_out) if target else PenFill(width)
+                           edge_margin_nm=edge_margin_nm, keep_out=keep_out,
+                           islands=islands.parts if number == 0 else None
+                           ) if target else PenFill(width)
         fills.append(fill)
         if number + 1 < len(pens):
             inked = clip.union(inked, fill.ink) if inked else list(fill.ink)
