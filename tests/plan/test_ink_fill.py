@@ -18,7 +18,8 @@ from galileo_cnc.job import PenDown
 from galileo_cnc.machine.planner import simulate
 from galileo_cnc.plan.ink import clip
 from galileo_cnc.plan.ink.edges import EdgeIndex, point_to_edges
-from galileo_cnc.plan.ink.fill import fill_region, inked_area_nm2, island_batches
+from galileo_cnc.plan.ink.fill import (_Stop, _Walker, fill_region, inked_area_nm2,
+                                      island_batches)
 from galileo_cnc.plan.ink.geometry import dark_geometry
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 from galileo_cnc.readers import read_file
@@ -244,6 +245,36 @@ def test_a_walk_draws_its_longest_join_once_and_every_other_twice():
     if not np.array_equal(walk[0], walk[first - 1]):
         saved += sum(math.dist(*s) for s in _segments(walk[:first]))
     assert all(math.dist(*s) <= saved + 1 for s, n in counts.items() if n == 2)
+
+
+def test_the_walker_crosses_every_join_and_comes_back_round_each_ring():
+    # an outer ring O with two stops on its first edge, a ring A joined at its vertex
+    # 0 and a gap stroke S joined at its first point; column 2 is the inner class
+    outer = np.array([[0, 0, 0], [10, 0, 0], [10, 10, 0], [0, 10, 0]])
+    ring = np.array([[3, 3, 1], [7, 3, 1], [7, 7, 1], [3, 7, 1]])
+    stroke = np.array([[8, 2, 0], [9, 2, 0]])
+    stops = [[_Stop(0, 0.8, (8, 0), join=1, other=2), _Stop(0, 0.3, (3, 0), join=0, other=1)],
+             [_Stop(0, 0.0, (3, 3), join=0, other=0)],
+             [_Stop(0, 0.0, (8, 2), join=1, other=0)]]
+    walker = _Walker([outer, ring, stroke], stops)
+    done = [False] * 3
+    walk = walker.tree(0, done)
+    assert walk[:, :2].tolist() == [
+        [0, 0], [3, 0], [3, 3], [7, 3], [7, 7], [3, 7], [3, 3], [3, 0],   # along, A round
+        [8, 0], [8, 2], [9, 2], [8, 2], [8, 0],                            # S there and back
+        [10, 0], [10, 10], [0, 10], [0, 0]]                                # O closed
+    assert done == [True, True, True]
+    # A's stop sits on its vertex 0: the point keeps that vertex's inner class
+    assert walk[2].tolist() == [3, 3, 1] and walk[1].tolist() == [3, 0, 0]
+    # opened at the join O-A: A round from its stop, then O from the other end of it,
+    # past the stroke (its stops at places after the entry come first)
+    done = [False] * 3
+    number = walker.stop_number(1, stops[1][0])
+    head = walker.tree(1, done, number)
+    rest = walker.tree(0, done, walker.back[number])
+    assert head[:, :2].tolist() == [[3, 3], [7, 3], [7, 7], [3, 7], [3, 3]]
+    assert rest[:, :2].tolist() == [[3, 0], [8, 0], [8, 2], [9, 2], [8, 2], [8, 0],
+                                    [10, 0], [10, 10], [0, 10], [0, 0], [3, 0]]
 
 
 #: A ring of freeduino.sol's pen-centre area (0.3 mm pen), moved to the origin: an

@@ -303,9 +303,10 @@ def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray], spacing: i
     than the ring point, so the join stays inside E0 too."""
     rings = [ring for at_depth in depths for ring in at_depth]
     inner = len(depths[0]) if depths else 0         # nodes from here on: inside E0
+    if not rings and not strokes:
+        return []
     sizes = [len(node) for node in rings + strokes]
-    rows = np.concatenate(rings + strokes) if sizes else np.zeros((0, 2), np.int64)
-    rows = np.column_stack([rows, np.repeat(
+    rows = np.column_stack([np.concatenate(rings + strokes), np.repeat(
         (np.arange(len(sizes)) >= inner) & (np.arange(len(sizes)) < len(rings)), sizes)])
     nodes = np.split(rows.astype(np.int64, copy=False), np.cumsum(sizes)[:-1])
     joins = []          # (length, node a, stop on a, node b, stop on b)
