@@ -54,7 +54,8 @@ def test_plan_file_pauses_the_collector_and_restores_it(monkeypatch):
 
     monkeypatch.setattr(pipeline, "plan_program", spy)
     assert gc.isenabled()
-    planned = plan_file(SAMPLE, MachineConfig(), options=PlanOptions(mode="ink", pens_nm=(300_000,)))
+    planned = plan_file(SAMPLE, MachineConfig(),
+                        options=PlanOptions(mode="ink", pens_nm=(300_000,)))
     assert seen == [False] and gc.isenabled()
     assert len(planned.job) > 0
     gc.disable()
