@@ -96,11 +96,12 @@ class GrblLink:
         link.read_info()
         return link
 
-    def wait_banner(self, timeout_s: float = 10.0) -> str:
+    def wait_banner(self, timeout_s: float = 10.0, reset_sent: bool = False) -> str:
         """Reads up to GRBL's banner; a board that does not reset on open (a
-        re-opened simulated board) is asked with a soft reset."""
+        re-opened simulated board) is asked with a soft reset, unless one was just
+        sent (`reset_sent`: a slow answer to it is not a silent board)."""
         deadline = time.monotonic() + timeout_s
-        asked = False
+        asked = reset_sent
         while time.monotonic() < deadline:
             line = self.read_line(min(1.0, max(0.05, deadline - time.monotonic())))
             if line is None:
@@ -111,9 +112,7 @@ class GrblLink:
                 continue
             version = banner_version(line)
             if version is None:
-                self.boot_lines.append(line)
-                if line.startswith("ALARM:"):    # a reset while moving: ALARM:3
-                    self.alarms.append(int(line[6:]))
+                self._boot_line(line)
                 continue
             if not version.startswith(SUPPORTED_MAJOR_MINOR):
                 raise GrblError(f"GRBL {version} found; only GRBL {SUPPORTED_MAJOR_MINOR} "
@@ -131,12 +130,19 @@ class GrblLink:
         self.realtime(STATUS_QUERY)
         line = self.read_line(0.5)
         while line is not None and not line.startswith("<"):
-            self.boot_lines.append(line)
+            self._boot_line(line)
             line = self.read_line(0.5)
         try:
             return parse_status(line).state if line is not None else None
         except GrblError:
             return None
+
+    def _boot_line(self, line: str) -> None:
+        """A line before the banner: kept, and an alarm counted (a reset while
+        moving: ALARM:3)."""
+        self.boot_lines.append(line)
+        if line.startswith("ALARM:"):
+            self.alarms.append(int(line[6:]))
 
     def read_info(self) -> None:
         self.build = parse_build_info(list(self.command_checked("$I").lines))
@@ -269,4 +275,4 @@ class GrblLink:
             self.critical_alarm = False
         self.realtime(SOFT_RESET)
         self._partial = b""
-        return self.wait_banner(timeout_s)
+        return self.wait_banner(timeout_s, reset_sent=True)
