@@ -21,6 +21,9 @@ STATUS_QUERY = b"?"
 FEED_HOLD = b"!"
 CYCLE_START = b"~"
 SOFT_RESET = b"\x18"
+#: silence after our own soft reset before it is sent again (a byte lost on the line):
+#: GRBL answers in milliseconds, a loaded host may read it a second or more later
+RESET_AGAIN_S = 3.0
 JOG_CANCEL = b"\x85"
 #: How long GRBL may stay silent while it is still expected to answer (simulated
 #: boards run faster than the wall clock, real ones answer within ms).
@@ -98,18 +101,24 @@ class GrblLink:
 
     def wait_banner(self, timeout_s: float = 10.0, reset_sent: bool = False) -> str:
         """Reads up to GRBL's banner; a board that does not reset on open (a
-        re-opened simulated board) is asked with a soft reset, unless one was just
-        sent (`reset_sent`: a slow answer to it is not a silent board)."""
+        re-opened simulated board) is asked with a soft reset after a second of
+        silence. After a reset of ours (`reset_sent`) a slow answer is not a silent
+        board: the reset is sent again only after RESET_AGAIN_S (a byte lost on the
+        line), and the board is not asked what it stands in."""
         deadline = time.monotonic() + timeout_s
-        asked = reset_sent
+        patience = RESET_AGAIN_S if reset_sent else 1.0
+        quiet_since = time.monotonic()
+        asked = False
         while time.monotonic() < deadline:
             line = self.read_line(min(1.0, max(0.05, deadline - time.monotonic())))
             if line is None:
-                if not asked:
-                    self.state_before_reset = self._state_before_reset()
+                if not asked and time.monotonic() - quiet_since >= patience:
+                    if not reset_sent:
+                        self.state_before_reset = self._state_before_reset()
                     self.realtime(SOFT_RESET)
                     asked = True
                 continue
+            quiet_since = time.monotonic()
             version = banner_version(line)
             if version is None:
                 self._boot_line(line)
