@@ -107,10 +107,14 @@ static uint8_t machine_state(void)
 
 static void print_status(void)
 {
+    /* The state before the position: a report that says idle then holds the final
+     * position. Read the other way round, the last step's interrupt could land
+     * between the two reads (idle, one step short: seen once in CI). */
+    uint8_t state = machine_state();
     int32_t pos[3], origin[3];
     stepper_position(pos, origin);
     serial_print_P(PSTR("status:"));
-    serial_print_P((const char *)pgm_read_word(&proto_state_names[machine_state()]));
+    serial_print_P((const char *)pgm_read_word(&proto_state_names[state]));
     for (uint8_t a = 0; a < 3; a++) {
         serial_write(' ');
         serial_write(AXIS_NAMES[a]);
