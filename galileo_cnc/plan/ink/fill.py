@@ -354,14 +354,14 @@ def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray], spacing: i
         # the end of it: from its far end in), over the join, and the other side as a
         # closed walk from there: the join (and such a stroke) is drawn once
         side, stop = opened[root(start)]
+        number = walker.stop_number(side, stop)
         if side >= len(rings) and len(stops[side]) == 1:
             done[side] = True
             head = nodes[side][::-1]
         else:
-            head = walker.tree(side, done, walker.stop_number(side, stop))
-        back = walker.back[walker.stop_number(side, stop)]
+            head = walker.tree(side, done, number)
         tours.append(_without_repeats(np.concatenate(
-            [head, walker.tree(stop.other, done, back)])))
+            [head, walker.tree(stop.other, done, walker.back[number])])))
     return tours
 
 
