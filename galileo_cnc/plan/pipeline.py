@@ -16,7 +16,7 @@ from typing import Callable, Union
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.job import Job
 from galileo_cnc.plan.collector import collector_paused
-from galileo_cnc.plan.ink.inking import InkPlan, ink_program
+from galileo_cnc.plan.ink.inking import InkPlan, ink_paths
 from galileo_cnc.plan.offsets import (DEFAULT_MARGIN_NM, OffsetError, offset_for_box,
                                       offset_from_text)
 from galileo_cnc.plan.planner import PlanError, plan_program
@@ -183,23 +183,36 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
         ink = None
         # centre lines and dots are the same under %LM/%LR/%LS: one pen per D code of the file
         plotted = with_source_apertures(artwork.program)
+        file_order = options.file_order or not group
+        plotted_format = "gerber" if mode == "ink" else plotted.format
+        if optimize is None:
+            optimize = not file_order and (plotted_format in ORDERED_FORMATS or options.optimize)
+        ordered = None
         if mode == "ink":
-            ink = ink_program(artwork.program, options.pens_nm or config.pen_widths_nm,
+            paths = ink_paths(artwork.program, options.pens_nm or config.pen_widths_nm,
                               on_stage=stage)
-            plotted = ink.program
             if offset == "auto":
                 # fills reach out to the copper's edges, past the centre lines and flash
                 # points the proposal was made from: the margin is kept from the ink
-                ink_box = extents(plotted, visited=True)
-                offset_nm = offset_for_box(_union_box(artwork.visited_box_nm, ink_box),
+                offset_nm = offset_for_box(_union_box(artwork.visited_box_nm, paths.box_nm()),
                                            artwork.margin_nm)
-        file_order = options.file_order or not group
-        if optimize is None:
-            optimize = not file_order and (plotted.format in ORDERED_FORMATS or options.optimize)
-        if optimize:
+            # path order from the walks' ends meanwhile (walk_order.py), as
+            # plan_program would order the rows, while their arcs are fitted
+            order = paths.start_order(offset_nm, config.nm_per_step) \
+                if optimize and not file_order else None
+            try:
+                ink = paths.finish()
+                plotted = ink.program
+                if order is not None:
+                    stage("ordering the paths to cut pen-up travel")
+                    ordered = order.rows(plotted)
+            finally:
+                if order is not None:
+                    order.cancel()
+        elif optimize:
             stage("ordering the paths to cut pen-up travel")
         job = plan_program(plotted, config, offset_nm, group=not file_order,
-                           on_progress=on_progress, optimize=optimize)
+                           on_progress=on_progress, optimize=optimize, ordered=ordered)
         job.mode = mode
         job.pens_nm = ink.pens_nm if ink is not None else ()
         job.layers, job.units = tuple(options.layers), options.units

@@ -126,21 +126,26 @@ def plotting_order(program: Program, config: MachineConfig, offset_nm: tuple[int
 def plan_program(program: Program, config: MachineConfig | None = None,
                  offset_nm: tuple[int, int] = (0, 0), group: bool = True,
                  on_progress: Callable[[int, int], None] | None = None,
-                 optimize: bool = False) -> Job:
+                 optimize: bool = False,
+                 ordered: list[tuple[int, list[int]]] | None = None) -> Job:
     """Plan `program` for the machine `config` with `offset_nm` subtracted (see module
     doc); `group=False` keeps a Gerber file's own order. `on_progress(done, total)`
     hears about every PROGRESS_OPS ops, so a front end can show a long plan moving.
     `optimize` chains and orders each pen's paths (plan/paths.py; Gerber and DXF of
     pure geometry; G-code only if it draws with a pen and nothing else, else PlanError:
     plan/gcode_order.py; plan_file asks for it for Gerber and DXF unless the user wants
-    file order, for G-code when the user gives --optimize)."""
+    file order, for G-code when the user gives --optimize). `ordered`: the rows in the
+    order `optimize` gives them, worked out already (the ink's: plan/ink/walk_order.py)."""
     config = config or MachineConfig()
     steps = config.nm_to_steps_function()
     ox, oy = offset_nm
     job = Job(program.source, (int(ox), int(oy)))
     several_pens = len(drawing_apertures(program)) > 1
-    ordered, job.grouped, job.ordered = plotting_order(program, config, offset_nm, group,
-                                                       optimize)
+    if ordered is None:
+        ordered, job.grouped, job.ordered = plotting_order(program, config, offset_nm, group,
+                                                           optimize)
+    else:
+        job.grouped = job.ordered = True
     aperture = NO_TOOL
     pen = None                         # the aperture whose pen is in the holder
     pen_down: bool | None = None       # unknown until the job sets it

@@ -26,15 +26,17 @@ from galileo_cnc.plan.ink import clip
 from galileo_cnc.plan.ink.arcs import fit_arcs, fit_paths
 from galileo_cnc.plan.ink.background import Deferred
 from galileo_cnc.plan.ink.fill import (BACKGROUND_VERTICES, DEFAULT_OVERLAP, GAP_NM, PenFill,
-                                      fill_region, inked_area_nm2)
+                                      fill_region, inked_area_nm2, met_by_other_ink)
 from galileo_cnc.plan.ink.geometry import DarkImage, dark_geometry
 from galileo_cnc.plan.ink.islands import (CLEARANCE_NM, ClosePlaces, Islands, close_places,
                                          keep_back)
 from galileo_cnc.plan.ink.narrow import (Bridge, NarrowFeature, find_narrow,
                                         keep_islands_apart)
 from galileo_cnc.plan.ink.shapes import DEFAULT_TOLERANCE_NM
+from galileo_cnc.plan.ink.walk_order import Skeleton, WalkOrder, touching_walks
 from galileo_cnc.plan.pieces import WHOLE_PATHS
-from galileo_cnc.program.ops import (COL, KIND, LINE, NM_PER_MM, NO_TOOL, TOOL, Aperture,
+from galileo_cnc.program.extents import extents
+from galileo_cnc.program.ops import (COL, KIND, LINE, NM_PER_MM, NO_TOOL, TOOL, X, Y, Aperture,
                                      OpKind, Program, ProgramBuilder)
 from galileo_cnc.readers.gerber.transformed import aperture_label
 
@@ -65,7 +67,7 @@ class InkPlan:
     close: ClosePlaces                    # where islands come too close for two inks
     copper_nm2: float
     # (filled_nm2, inked_nm2): worked out meanwhile, a tuple once asked for
-    coverage: Deferred | tuple[float, float]
+    coverage: Coverage | tuple[float, float]
     warnings: list[ReaderWarning] = field(default_factory=list)
     seconds: float = 0.0
     bridge_warnings: slice = field(default_factory=lambda: slice(0, 0))  # theirs in `warnings`
@@ -116,6 +118,15 @@ def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
     """The ink of a Gerber Program for the pens (widths in nm, any order).
     `on_stage(text)` hears what it starts on ("inking: filling with the 0.3 mm pen"): the
     largest layers take seconds a stage, and a front end can say so."""
+    return ink_paths(program, pens_nm, tolerance_nm=tolerance_nm, overlap=overlap,
+                     edge_margin_nm=edge_margin_nm, on_stage=on_stage).finish()
+
+
+def ink_paths(program: Program, pens_nm: tuple[int, ...] | list[int], *,
+              tolerance_nm: int = DEFAULT_TOLERANCE_NM, overlap: float = DEFAULT_OVERLAP,
+              edge_margin_nm: int = DEFAULT_EDGE_MARGIN_NM,
+              on_stage: Callable[[str], None] | None = None) -> InkPaths:
+    """ink_program up to the pen paths: the fills and the centre lines, not yet rows."""
     began = time.perf_counter()
     pens = tuple(sorted({int(p) for p in pens_nm if int(p) > 0}, reverse=True))
     if not pens:
@@ -153,48 +164,193 @@ def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
     stage("inking: finding features too narrow to fill")
     narrow, zero_size = find_narrow(program, limit, smallest, tolerance_nm)
     bridges = keep_islands_apart(narrow, islands, smallest)
-    # the coverage figures need the ink as polygons (fill.InkRecipe): on a large board
-    # a second process makes them while this one goes on to the rows and path order
-    coverage = Deferred(_coverage, fills, [piece for f in narrow for piece in f.pieces],
-                        smallest // 2, region, tolerance_nm,
-                        fork=sum(len(ring) for ring in region) >= BACKGROUND_VERTICES)
-    stage("inking: fitting arcs")
-    plan = InkPlan(_rows(program, pens, fills, narrow), pens, copper, fills, narrow, bridges,
-                   zero_size, close, clip.area_nm2(region), coverage)
-    plan.warnings, plan.bridge_warnings = _warnings(program, plan)
-    plan.program.warnings = list(program.warnings) + plan.warnings
-    plan.seconds = time.perf_counter() - began
-    return plan
+    big = sum(len(ring) for ring in region) >= BACKGROUND_VERTICES
+    coverage = Coverage(fills, [piece for f in narrow for piece in f.pieces], smallest // 2,
+                        region, tolerance_nm, fork=big)
+    return InkPaths(program, pens, copper, fills, narrow, bridges, zero_size, close,
+                    clip.area_nm2(region), coverage, big, began, stage)
 
 
-def _coverage(fills: list[PenFill], centre_lines: list[np.ndarray], radius_nm: int,
-              region: list, tolerance_nm: int) -> tuple[float, float]:
-    """(copper the fills cover, copper the fills and the centre lines cover), nm2,
-    worked out strip by strip (inked_area_nm2), not in one board-wide sweep."""
-    filled = inked_area_nm2(fills, [], region)
+@dataclass
+class InkPaths:
+    """The ink as pen paths (ink_paths), before `finish` makes them rows: where they go
+    is known (`box_nm`), so path order can start on the walks' ends (`start_order`,
+    walk_order.py) while `finish` fits their arcs."""
+
+    source: Program
+    pens_nm: tuple[int, ...]
+    copper: DarkImage
+    fills: list[PenFill]
+    narrow: list[NarrowFeature]
+    bridges: list[Bridge]
+    zero_size: int
+    close: ClosePlaces
+    copper_nm2: float
+    coverage: Coverage
+    big: bool                             # worth a second process
+    began: float
+    stage: Callable[[str], None]
+    _fitted: dict = field(default_factory=dict)    # (fill, path) -> its arcs, once fitted
+    _narrow: np.ndarray | None = None              # the centre lines' rows, once made
+
+    def box_nm(self) -> tuple[int, int, int, int] | None:
+        """The box of every point the ink's rows visit, arcs but by their ends: an arc
+        of a walk strays from its vertices by at most its tolerance (8 um), far inside
+        the offset's margin, and this box is known before the arcs are fitted."""
+        points = [path for fill in self.fills for path in fill.paths]
+        narrow = self._narrow_rows()
+        box = extents(Program(self.source.source, "gerber", self.source.units, narrow),
+                      visited=True) if len(narrow) else None
+        if points:
+            every = np.concatenate(points)
+            low, high = every.min(axis=0).tolist(), every.max(axis=0).tolist()
+            box = (low[0], low[1], high[0], high[1]) if box is None else (
+                min(box[0], low[0]), min(box[1], low[1]),
+                max(box[2], high[0]), max(box[3], high[1]))
+        return box
+
+    def start_order(self, start: tuple[int, int], join_nm: int) -> WalkOrder:
+        """Path order from `start` (program nm) worked out on the walks' ends, in a
+        second process on a large board, while `finish` fits the arcs; its `rows`
+        are what optimised_order gives on finish's program."""
+        last = len(self.fills) - 1
+        touched = touching_walks(self.fills[last].paths if self.fills else [],
+                                 self._narrow_rows()[:, [X, Y]], join_nm)
+        self._fit(last, np.flatnonzero(touched).tolist())     # these keep their rows
+        short = {(last, k) for k in np.flatnonzero(~touched).tolist()}
+        short |= {(number, k) for number, fill in enumerate(self.fills[:last])
+                  for k in range(len(fill.paths))}
+        program = _rows(self.source, self.pens_nm, self.fills, self._narrow_rows(),
+                        self._segments(short))
+        walks = program.metadata[WHOLE_PATHS]
+        shortened = np.array([b - a == 2 and program.table[a + 1, KIND] == _LINE
+                              and (number, k) in short
+                              for (a, b), (number, k) in zip(walks, self._walk_keys())],
+                             dtype=bool)
+        return WalkOrder(Skeleton(program, shortened), start, join_nm, fork=self.big)
+
+    def finish(self) -> InkPlan:
+        """The ink as rows (arcs fitted) and its warnings."""
+        self.stage("inking: fitting arcs")
+        every = {(number, k) for number, fill in enumerate(self.fills)
+                 for k in range(len(fill.paths))}
+        for number, fill in enumerate(self.fills):
+            self._fit(number, [k for k in range(len(fill.paths))
+                               if (number, k) not in self._fitted])
+        rows = _rows(self.source, self.pens_nm, self.fills, self._narrow_rows(),
+                     {key: self._fitted[key] for key in every})
+        plan = InkPlan(rows, self.pens_nm, self.copper, self.fills, self.narrow, self.bridges,
+                       self.zero_size, self.close, self.copper_nm2, self.coverage)
+        plan.warnings, plan.bridge_warnings = _warnings(self.source, plan)
+        plan.program.warnings = list(self.source.warnings) + plan.warnings
+        plan.seconds = time.perf_counter() - self.began
+        return plan
+
+    def _fit(self, number: int, which: list[int]) -> None:
+        """The arcs of fill `number`'s paths `which`, all in one fit_paths."""
+        if not which:
+            return
+        fill = self.fills[number]
+        coarse = [fill.coarse[k] for k in which] if len(fill.coarse) == len(fill.paths) \
+            else None
+        for k, segments in zip(which, fit_paths([fill.paths[k] for k in which],
+                                                coarse=coarse)):
+            self._fitted[(number, k)] = segments
+
+    def _segments(self, short: set) -> dict:
+        """Per (fill, path): its arcs, or for the shortened ones a LINE to its end."""
+        segments = {}
+        for number, fill in enumerate(self.fills):
+            for k, path in enumerate(fill.paths):
+                if (number, k) in short and len(path) > 1:
+                    end = path[-1]
+                    segments[(number, k)] = [(_LINE, int(end[0]), int(end[1]), 0, 0)]
+                else:
+                    segments[(number, k)] = self._fitted.get((number, k))
+        return segments
+
+    def _walk_keys(self) -> list[tuple[int, int]]:
+        """(fill, path) of each walk, in the rows' order (_rows)."""
+        return [(number, k) for number, fill in enumerate(self.fills) if fill.paths
+                for k in range(len(fill.paths))]
+
+    def _narrow_rows(self) -> np.ndarray:
+        """The centre lines' rows, drawn with the smallest pen (made once)."""
+        if self._narrow is None:
+            out = ProgramBuilder(self.source.source)
+            for feature in self.narrow:
+                _emit_feature(out, feature, len(self.pens_nm))
+            self._narrow = out.table().copy()
+        return self._narrow
+
+
+class Coverage:
+    """(filled_nm2, inked_nm2): the copper the fills cover, and the fills and centre
+    lines. A batch of the first pen's fill that no other ink meets counts its recipe's
+    area (worked out meanwhile: fill.InkRecipe); where a narrower pen's ink or a
+    centre line meets one, the ink is needed as polygons, and on a large board a second
+    process makes them while this one goes on to the rows and path order."""
+
+    def __init__(self, fills: list[PenFill], centre_lines: list[np.ndarray], radius_nm: int,
+                 region: list, tolerance_nm: int, fork: bool):
+        lines = [np.asarray(line, dtype=np.int64) for line in centre_lines if len(line)]
+        grown = radius_nm + 2 * tolerance_nm          # a stroked line's box, and more
+        line_boxes = np.array([[*(line.min(axis=0) - grown), *(line.max(axis=0) + grown)]
+                               for line in lines], dtype=np.int64).reshape(-1, 4)
+        self._recipes = [recipe for _batch, recipe in fills[0].recipes] if fills else []
+        self._met_filled = met_by_other_ink(fills, np.zeros((0, 4), dtype=np.int64))
+        self._met_inked = met_by_other_ink(fills, line_boxes)
+        polygons = not self._recipes or any(self._met_inked)
+        self._polygons = Deferred(_coverage_of_polygons, fills, centre_lines, radius_nm,
+                                  region, tolerance_nm, [not m for m in self._met_filled],
+                                  [not m for m in self._met_inked], fork=fork and polygons)
+
+    def result(self) -> tuple[float, float]:
+        filled, inked = self._polygons.result()
+        for recipe, met_filled, met_inked in zip(self._recipes, self._met_filled,
+                                                 self._met_inked):
+            if not met_filled:
+                filled += recipe.area_nm2()
+            if not met_inked:
+                inked += recipe.area_nm2()
+        return filled, inked
+
+    def cancel(self) -> None:
+        self._polygons.cancel()
+
+
+def _coverage_of_polygons(fills: list[PenFill], centre_lines: list[np.ndarray],
+                          radius_nm: int, region: list, tolerance_nm: int,
+                          skip_filled: list[bool], skip_inked: list[bool]
+                          ) -> tuple[float, float]:
+    """Coverage's batches that other ink meets (the `skip` ones are counted by their
+    recipes), worked out strip by strip (inked_area_nm2), not in one board-wide sweep."""
+    filled = inked_area_nm2(fills, [], region, skip_filled)
     narrow_ink = clip.stroke(centre_lines, radius_nm, tolerance_nm) if centre_lines else []
-    return filled, (inked_area_nm2(fills, narrow_ink, region) if narrow_ink else filled)
+    return filled, (inked_area_nm2(fills, narrow_ink, region, skip_inked) if narrow_ink
+                    else filled)
 
 
 def _rows(program: Program, pens: tuple[int, ...], fills: list[PenFill],
-          narrow: list[NarrowFeature]) -> Program:
+          narrow_rows: np.ndarray, segments: dict) -> Program:
+    """The ink as a Program: per pen a SELECT, its fill's walks (`segments`: per (fill,
+    path) what _emit_path draws) and, for the smallest pen, the centre lines' rows."""
     out = ProgramBuilder(program.source)
     # each walk is one island's rings and joins drawn as one stroke already (fill.py):
     # path order moves and reverses it, but has nothing to chain or leave out in it
     walks: list[tuple[int, int]] = []
     for number, fill in enumerate(fills):
         key = number + 1
-        drawn = [n for n in narrow if n.pen_nm == fill.width_nm] if number == len(fills) - 1 else []
-        if not fill.paths and not drawn:
+        centre_lines = number == len(fills) - 1 and len(narrow_rows)
+        if not fill.paths and not centre_lines:
             continue
         out.emit(_SELECT, tool=key)
-        coarse = fill.coarse if len(fill.coarse) == len(fill.paths) else None
-        for path, segments in zip(fill.paths, fit_paths(fill.paths, coarse=coarse)):  # at once
+        for k, path in enumerate(fill.paths):
             first = out.count()
-            _emit_path(out, path, key, 0, 0, segments)
+            _emit_path(out, path, key, 0, 0, segments[(number, k)])
             walks.append((first, out.count()))
-        for feature in drawn:
-            _emit_feature(out, feature, key)
+        if centre_lines:
+            out.rows.frombytes(np.ascontiguousarray(narrow_rows, dtype=np.int64).tobytes())
     apertures = {k + 1: Aperture(k + 1, "circle", (w,), extent_nm=(-(w // 2), -(w // 2),
                                                                    w // 2, w // 2))
                  for k, w in enumerate(pens)}
