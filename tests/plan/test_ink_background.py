@@ -43,6 +43,19 @@ def test_cancel_ends_the_child_and_result_is_not_needed():
     assert work.result()[1] == 1        # asked anyway: done here
 
 
+def ask(work):
+    return os.getpid(), work.result()
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="no fork on this platform: work runs inline")
+def test_a_forked_copy_of_its_owner_does_the_work_itself_and_leaves_the_child_alone():
+    work = Deferred(child_pid_and, 5)
+    asker, (worker, value) = Deferred(ask, work).result()
+    assert value == 5 and worker == asker != os.getpid()     # done in the copy
+    worker, value = work.result()                            # the owner's child is intact
+    assert value == 5 and worker not in (os.getpid(), asker)
+
+
 class Counted(fill.Deferred):
     """Deferred, noting each piece of work and whether it may fork."""
 

@@ -5,7 +5,8 @@ cannot share it out. Where the platform can fork, `Deferred(fn, *args)` runs
 fn(*args) in a child that starts as a copy of this process (nothing to import or
 send there) and sends back only the pickled result; elsewhere (Windows), or for
 small work (`fork=False`), fn runs when the result is asked for. The answer is the
-same either way.
+same either way. A forked copy of the process that made a Deferred (another
+Deferred's child) has no child of its own to wait for: asked there, fn runs there.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ class Deferred:
 
     def __init__(self, fn: Callable[..., Any], *args: Any, fork: bool = True):
         self._fn, self._args = fn, args
+        self._owner = os.getpid()
         self._pid: int | None = None
         self._reader: int | None = None
         if fork and hasattr(os, "fork"):
@@ -59,7 +61,7 @@ class Deferred:
         self._pid, self._reader = pid, reader
 
     def result(self) -> Any:
-        if self._pid is None:
+        if self._pid is None or os.getpid() != self._owner:
             return self._fn(*self._args)
         with os.fdopen(self._reader, "rb") as source:
             payload = source.read()
@@ -79,7 +81,7 @@ class Deferred:
     def cancel(self) -> None:
         """Stop a child whose result is no longer wanted (the caller failed, or the
         result was never asked for)."""
-        if self._pid is not None:
+        if self._pid is not None and os.getpid() == self._owner:
             try:
                 os.kill(self._pid, signal.SIGKILL)
                 os.waitpid(self._pid, 0)
