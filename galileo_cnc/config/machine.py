@@ -18,6 +18,8 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
+import numpy as np
+
 try:  # Python 3.11+
     import tomllib
 except ModuleNotFoundError:  # pragma: no cover - Python 3.10
@@ -206,6 +208,16 @@ class MachineConfig:
             steps = (2 * abs(nm) * per_rev + half) // pitch2
             return steps if nm >= 0 else -steps
         return nm_to_steps
+
+    def nm_to_steps_array(self, nm: np.ndarray) -> np.ndarray:
+        """`nm_to_steps` of every element of an int64 array, in the same integer
+        arithmetic (coordinates within +-10^12 nm: no overflow)."""
+        nm = np.asarray(nm, dtype=np.int64)
+        if nm.size and int(np.abs(nm).max()) > 10 ** 12:
+            return np.array([self.nm_to_steps(int(v)) for v in nm.ravel().tolist()],
+                            dtype=np.int64).reshape(nm.shape)
+        steps = (2 * np.abs(nm) * self.steps_per_rev + self.pitch_nm) // (2 * self.pitch_nm)
+        return np.where(nm >= 0, steps, -steps)
 
     def mm_to_steps(self, mm: float) -> int:
         return self.nm_to_steps(round(mm * 1_000_000))

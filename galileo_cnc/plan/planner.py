@@ -32,6 +32,8 @@ from __future__ import annotations
 import math
 from typing import Callable
 
+import numpy as np
+
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.errors import GalileoError, SourcePos
 from galileo_cnc.job import (NO_OP, ArcTo, Command, Dwell, EndJob, Flash, Job, LineTo,
@@ -46,8 +48,8 @@ from galileo_cnc.plan.order import (DRAWING_KINDS, drawing_apertures, group_by_a
                                    optimised_order, pure_geometry)
 from galileo_cnc.plan.paths import optimise
 from galileo_cnc.protocol.codec import first_range_problem
-from galileo_cnc.program.ops import (I, J, KIND, LINE, COL, NO_TOOL, TOOL, VALUE, X, Y,
-                                     OpKind, Program)
+from galileo_cnc.program.ops import (COLUMNS, I, J, KIND, LINE, COL, NO_TOOL, POSITIONED_KINDS,
+                                     TOOL, VALUE, X, Y, OpKind, Program)
 
 
 #: ops between two progress reports while planning
@@ -66,36 +68,80 @@ class PlanError(GalileoError):
         super().__init__(f"{pos}: {message}" if pos else message)
 
 
-def _within_arc_range(start: tuple[int, int], centre: tuple[int, int],
-                      end: tuple[int, int]) -> bool:
-    """Whether the machine can draw the arc natively (machine/arcs.py: MAX_ARC_COORD)."""
-    return max(abs(start[0] - centre[0]), abs(start[1] - centre[1]),
-               abs(end[0] - centre[0]), abs(end[1] - centre[1])) <= MAX_ARC_COORD
+# op kinds as plain ints: compared a few times per row in the planner's loop
+(_MOVE, _LINE, _ARC_CW, _ARC_CCW, _FLASH, _PEN_UP, _PEN_DOWN, _SELECT, _DWELL,
+ _FEED) = (int(OpKind[name]) for name in ("MOVE", "LINE", "ARC_CW", "ARC_CCW", "FLASH",
+                                         "PEN_UP", "PEN_DOWN", "SELECT", "DWELL", "FEED"))
+#: how an arc row is sent (_machine_points)
+_AS_LINE, _AS_ARC, _AS_CHORDS = 0, 1, 2
 
 
-def _chord_within_half_a_step(start: tuple[int, int], centre: tuple[int, int],
-                              end: tuple[int, int], cw: bool, under_half_a_turn: bool) -> bool:
-    """Whether the straight line from `start` to `end` stays within half a step of the
-    arc (steps; a full circle never): then the line's steps are within a step of the
-    arc, as the arc's own are. Such arcs are sent as lines: an arc costs the firmware
-    a band table and setup (several ms), so runs of 1-step arcs fell behind the
-    reference (docs/motion.md, "Short arcs").
+def _machine_points(table: np.ndarray, config: MachineConfig, offset_nm: tuple[int, int]
+                    ) -> tuple[list[int], list[int], list[tuple | None]]:
+    """For every row (in plotting order): its point in steps (offset subtracted, the
+    nearest step) and, for an arc, how the machine draws it, all rows at once:
 
-    `under_half_a_turn` is the file's own arc (nm): when both ends round to one step
-    (Altium writes arcs of 0.4 um), a short arc is a point, not the whole circle that
-    an arc ending where it starts means to the machine."""
-    if start == end:
-        return under_half_a_turn
-    sx, sy = start[0] - centre[0], start[1] - centre[1]
-    ex, ey = end[0] - centre[0], end[1] - centre[1]
-    cross = sx * ey - sy * ex
-    if (cross < 0) if not cw else (cross > 0):
-        return False                            # over half a turn: a bulge, not flat
+    - (_AS_LINE, start): a LineTo to the end, unless the end is the start. The
+      straight line from start to end stays within half a step of the arc (steps;
+      never a full circle), so its steps are within a step of the arc, as the arc's
+      own are. Such arcs are sent as lines: an arc costs the firmware a band table and
+      setup (several ms), so runs of 1-step arcs fell behind the reference
+      (docs/motion.md, "Short arcs"). When both ends round to one step (Altium writes
+      arcs of 0.4 um) the file's own arc (nm) decides: under half a turn it is a point,
+      not the whole circle that an arc ending where it starts means to the machine;
+    - (_AS_ARC, i, j): an ArcTo, centre rounded to the nearest step and given relative
+      to the rounded start;
+    - (_AS_CHORDS, start, start_nm): farther than the machine's MAX_ARC_COORD steps
+      from its centre (machine/arcs.py): chords within half a step of it.
+
+    The start of an arc is the point of the positioned row before it, or the
+    program's origin (the offset) at the start."""
+    ox, oy = offset_nm
+    count = len(table)
+    kinds = table[:, KIND]
+    x_nm, y_nm = table[:, X] - ox, table[:, Y] - oy
+    xs, ys = config.nm_to_steps_array(x_nm), config.nm_to_steps_array(y_nm)
+    arcs: list[tuple | None] = [None] * count
+    rows = np.flatnonzero((kinds == OpKind.ARC_CW) | (kinds == OpKind.ARC_CCW))
+    if not len(rows):
+        return xs.tolist(), ys.tolist(), arcs
+    positioned = np.isin(kinds, POSITIONED_KINDS)
+    last = np.maximum.accumulate(np.where(positioned, np.arange(count), -1))
+    before = np.concatenate(([-1], last[:-1]))[rows]
+    # the program point each arc starts from (nm, offset applied), and in steps
+    sx_nm = np.where(before >= 0, x_nm[np.maximum(before, 0)], -ox)
+    sy_nm = np.where(before >= 0, y_nm[np.maximum(before, 0)], -oy)
+    sx, sy = config.nm_to_steps_array(sx_nm), config.nm_to_steps_array(sy_nm)
+    cx = config.nm_to_steps_array(sx_nm + table[rows, I])
+    cy = config.nm_to_steps_array(sy_nm + table[rows, J])
+    ex, ey = xs[rows], ys[rows]
+    cw = kinds[rows] == OpKind.ARC_CW
+    # from the centre: start (a, b) and end (c, d)
+    a, b, c, d = sx - cx, sy - cy, ex - cx, ey - cy
+    cross = a * d - b * c
+    flat = np.where(cw, cross <= 0, cross >= 0)         # over half a turn: a bulge
+    radius = np.array([math.hypot(p, q) for p, q in zip(a.tolist(), b.tolist())])
+    chord2 = (ex - sx) ** 2 + (ey - sy) ** 2
     half = 0.5
-    radius = math.hypot(sx, sy)
-    chord2 = (end[0] - start[0]) ** 2 + (end[1] - start[1]) ** 2
     # sagitta r - sqrt(r^2 - c^2/4) < h  <=>  c^2 < 4h(2r - h)   (a choice: floats)
-    return chord2 < 4 * half * (2 * radius - half)
+    as_line = flat & (chord2 < 4 * half * (2 * radius - half))
+    same = (sx == ex) & (sy == ey)
+    for k in np.flatnonzero(same).tolist():
+        row = rows[k]
+        sweep = arc_angles(int(sx_nm[k]), int(sy_nm[k]), int(x_nm[row]), int(y_nm[row]),
+                           int(sx_nm[k] + table[row, I]), int(sy_nm[k] + table[row, J]),
+                           bool(cw[k]))[1]
+        as_line[k] = abs(sweep) < math.pi
+    in_range = np.maximum.reduce([np.abs(a), np.abs(b), np.abs(c), np.abs(d)]) <= MAX_ARC_COORD
+    for k, row in enumerate(rows.tolist()):
+        start = (int(sx[k]), int(sy[k]))
+        if as_line[k]:
+            arcs[row] = (_AS_LINE, start)
+        elif in_range[k]:
+            arcs[row] = (_AS_ARC, int(cx[k] - sx[k]), int(cy[k] - sy[k]))
+        else:
+            arcs[row] = (_AS_CHORDS, start, (int(sx_nm[k]), int(sy_nm[k])))
+    return xs.tolist(), ys.tolist(), arcs
 
 
 def plotting_order(program: Program, config: MachineConfig, offset_nm: tuple[int, int],
@@ -150,88 +196,87 @@ def plan_program(program: Program, config: MachineConfig | None = None,
     pen = None                         # the aperture whose pen is in the holder
     pen_down: bool | None = None       # unknown until the job sets it
     at: tuple[int, int] | None = None  # position in steps; unknown at the start
-    at_nm = (-ox, -oy)                 # the program's current point (nm, offset applied)
     index = NO_OP
 
+    commands, op_indices, apertures = job.commands, job.op_index, job.aperture
+
     def add(command: Command) -> None:
-        """The command into the job, from the op `index` with `aperture` in force."""
-        job.add(command, index, aperture)
+        """The command into the job (Job.add), from the op `index` with `aperture` in force."""
+        commands.append(command)
+        op_indices.append(index)
+        apertures.append(aperture)
 
     total = len(ordered)
-    for done, (index, row) in enumerate(ordered):
+    table = np.array([row for _index, row in ordered], dtype=np.int64).reshape(-1, len(COLUMNS))
+    points = _machine_points(table, config, (int(ox), int(oy)))
+    for done, ((index, row), x, y, arc) in enumerate(zip(ordered, *points)):
         if on_progress is not None and done % PROGRESS_OPS == 0:
             on_progress(done, total)
         kind = row[KIND]
-        if kind == OpKind.SELECT:
+        if kind == _SELECT:
             aperture = row[TOOL]
             continue
         if kind in DRAWING_KINDS and row[TOOL] != NO_TOOL:
             aperture = row[TOOL]
         # the pen changes before it is first lowered: at a PEN_DOWN (G-code's M3 after
         # T, Gerber's D01 after a move) as at a draw, else the old pen dips first
-        if several_pens and (kind in DRAWING_KINDS or kind == OpKind.PEN_DOWN) \
+        if several_pens and (kind in DRAWING_KINDS or kind == _PEN_DOWN) \
                 and aperture != pen and aperture != NO_TOOL:
             if pen_down is not False:
                 add(PenUp())
                 pen_down = False
             job.pen_changes[len(job)] = aperture
             pen = aperture
-        x_nm, y_nm = row[X] - ox, row[Y] - oy
-        target = (steps(x_nm), steps(y_nm))
+        target = (x, y)
 
-        if kind == OpKind.MOVE:
+        if kind == _MOVE:
             if target != at:
-                add(Rapid(*target))
+                add(Rapid(x, y))
                 pen_down = False
-            at, at_nm = target, (x_nm, y_nm)
-        elif kind == OpKind.LINE:
+            at = target
+        elif kind == _LINE:
             if pen_down is not True:
                 add(PenDown())
                 pen_down = True
             if target != at:
-                add(LineTo(*target))
-            at, at_nm = target, (x_nm, y_nm)
-        elif kind in (OpKind.ARC_CW, OpKind.ARC_CCW):
+                add(LineTo(x, y))
+            at = target
+        elif kind == _ARC_CW or kind == _ARC_CCW:
             if pen_down is not True:
                 add(PenDown())
                 pen_down = True
-            start = at if at is not None else (steps(at_nm[0]), steps(at_nm[1]))
-            centre = (steps(at_nm[0] + row[I]), steps(at_nm[1] + row[J]))
-            cw = kind == OpKind.ARC_CW
-            sweep = arc_angles(*at_nm, x_nm, y_nm, at_nm[0] + row[I], at_nm[1] + row[J], cw)[1]
-            if _chord_within_half_a_step(start, centre, target, cw, abs(sweep) < math.pi):
-                if target != start:
-                    add(LineTo(*target))
-            elif _within_arc_range(start, centre, target):
-                add(ArcTo(target[0], target[1], centre[0] - start[0], centre[1] - start[1],
-                          cw=cw))
+            if arc[0] == _AS_LINE:
+                if target != arc[1]:
+                    add(LineTo(x, y))
+            elif arc[0] == _AS_ARC:
+                add(ArcTo(x, y, arc[1], arc[2], cw=kind == _ARC_CW))
             else:
                 # the machine's arcs reach MAX_ARC_COORD steps from the centre (204.8 mm
                 # on the seed's machine): a flatter arc is drawn as chords within half a
                 # step of it
-                chords = arc_points(*at_nm, x_nm, y_nm, row[I], row[J], cw,
-                                    max(config.nm_per_step // 2, 1))
-                point = start
-                for x, y in chords[1:].tolist():
-                    if (step := (steps(x), steps(y))) != point:
+                point, (sx, sy) = arc[1], arc[2]
+                chords = arc_points(sx, sy, row[X] - ox, row[Y] - oy, row[I], row[J],
+                                    kind == _ARC_CW, max(config.nm_per_step // 2, 1))
+                for cx, cy in chords[1:].tolist():
+                    if (step := (steps(cx), steps(cy))) != point:
                         add(LineTo(*step))
                         point = step
-            at, at_nm = target, (x_nm, y_nm)
-        elif kind == OpKind.FLASH:
+            at = target
+        elif kind == _FLASH:
             if target != at:
-                add(Rapid(*target))
+                add(Rapid(x, y))
             add(Flash())
             pen_down = False
-            at, at_nm = target, (x_nm, y_nm)
-        elif kind == OpKind.PEN_UP:
+            at = target
+        elif kind == _PEN_UP:
             add(PenUp())
             pen_down = False
-        elif kind == OpKind.PEN_DOWN:
+        elif kind == _PEN_DOWN:
             add(PenDown())
             pen_down = True
-        elif kind == OpKind.DWELL:
+        elif kind == _DWELL:
             add(Dwell(row[VALUE]))
-        elif kind == OpKind.FEED:
+        elif kind == _FEED:
             add(SetFeed(steps(row[VALUE])))
         # POLARITY, REGION_BEGIN, REGION_END: nothing to do on a pen plotter.
 

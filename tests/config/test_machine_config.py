@@ -1,5 +1,6 @@
 """MachineConfig: the seed's machine as defaults, TOML loading, overrides."""
 
+import numpy as np
 import pytest
 
 from galileo_cnc.config.hardware import TICKS_PER_S
@@ -38,6 +39,10 @@ def test_the_planners_step_function_rounds_as_nm_to_steps(pitch_mm, steps_per_re
     values = [rng.randrange(-10 ** 10, 10 ** 10) for _ in range(20_000)]
     values += [k * half + d for k in range(-50, 50) for d in (-1, 0, 1)]   # halves
     assert [fast(v) for v in values] == [c.nm_to_steps(v) for v in values]
+    # and the planner's arrays, also past the range they are worked out in int64
+    values += [10 ** 13 + 3 * half, -(10 ** 15) - half]
+    assert c.nm_to_steps_array(np.array(values, dtype=np.int64)).tolist() == \
+        [c.nm_to_steps(v) for v in values]
 
 
 def test_seed_pins():
