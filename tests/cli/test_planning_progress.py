@@ -34,9 +34,10 @@ def test_the_ink_stages_of_a_large_file_in_order(monkeypatch):
     monkeypatch.setattr(pipeline, "PLANNING_NOTICE_OPS", 1)    # the sample counts as large
     heard: list[str] = []
     plan_file(BOARD, TWO_PENS, on_stage=heard.append)
-    assert heard == ["inking: working out the copper", "inking: filling with the 0.8 mm pen",
-                     "inking: filling with the 0.3 mm pen",
-                     "inking: finding features too narrow to fill", "inking: fitting arcs",
+    assert heard == ["inking: working out the copper",
+                     "inking: finding features too narrow to fill",
+                     "inking: filling with the 0.8 mm pen",
+                     "inking: filling with the 0.3 mm pen", "inking: fitting arcs",
                      "ordering the paths to cut pen-up travel"]
 
 

@@ -59,7 +59,12 @@ def test_clearance_leaves_a_gap_after_stepping():
     assert CLEARANCE_NM - 2 * 4_400 - 1_000 > GAP_NM
 
 
-def test_a_trace_between_two_pads_closer_than_the_overdraw_does_not_bridge(tmp_path):
+@pytest.mark.parametrize("forked", [False, True])
+def test_a_trace_between_two_pads_closer_than_the_overdraw_does_not_bridge(tmp_path,
+                                                                           monkeypatch,
+                                                                           forked):
+    # (forked: the cuts worked out in a second process while the pads are filled)
+    monkeypatch.setattr(inking, "BACKGROUND_VERTICES", 0 if forked else 10 ** 12)
     # pads A (x 0..1 mm) and B (x 1.2..2.2 mm); a 0.1 mm trace of its own runs up
     # between them at x = 1.1 mm: 0.05 mm from each pad, its overdraw is 0.1 mm
     body = ("%ADD10R,1X1*%\n%ADD11C,0.1*%\n"          # lines 4, 5

@@ -146,19 +146,23 @@ class PenFill:
 def fill_region(region: list, width_nm: int, tolerance_nm: int, *,
                 overlap: float = DEFAULT_OVERLAP, edge_margin_nm: int = 0,
                 batch_vertices: int = BATCH_VERTICES, keep_out: list | None = None,
-                islands: list | None = None) -> PenFill:
+                islands: list | None = None,
+                area_unless_near: np.ndarray | None = None) -> PenFill:
     """Rings, gap strokes and joins of one pen over `region` (a polygon set).
 
     `keep_out`: a polygon set the ink stays out of (where two islands come too close
     to keep their inks apart, islands.py): the pen's centre keeps its radius from it.
     `islands`: clip.components(region), where the caller has them already.
+    `area_unless_near`: boxes (x0, y0, x1, y1) of other ink; a large batch none of them
+    meets has its ink's area worked out meanwhile (InkRecipe.area), for the coverage.
     Islands never share ink, so they are filled in batches of neighbours (see
     `island_batches`): each polygon operation then sweeps a few islands, not the
     board (Clipper's sweep slows with every outline a scanline crosses)."""
     fill = PenFill(width_nm)
     avoid = clip.offset(keep_out, width_nm // 2, tolerance_nm) if keep_out else []
     boxes = _boxes(avoid)
-    batches = [(batch, [avoid[k] for k in _meeting(boxes, batch).tolist()])
+    batches = [(batch, [avoid[k] for k in _meeting(boxes, batch).tolist()],
+                area_unless_near is not None and not len(_meeting(area_unless_near, batch)))
                for batch in island_batches(region, batch_vertices, islands)]
     if not batches:
         return fill
@@ -166,7 +170,7 @@ def fill_region(region: list, width_nm: int, tolerance_nm: int, *,
     # process meanwhile (background.py), the parts joined in batch order. A batch's
     # work grows faster than its outline (LimeSDR GTL: 45k vertices 6 s CPU, 4k 0.13 s):
     # it is weighed as vertices ** 1.5
-    sizes = np.array([sum(len(ring) for ring in batch) for batch, _near in batches])
+    sizes = np.array([sum(len(ring) for ring in batch) for batch, _near, _area in batches])
     work = np.cumsum(sizes.astype(np.float64) ** 1.5)
     half = int(np.searchsorted(work, work[-1] / 2)) + 1
     forked = half < len(batches) and sizes.sum() >= BACKGROUND_VERTICES
@@ -254,16 +258,16 @@ def island_batches(region: list, most_vertices: int = BATCH_VERTICES,
     return clip.strips(region, most_vertices, islands)
 
 
-def _fill_batches(batches: list[tuple[list, list]], width_nm: int, tolerance_nm: int,
+def _fill_batches(batches: list[tuple[list, list, bool]], width_nm: int, tolerance_nm: int,
                   overlap: float, edge_margin_nm: int, settled: bool = False) -> list[PenFill]:
     """The batches' fills; `settled` where they are sent to another process."""
-    fills = [_fill_batch(batch, width_nm, tolerance_nm, overlap, edge_margin_nm, near)
-             for batch, near in batches]
+    fills = [_fill_batch(batch, width_nm, tolerance_nm, overlap, edge_margin_nm, near, area)
+             for batch, near, area in batches]
     return [fill.settled() for fill in fills] if settled else fills
 
 
 def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
-                edge_margin_nm: int, avoid: list) -> PenFill:
+                edge_margin_nm: int, avoid: list, area_meanwhile: bool = False) -> PenFill:
     radius = width_nm // 2
     spacing = max(int(round(width_nm * (1.0 - overlap))), 1)
     fill = PenFill(width_nm)
@@ -308,7 +312,7 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     recipe = InkRecipe(centre_area, gaps, strokes, radius, tolerance_nm)
     # the coverage figures' share of a large batch (a second of Clipper on hellboard's
     # pour) in a second process, which is free while the walks and the rows are made
-    recipe.area = Deferred(recipe.ink_area_nm2, fork=True) if big else None
+    recipe.area = Deferred(recipe.ink_area_nm2, fork=True) if big and area_meanwhile else None
     fill.recipes = [(region, recipe)]
     walks = _tours(depths, strokes, spacing, ring_joins, every_ring)
     fill.paths = [np.ascontiguousarray(walk[:, :2]) for walk in walks]

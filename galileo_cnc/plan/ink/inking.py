@@ -138,37 +138,62 @@ def ink_paths(program: Program, pens_nm: tuple[int, ...] | list[int], *,
     islands = Islands.of(region)
     close = close_places(islands)
     keep_out = keep_back(close, CLEARANCE_NM // 2, tolerance_nm)
-    fills: list[PenFill] = []
-    inked: list = []                      # what the wider pens ink, for the narrower ones
-    for number, width in enumerate(pens):
-        stage(f"inking: filling with the {mm_text(width)} mm pen")
-        radius = width // 2
-        if number == 0:
-            target = region
-        else:
-            left = clip.opening(clip.difference(region, inked), GAP_NM, tolerance_nm)
-            reach = clip.opening(region, radius + edge_margin_nm, tolerance_nm)
-            left = clip.intersection(left, reach)
-            target = (clip.intersection(clip.offset(left, 2 * radius + edge_margin_nm,
-                                                    tolerance_nm), region) if left else [])
-        fill = fill_region(target, width, tolerance_nm, overlap=overlap,
-                           edge_margin_nm=edge_margin_nm, keep_out=keep_out,
-                           islands=islands.parts if number == 0 else None
-                           ) if target else PenFill(width)
-        fills.append(fill)
-        if number + 1 < len(pens):
-            inked = clip.union(inked, fill.ink) if inked else list(fill.ink)
-
+    big = sum(len(ring) for ring in region) >= BACKGROUND_VERTICES
     smallest = pens[-1]
     limit = smallest + 2 * edge_margin_nm + 4 * tolerance_nm
     stage("inking: finding features too narrow to fill")
     narrow, zero_size = find_narrow(program, limit, smallest, tolerance_nm)
-    bridges = keep_islands_apart(narrow, islands, smallest)
-    big = sum(len(ring) for ring in region) >= BACKGROUND_VERTICES
+    # where centre lines would join islands is worked out from the copper alone: on a
+    # large board in a second process while this one fills (ekf2 l1: 6 s for 12k lines)
+    apart = Deferred(_kept_apart, narrow, islands, smallest, fork=big and bool(narrow))
+    # a batch of the one pen's fill that no centre line can meet has its coverage
+    # worked out meanwhile (fill.InkRecipe.area); a narrower pen's ink meets most
+    lines_near = _boxes_of([piece for f in narrow for piece in f.pieces],
+                           smallest // 2 + 2 * tolerance_nm) if len(pens) == 1 else None
+    fills: list[PenFill] = []
+    inked: list = []                      # what the wider pens ink, for the narrower ones
+    try:
+        for number, width in enumerate(pens):
+            stage(f"inking: filling with the {mm_text(width)} mm pen")
+            radius = width // 2
+            if number == 0:
+                target = region
+            else:
+                left = clip.opening(clip.difference(region, inked), GAP_NM, tolerance_nm)
+                reach = clip.opening(region, radius + edge_margin_nm, tolerance_nm)
+                left = clip.intersection(left, reach)
+                target = (clip.intersection(clip.offset(left, 2 * radius + edge_margin_nm,
+                                                        tolerance_nm), region) if left else [])
+            fill = fill_region(target, width, tolerance_nm, overlap=overlap,
+                               edge_margin_nm=edge_margin_nm, keep_out=keep_out,
+                               islands=islands.parts if number == 0 else None,
+                               area_unless_near=lines_near if number == 0 else None
+                               ) if target else PenFill(width)
+            fills.append(fill)
+            if number + 1 < len(pens):
+                inked = clip.union(inked, fill.ink) if inked else list(fill.ink)
+        narrow, bridges = apart.result()
+    finally:
+        apart.cancel()
     coverage = Coverage(fills, [piece for f in narrow for piece in f.pieces], smallest // 2,
                         region, tolerance_nm, fork=big)
     return InkPaths(program, pens, copper, fills, narrow, bridges, zero_size, close,
                     clip.area_nm2(region), coverage, big, began, stage)
+
+
+def _kept_apart(narrow: list[NarrowFeature], islands: Islands, pen_nm: int
+                ) -> tuple[list[NarrowFeature], list[Bridge]]:
+    """keep_islands_apart, and the features it cut (sent back from a second process)."""
+    bridges = keep_islands_apart(narrow, islands, pen_nm)
+    return narrow, bridges
+
+
+def _boxes_of(lines: list[np.ndarray], grown_nm: int) -> np.ndarray:
+    """(x0, y0, x1, y1) of every centre line, grown by `grown_nm` (a stroked line's
+    box when that is its pen's radius and more)."""
+    pieces = [np.asarray(line, dtype=np.int64) for line in lines if len(line)]
+    return np.array([[*(p.min(axis=0) - grown_nm), *(p.max(axis=0) + grown_nm)]
+                     for p in pieces], dtype=np.int64).reshape(-1, 4)
 
 
 @dataclass
@@ -287,31 +312,34 @@ class InkPaths:
 class Coverage:
     """(filled_nm2, inked_nm2): the copper the fills cover, and the fills and centre
     lines. A batch of the first pen's fill that no other ink meets counts its recipe's
-    area (worked out meanwhile: fill.InkRecipe); where a narrower pen's ink or a
-    centre line meets one, the ink is needed as polygons, and on a large board a second
-    process makes them while this one goes on to the rows and path order."""
+    area (fill.InkRecipe: worked out meanwhile on a large batch); where a narrower
+    pen's ink or a centre line meets one, the ink is needed as polygons, and on a large
+    board a second process makes them while this one goes on to the rows and path
+    order."""
 
     def __init__(self, fills: list[PenFill], centre_lines: list[np.ndarray], radius_nm: int,
                  region: list, tolerance_nm: int, fork: bool):
-        lines = [np.asarray(line, dtype=np.int64) for line in centre_lines if len(line)]
-        grown = radius_nm + 2 * tolerance_nm          # a stroked line's box, and more
-        line_boxes = np.array([[*(line.min(axis=0) - grown), *(line.max(axis=0) + grown)]
-                               for line in lines], dtype=np.int64).reshape(-1, 4)
+        line_boxes = _boxes_of(centre_lines, radius_nm + 2 * tolerance_nm)
         self._recipes = [recipe for _batch, recipe in fills[0].recipes] if fills else []
-        self._met_filled = met_by_other_ink(fills, np.zeros((0, 4), dtype=np.int64))
-        self._met_inked = met_by_other_ink(fills, line_boxes)
-        polygons = not self._recipes or any(self._met_inked)
+        # a batch no other ink meets counts its recipe's area: here where a second
+        # process works it out already, else with the batches that need polygons
+        meanwhile = [isinstance(recipe.area, Deferred) for recipe in self._recipes]
+        self._here_filled = [not met and ready for met, ready in zip(
+            met_by_other_ink(fills, np.zeros((0, 4), dtype=np.int64)), meanwhile)]
+        self._here_inked = [not met and ready for met, ready in zip(
+            met_by_other_ink(fills, line_boxes), meanwhile)]
+        rest = not self._recipes or not all(self._here_inked)
         self._polygons = Deferred(_coverage_of_polygons, fills, centre_lines, radius_nm,
-                                  region, tolerance_nm, [not m for m in self._met_filled],
-                                  [not m for m in self._met_inked], fork=fork and polygons)
+                                  region, tolerance_nm, self._here_filled, self._here_inked,
+                                  fork=fork and rest)
 
     def result(self) -> tuple[float, float]:
         filled, inked = self._polygons.result()
-        for recipe, met_filled, met_inked in zip(self._recipes, self._met_filled,
-                                                 self._met_inked):
-            if not met_filled:
+        for recipe, here_filled, here_inked in zip(self._recipes, self._here_filled,
+                                                   self._here_inked):
+            if here_filled:
                 filled += recipe.area_nm2()
-            if not met_inked:
+            if here_inked:
                 inked += recipe.area_nm2()
         return filled, inked
 
@@ -323,8 +351,8 @@ def _coverage_of_polygons(fills: list[PenFill], centre_lines: list[np.ndarray],
                           radius_nm: int, region: list, tolerance_nm: int,
                           skip_filled: list[bool], skip_inked: list[bool]
                           ) -> tuple[float, float]:
-    """Coverage's batches that other ink meets (the `skip` ones are counted by their
-    recipes), worked out strip by strip (inked_area_nm2), not in one board-wide sweep."""
+    """Coverage's share: all batches but the `skip` ones (whose recipes' areas it
+    counts itself), strip by strip (inked_area_nm2), not in one board-wide sweep."""
     filled = inked_area_nm2(fills, [], region, skip_filled)
     narrow_ink = clip.stroke(centre_lines, radius_nm, tolerance_nm) if centre_lines else []
     return filled, (inked_area_nm2(fills, narrow_ink, region, skip_inked) if narrow_ink
