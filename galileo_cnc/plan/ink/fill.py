@@ -199,7 +199,7 @@ def inked_area_nm2(fills: list[PenFill], extra: list, region: list,
     meet (a ring that misses a batch's box cannot wind around a point in it), and a
     batch they miss counts its recipe's area. Clipper's sweep then crosses one strip
     of islands at a time, not the board. `skip`: per batch of fills[0], left out
-    (another process counts it: ink_coverage)."""
+    (another process counts it: inking.Coverage)."""
     if not fills or not fills[0].recipes:
         rest = [ring for f in fills for ring in f.ink] + list(extra)
         return clip.area_nm2(clip.intersection(clip.union(rest), region)) if rest else 0.0

@@ -322,8 +322,9 @@ class Coverage:
         line_boxes = _boxes_of(centre_lines, radius_nm + 2 * tolerance_nm)
         self._recipes = [recipe for _batch, recipe in fills[0].recipes] if fills else []
         # a batch no other ink meets counts its recipe's area: here where a second
-        # process works it out already, else with the batches that need polygons
-        meanwhile = [isinstance(recipe.area, Deferred) for recipe in self._recipes]
+        # process works it out (or worked it out) already, else with the batches that
+        # need polygons
+        meanwhile = [recipe.area is not None for recipe in self._recipes]
         self._here_filled = [not met and ready for met, ready in zip(
             met_by_other_ink(fills, np.zeros((0, 4), dtype=np.int64)), meanwhile)]
         self._here_inked = [not met and ready for met, ready in zip(
