@@ -36,8 +36,8 @@ from galileo_cnc.plan.ink.shapes import DEFAULT_TOLERANCE_NM
 from galileo_cnc.plan.ink.walk_order import Skeleton, WalkOrder, touching_walks
 from galileo_cnc.plan.pieces import WHOLE_PATHS
 from galileo_cnc.program.extents import extents
-from galileo_cnc.program.ops import (COL, KIND, LINE, NM_PER_MM, NO_TOOL, TOOL, X, Y, Aperture,
-                                     OpKind, Program, ProgramBuilder)
+from galileo_cnc.program.ops import (COL, COLUMNS, I, J, KIND, LINE, NM_PER_MM, NO_TOOL, TOOL, X,
+                                     Y, Aperture, OpKind, Program, ProgramBuilder)
 from galileo_cnc.readers.gerber.transformed import aperture_label
 
 #: Bridge warnings shown before a job (plot, getg): a board of tight traces has
@@ -400,8 +400,13 @@ def _emit_path(out: ProgramBuilder, path: np.ndarray, key: int, line: int, col: 
     if segments is None:
         closed = len(path) > 3 and np.array_equal(path[0], path[-1])
         segments = fit_arcs(path[:-1] if closed else path, closed=closed)
-    for kind, ex, ey, i, j in segments:
-        out.emit(kind, ex, ey, i, j, tool=key, line=line, col=col)
+    if not segments:
+        return
+    # all the path's rows at once: a fill's walk has up to 100k of them
+    rows = np.zeros((len(segments), len(COLUMNS)), dtype=np.int64)
+    rows[:, [KIND, X, Y, I, J]] = np.array(segments, dtype=np.int64)
+    rows[:, TOOL], rows[:, LINE], rows[:, COL] = key, line, col
+    out.rows.frombytes(rows.tobytes())
 
 
 def _emit_feature(out: ProgramBuilder, feature: NarrowFeature, key: int) -> None:
