@@ -304,3 +304,18 @@ def test_cleaning_never_turns_a_thin_island_round_so_the_offset_inside_still_com
     pour = [[0, MM], [10 * MM, MM], [10 * MM, 11 * MM], [0, 11 * MM]]
     inner = clip.offset(clip.clean([pour, SLIVER], 8_000), -240_000, 8_000, cleaned=True)
     assert clip.area_nm2(inner) == pytest.approx((10 * MM - 480_000) ** 2, rel=1e-3)
+
+
+def test_strokes_in_strips_cover_what_one_stroke_covers():
+    # random polylines and dots; strips of 50: overlapping sets that positive winding
+    # (every boolean in clip.py) reads as the one stroke's union
+    rng = np.random.default_rng(3)
+    lines = [np.cumsum(rng.integers(-400_000, 400_000, size=(int(rng.integers(1, 6)), 2)),
+                       axis=0) + rng.integers(0, 40 * MM, size=2) for _ in range(700)]
+    whole = clip.stroke(lines, 150_000, 1_000)
+    strips = clip.stroke_in_strips(lines, 150_000, 1_000, per_strip=50)
+    assert len(strips) > len(whole)
+    assert clip.area_nm2(clip.union(strips)) == pytest.approx(clip.area_nm2(whole), rel=1e-9)
+    window = [[[5 * MM, 5 * MM], [30 * MM, 5 * MM], [30 * MM, 30 * MM], [5 * MM, 30 * MM]]]
+    assert clip.area_nm2(clip.intersection(strips, window)) == pytest.approx(
+        clip.area_nm2(clip.intersection(whole, window)), rel=1e-9)

@@ -13,6 +13,8 @@ import numpy as np
 import pyclipper as pc
 
 PolygonSet = list
+#: Paths per strip in stroke_in_strips.
+STROKE_STRIP = 300
 
 
 def offset(polygons: PolygonSet, delta_nm: int, tolerance_nm: int, *,
@@ -66,6 +68,21 @@ def stroke(paths: list, radius_nm: int, tolerance_nm: int) -> PolygonSet:
     if not lines and not dots:
         return []
     return engine.Execute(float(radius_nm))
+
+
+def stroke_in_strips(paths: list, radius_nm: int, tolerance_nm: int,
+                     per_strip: int = STROKE_STRIP) -> PolygonSet:
+    """`stroke`'s area as polygon sets that may overlap, one per strip of `per_strip`
+    paths taken left to right: what positive winding (every boolean here) reads as
+    their union. One stroke of ekf2 l1's 12k centre lines took 6.0 s, in strips of
+    300 1.0 s: Clipper's union sweeps fewer edges at a time."""
+    paths = [np.asarray(path, dtype=np.int64) for path in paths if len(path)]
+    order = np.argsort([int(path[:, 0].min()) for path in paths], kind="stable")
+    out: PolygonSet = []
+    for first in range(0, len(paths), per_strip):
+        out += stroke([paths[k] for k in order[first:first + per_strip]], radius_nm,
+                      tolerance_nm)
+    return out
 
 
 def boolean(operation, subject: PolygonSet, clip: PolygonSet) -> PolygonSet:

@@ -355,7 +355,8 @@ def _coverage_of_polygons(fills: list[PenFill], centre_lines: list[np.ndarray],
     """Coverage's share: all batches but the `skip` ones (whose recipes' areas it
     counts itself), strip by strip (inked_area_nm2), not in one board-wide sweep."""
     filled = inked_area_nm2(fills, [], region, skip_filled)
-    narrow_ink = clip.stroke(centre_lines, radius_nm, tolerance_nm) if centre_lines else []
+    narrow_ink = clip.stroke_in_strips(centre_lines, radius_nm, tolerance_nm) \
+        if centre_lines else []
     return filled, (inked_area_nm2(fills, narrow_ink, region, skip_inked) if narrow_ink
                     else filled)
 
