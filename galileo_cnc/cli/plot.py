@@ -26,7 +26,8 @@ from galileo_cnc.config.profile import Profile
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.job import Job
 from galileo_cnc.machine.trace import Trace
-from galileo_cnc.machine.timing import duration_text
+from galileo_cnc.machine.timing import duration_text, job_timing
+from galileo_cnc.plan.ink.background import Deferred
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
 from galileo_cnc.plan.ink.inking import mm_text
 from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, PlanOptions, plan_file
@@ -142,6 +143,10 @@ class PlotOptions:
     handle: Any = None
 
 
+#: jobs of this many commands have their timing worked out in a second process
+BACKGROUND_COMMANDS = 20_000
+
+
 def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None = None) -> int:
     # the streams of the call, not of the import (a test may have replaced them since)
     out = out if out is not None else sys.stdout
@@ -161,6 +166,12 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
                                                     layers=options.layers, units=options.units,
                                                     optimize=options.optimize))
 
+    # the job's timing (the estimate and the progress line's time left: 3.5 s for
+    # hellboard's 121k commands) in a second process while the port opens and a board
+    # boots (an Arduino resets when its port opens)
+    timing = Deferred(job_timing, planned.job.commands, profile.config,
+                      fork=len(planned.job) >= BACKGROUND_COMMANDS) \
+        if planned is not None else None
     # no port: cli/main's open_board probed every port already and found no board
     port = with_step_trace(profile.port) if options.trace and profile.port else \
         profile.port or SIM_URL
@@ -206,7 +217,9 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
             progress.message(f"homed: X {status.x_steps / profile.config.steps_per_mm:.3f} "
                              f"Y {status.y_steps / profile.config.steps_per_mm:.3f} mm")
         streamer = JobStreamer(link, job, plotted, journal=journal, start=start,
-                               lead_in=lead_in, job_start=job_start, homed=homed)
+                               lead_in=lead_in, job_start=job_start, homed=homed,
+                               timing=timing.result() if timing is not None
+                               and link.config == profile.config else None)
         out.write(f"{len(job) - start} commands, about "
                   f"{duration_text(streamer.timing.seconds_between(start, len(job)))} "
                   f"of machine time\n")
@@ -239,6 +252,8 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
         outputs = (job, program, offset, planned.copper if planned is not None else None)
     finally:
         link.close()
+        if timing is not None:
+            timing.cancel()
     if outputs is not None:             # after closing: simavr's pin record is complete then
         _write_outputs(options, link, steps, *outputs, out=out)
     return EXIT_OK

@@ -8,10 +8,12 @@ plan_file (on_stage) and say it.
 from __future__ import annotations
 
 import io
+import re
 from pathlib import Path
 
 import pytest
 
+from galileo_cnc.cli import plot
 from galileo_cnc.cli.plot import PlotOptions, TextProgress, run_plot, stages_on_terminal
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.config.profile import Profile
@@ -99,3 +101,29 @@ def test_a_plan_that_fails_leaves_no_stage_line_before_its_error(monkeypatch):
         run_plot(options, out=screen)
     assert "\rinking: fitting arcs ...\x1b[K" in screen.getvalue()
     assert screen.getvalue().endswith("\r\x1b[K")
+
+
+def test_plot_times_a_large_job_beside_opening_the_port_with_the_same_estimate(
+        monkeypatch, tmp_path):
+    # the job's timing in a second process while the port opens (forked at 0 commands
+    # here), or here: the same estimate, and the job runs to its end either way
+    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path))
+    made = []
+
+    class Spy(plot.Deferred):
+        def __init__(self, fn, *args, fork=True):
+            made.append((fn.__name__, fork))
+            super().__init__(fn, *args, fork=fork)
+    monkeypatch.setattr(plot, "Deferred", Spy)
+    estimates = []
+    for threshold in (0, 10 ** 9):
+        monkeypatch.setattr(plot, "BACKGROUND_COMMANDS", threshold)
+        out = io.StringIO()
+        options = PlotOptions(file=str(BOARD), profile=Profile(MachineConfig(), "sim://?speed=0"),
+                              yes=True, mode="centre")
+        assert run_plot(options, out=out) == 0
+        assert "process has finished" in out.getvalue()
+        estimates.append(re.search(r"\d+ commands, about .+ of machine time",
+                                   out.getvalue()).group(0))
+    assert made == [("job_timing", True), ("job_timing", False)]
+    assert estimates[0] == estimates[1]
