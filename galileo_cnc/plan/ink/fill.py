@@ -79,14 +79,16 @@ class InkRecipe:
     area: Deferred | float | None = None
     _ink: list | None = field(default=None, repr=False)
 
+    @property
+    def has_ink(self) -> bool:
+        """Whether `ink()` was made already (a narrower pen needed it)."""
+        return self._ink is not None
+
     def ink(self) -> list:
         if self._ink is None:
-            reach = clip.offset(self.centre_area, self.radius_nm, self.tolerance_nm,
-                                cleaned=True)
-            ink = clip.difference(reach, self.gaps)
+            ink = clip.difference(self._reach(), self.gaps)
             if self.strokes:
-                ink = clip.union(ink, clip.stroke(self.strokes, self.radius_nm,
-                                                  self.tolerance_nm))
+                ink = clip.union(ink, self._strokes_ink())
             self._ink = ink
         return self._ink
 
@@ -97,12 +99,17 @@ class InkRecipe:
         within 2e-9 on hellboard."""
         if not self.centre_area:
             return 0.0
-        area = clip.area_nm2(clip.offset(self.centre_area, self.radius_nm, self.tolerance_nm,
-                                         cleaned=True)) - clip.area_nm2(self.gaps)
+        area = clip.area_nm2(self._reach()) - clip.area_nm2(self.gaps)
         if self.strokes:
-            area += clip.area_nm2(clip.intersection(
-                clip.stroke(self.strokes, self.radius_nm, self.tolerance_nm), self.gaps))
+            area += clip.area_nm2(clip.intersection(self._strokes_ink(), self.gaps))
         return area
+
+    def _reach(self) -> list:
+        """Where the pen's disc reaches with its centre anywhere in E0."""
+        return clip.offset(self.centre_area, self.radius_nm, self.tolerance_nm, cleaned=True)
+
+    def _strokes_ink(self) -> list:
+        return clip.stroke(self.strokes, self.radius_nm, self.tolerance_nm)
 
     def area_nm2(self) -> float:
         """ink_area_nm2, from the second process where one works it out."""
@@ -160,7 +167,7 @@ def fill_region(region: list, width_nm: int, tolerance_nm: int, *,
     board (Clipper's sweep slows with every outline a scanline crosses)."""
     fill = PenFill(width_nm)
     avoid = clip.offset(keep_out, width_nm // 2, tolerance_nm) if keep_out else []
-    boxes = _boxes(avoid)
+    boxes = boxes_of(avoid)
     batches = [(batch, [avoid[k] for k in _meeting(boxes, batch).tolist()],
                 area_unless_near is not None and not len(_meeting(area_unless_near, batch)))
                for batch in island_batches(region, batch_vertices, islands)]
@@ -204,16 +211,16 @@ def inked_area_nm2(fills: list[PenFill], extra: list, region: list,
         rest = [ring for f in fills for ring in f.ink] + list(extra)
         return clip.area_nm2(clip.intersection(clip.union(rest), region)) if rest else 0.0
     others = _other_ink(fills, extra)
-    boxes = _boxes(others)
+    boxes = boxes_of(others)
     total = 0.0
     for number, (batch, recipe) in enumerate(fills[0].recipes):
         if skip is not None and skip[number]:
             continue
         near = [others[k] for k in _meeting(boxes, batch).tolist()]
-        if not near:
-            total += recipe.area_nm2()
-        else:
+        if near or recipe.has_ink:      # the polygons' area where they are made anyway
             total += clip.area_nm2(clip.intersection(list(recipe.ink()) + near, batch))
+        else:
+            total += recipe.area_nm2()
     return total
 
 
@@ -222,7 +229,7 @@ def met_by_other_ink(fills: list[PenFill], extra_boxes: np.ndarray) -> list[bool
     y0, x1, y1) meets its box, so its coverage needs the polygons."""
     if not fills or not fills[0].recipes:
         return []
-    boxes = np.concatenate([_boxes(_other_ink(fills, [])),
+    boxes = np.concatenate([boxes_of(_other_ink(fills, [])),
                             extra_boxes.reshape(-1, 4).astype(np.int64)])
     return [len(_meeting(boxes, batch)) > 0 for batch, _recipe in fills[0].recipes]
 
@@ -234,10 +241,11 @@ def _other_ink(fills: list[PenFill], extra: list) -> list[np.ndarray]:
     return [ring for ring in others if len(ring) >= 3]
 
 
-def _boxes(rings: list) -> np.ndarray:
-    """(x0, y0, x1, y1) of each ring."""
+def boxes_of(rings: list, grown_nm: int = 0) -> np.ndarray:
+    """(x0, y0, x1, y1) of each ring (or polyline), grown by `grown_nm` on every side."""
     rings = [np.asarray(ring, dtype=np.int64) for ring in rings]
-    return np.array([[*ring.min(axis=0), *ring.max(axis=0)] for ring in rings]) \
+    return np.array([[*(ring.min(axis=0) - grown_nm), *(ring.max(axis=0) + grown_nm)]
+                     for ring in rings], dtype=np.int64) \
         if rings else np.zeros((0, 4), dtype=np.int64)
 
 

@@ -26,7 +26,8 @@ from galileo_cnc.plan.ink import clip
 from galileo_cnc.plan.ink.arcs import fit_arcs, fit_paths
 from galileo_cnc.plan.ink.background import Deferred
 from galileo_cnc.plan.ink.fill import (BACKGROUND_VERTICES, DEFAULT_OVERLAP, GAP_NM, PenFill,
-                                      fill_region, inked_area_nm2, met_by_other_ink)
+                                      boxes_of, fill_region, inked_area_nm2,
+                                      met_by_other_ink)
 from galileo_cnc.plan.ink.geometry import DarkImage, dark_geometry
 from galileo_cnc.plan.ink.islands import (CLEARANCE_NM, ClosePlaces, Islands, close_places,
                                          keep_back)
@@ -148,8 +149,8 @@ def ink_paths(program: Program, pens_nm: tuple[int, ...] | list[int], *,
     apart = Deferred(_kept_apart, narrow, islands, smallest, fork=big and bool(narrow))
     # a batch of the one pen's fill that no centre line can meet has its coverage
     # worked out meanwhile (fill.InkRecipe.area); a narrower pen's ink meets most
-    lines_near = _boxes_of([piece for f in narrow for piece in f.pieces],
-                           smallest // 2 + 2 * tolerance_nm) if len(pens) == 1 else None
+    lines_near = boxes_of([piece for f in narrow for piece in f.pieces if len(piece)],
+                          smallest // 2 + 2 * tolerance_nm) if len(pens) == 1 else None
     fills: list[PenFill] = []
     inked: list = []                      # what the wider pens ink, for the narrower ones
     try:
@@ -186,14 +187,6 @@ def _kept_apart(narrow: list[NarrowFeature], islands: Islands, pen_nm: int
     """keep_islands_apart, and the features it cut (sent back from a second process)."""
     bridges = keep_islands_apart(narrow, islands, pen_nm)
     return narrow, bridges
-
-
-def _boxes_of(lines: list[np.ndarray], grown_nm: int) -> np.ndarray:
-    """(x0, y0, x1, y1) of every centre line, grown by `grown_nm` (a stroked line's
-    box when that is its pen's radius and more)."""
-    pieces = [np.asarray(line, dtype=np.int64) for line in lines if len(line)]
-    return np.array([[*(p.min(axis=0) - grown_nm), *(p.max(axis=0) + grown_nm)]
-                     for p in pieces], dtype=np.int64).reshape(-1, 4)
 
 
 @dataclass
@@ -245,25 +238,20 @@ class InkPaths:
         short = {(last, k) for k in np.flatnonzero(~touched).tolist()}
         short |= {(number, k) for number, fill in enumerate(self.fills[:last])
                   for k in range(len(fill.paths))}
+        short = {(number, k) for number, k in short if len(self.fills[number].paths[k]) > 1}
         program = _rows(self.source, self.pens_nm, self.fills, self._narrow_rows(),
                         self._segments(short))
-        walks = program.metadata[WHOLE_PATHS]
-        shortened = np.array([b - a == 2 and program.table[a + 1, KIND] == _LINE
-                              and (number, k) in short
-                              for (a, b), (number, k) in zip(walks, self._walk_keys())],
-                             dtype=bool)
+        shortened = np.array([key in short for key in self._walk_keys()], dtype=bool)
         return WalkOrder(Skeleton(program, shortened), start, join_nm, fork=self.big)
 
     def finish(self) -> InkPlan:
         """The ink as rows (arcs fitted) and its warnings."""
         self.stage("inking: fitting arcs")
-        every = {(number, k) for number, fill in enumerate(self.fills)
-                 for k in range(len(fill.paths))}
         for number, fill in enumerate(self.fills):
             self._fit(number, [k for k in range(len(fill.paths))
                                if (number, k) not in self._fitted])
         rows = _rows(self.source, self.pens_nm, self.fills, self._narrow_rows(),
-                     {key: self._fitted[key] for key in every})
+                     self._fitted)
         plan = InkPlan(rows, self.pens_nm, self.copper, self.fills, self.narrow, self.bridges,
                        self.zero_size, self.close, self.copper_nm2, self.coverage)
         plan.warnings, plan.bridge_warnings = _warnings(self.source, plan)
@@ -283,11 +271,11 @@ class InkPaths:
             self._fitted[(number, k)] = segments
 
     def _segments(self, short: set) -> dict:
-        """Per (fill, path): its arcs, or for the shortened ones a LINE to its end."""
+        """Per (fill, path): its arcs, or for the `short` ones a LINE to its end."""
         segments = {}
         for number, fill in enumerate(self.fills):
             for k, path in enumerate(fill.paths):
-                if (number, k) in short and len(path) > 1:
+                if (number, k) in short:
                     end = path[-1]
                     segments[(number, k)] = [(_LINE, int(end[0]), int(end[1]), 0, 0)]
                 else:
@@ -319,16 +307,19 @@ class Coverage:
 
     def __init__(self, fills: list[PenFill], centre_lines: list[np.ndarray], radius_nm: int,
                  region: list, tolerance_nm: int, fork: bool):
-        line_boxes = _boxes_of(centre_lines, radius_nm + 2 * tolerance_nm)
         self._recipes = [recipe for _batch, recipe in fills[0].recipes] if fills else []
         # a batch no other ink meets counts its recipe's area: here where a second
         # process works it out (or worked it out) already, else with the batches that
-        # need polygons
+        # need polygons (all of them where no area is worked out meanwhile: then
+        # whether other ink meets a batch is not asked here)
         meanwhile = [recipe.area is not None for recipe in self._recipes]
-        self._here_filled = [not met and ready for met, ready in zip(
-            met_by_other_ink(fills, np.zeros((0, 4), dtype=np.int64)), meanwhile)]
-        self._here_inked = [not met and ready for met, ready in zip(
-            met_by_other_ink(fills, line_boxes), meanwhile)]
+        self._here_filled = self._here_inked = [False] * len(self._recipes)
+        if any(meanwhile):
+            by_pens = met_by_other_ink(fills, np.zeros((0, 4), dtype=np.int64))
+            by_lines = met_by_other_ink(fills, boxes_of(
+                [line for line in centre_lines if len(line)], radius_nm + 2 * tolerance_nm))
+            self._here_filled = [ready and not met for ready, met in zip(meanwhile, by_pens)]
+            self._here_inked = [ready and not met for ready, met in zip(meanwhile, by_lines)]
         rest = not self._recipes or not all(self._here_inked)
         self._polygons = Deferred(_coverage_of_polygons, fills, centre_lines, radius_nm,
                                   region, tolerance_nm, self._here_filled, self._here_inked,
