@@ -22,7 +22,6 @@ only to choose, never to place.
 from __future__ import annotations
 
 import math
-from collections import deque
 
 from galileo_cnc.plan.chains import chain
 from galileo_cnc.plan.collector import collector_paused
@@ -65,9 +64,7 @@ def order(chains: list[Piece], start: Point, moves: int = TWO_OPT_MOVES,
     else:
         tour = Tour(xs, ys, tail)
         tour.build()
-        tries = tour.improve(deque(range(len(xs))), moves)
-        perturbations = min(PERTURB_MAX, PERTURB_PER_CHAIN * len(chains))
-        tour.perturb(perturbations, moves - tries)
+        tour.search(moves, min(PERTURB_MAX, PERTURB_PER_CHAIN * len(chains)))
         entries = tour.walk()
     out = []
     for v in entries:

@@ -15,6 +15,10 @@ ends touched, kept only if the tour got shorter). Every bound is a count of move
 tried, never a time, and the perturbation draws from a seeded generator: the same
 file plans to the same job on any machine (resume replans and continues by command
 index).
+
+The search itself (`Tour.search`) runs compiled where setup.py could build
+tour_search.c (plan/native.py), else here in Python: the same moves in the same order,
+to the same tour.
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ from collections import deque
 
 import numpy as np
 
+from galileo_cnc.plan import native
 from galileo_cnc.plan.nearby import EndFinder, nearest
 
 #: nearest ends each end's moves look at
@@ -186,6 +191,25 @@ class Tour:
         for k in range(1, m - 1, 2):
             out.append(tour[(p + step * k) % m])
         return out
+
+    # ------------------------------------------------------------------ the search
+
+    def search(self, moves: int, perturbations: int) -> None:
+        """2-opt and Or-opt from every node, then `perturbations` perturbations, within
+        `moves` candidates tried in all: compiled where it is built (native.py)."""
+        compiled = native.tour_search()
+        if compiled is None or not compiled(self, moves, perturbations, self.kicks(
+                perturbations)):
+            tries = self.improve(deque(range(self.m)), moves)
+            self.perturb(perturbations, moves - tries)
+
+    def kicks(self, count: int) -> list[tuple[int, int, int]]:
+        """The perturbations' random draws, in the order `perturb` makes them: where the
+        runs start, and their lengths in chains (they never depend on the tour)."""
+        rng = random.Random(_SEED)
+        most = max(1, min(KICK_PAIRS, (self.m // 2 - 1) // 2))
+        return [(rng.randrange(self.m), rng.randint(1, most), rng.randint(1, most))
+                for _ in range(count)]
 
     # ------------------------------------------------------------------ moves
 
