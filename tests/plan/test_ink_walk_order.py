@@ -156,9 +156,12 @@ def test_the_coverage_figures_are_those_of_the_ink_as_polygons(tmp_path, monkeyp
     plan = planned.ink
     region = plan.copper.native
     fills_ink = [ring for f in plan.fills for ring in f.ink]
-    lines = clip.stroke([p for f in plan.narrow for p in f.pieces], pens[-1] // 2, 1_000)
+    lines = clip.stroke([p for f in plan.narrow for p in f.pieces], pens[-1] // 2,
+                        inking.INK_TOLERANCE_NM)
     filled = clip.area_nm2(clip.intersection(clip.union(fills_ink), region))
     inked = clip.area_nm2(clip.intersection(clip.union(fills_ink, lines), region))
-    assert plan.filled_nm2 == pytest.approx(filled, rel=1e-8)
-    assert plan.inked_nm2 == pytest.approx(inked, rel=1e-8)
+    # the recipe's area counts a gap stroke's round cap as inside the reach, where
+    # it may poke out by the tolerance: a few um2 of this board's 65 mm2
+    assert plan.filled_nm2 == pytest.approx(filled, rel=1e-6)
+    assert plan.inked_nm2 == pytest.approx(inked, rel=1e-6)
     assert inked > filled

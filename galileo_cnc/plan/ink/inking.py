@@ -33,7 +33,6 @@ from galileo_cnc.plan.ink.islands import (CLEARANCE_NM, ClosePlaces, Islands, cl
                                          keep_back)
 from galileo_cnc.plan.ink.narrow import (Bridge, NarrowFeature, find_narrow,
                                         keep_islands_apart)
-from galileo_cnc.plan.ink.shapes import DEFAULT_TOLERANCE_NM
 from galileo_cnc.plan.ink.walk_order import Skeleton, WalkOrder, touching_walks
 from galileo_cnc.plan.pieces import WHOLE_PATHS
 from galileo_cnc.program.extents import extents
@@ -45,6 +44,13 @@ from galileo_cnc.readers.gerber.transformed import aperture_label
 #: pages of them (arduino-uno.cmp with the default 0.4 mm pen: 1,548) before the pen
 #: prompt; one line counts the rest, and `info` lists every one.
 SHOWN_BRIDGES = 20
+
+#: The ink's polygon tolerance: the copper's curves as chords within it, the fill's
+#: offsets' round joins, the arcs fitted to E0 (and DEEP_TOLERANCE times it inside E0:
+#: fill.py). A third of a motor step (6.25 um); 1 um (geometry.py's default) took
+#: hellboard 18 % longer for 28 % more rows, and inked the corpus as this does
+#: (docs/ink.md, "The ink's tolerance").
+INK_TOLERANCE_NM = 2_000
 
 #: Default pen margin from the copper's edge: the stepped path strays up to ~0.7 step
 #: from the planned one, half of that is the usual error (docs/ink.md, "Edge margin").
@@ -113,7 +119,7 @@ def mm_text(nm: int) -> str:
 
 
 def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
-                tolerance_nm: int = DEFAULT_TOLERANCE_NM, overlap: float = DEFAULT_OVERLAP,
+                tolerance_nm: int = INK_TOLERANCE_NM, overlap: float = DEFAULT_OVERLAP,
                 edge_margin_nm: int = DEFAULT_EDGE_MARGIN_NM,
                 on_stage: Callable[[str], None] | None = None) -> InkPlan:
     """The ink of a Gerber Program for the pens (widths in nm, any order).
@@ -124,7 +130,7 @@ def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
 
 
 def ink_paths(program: Program, pens_nm: tuple[int, ...] | list[int], *,
-              tolerance_nm: int = DEFAULT_TOLERANCE_NM, overlap: float = DEFAULT_OVERLAP,
+              tolerance_nm: int = INK_TOLERANCE_NM, overlap: float = DEFAULT_OVERLAP,
               edge_margin_nm: int = DEFAULT_EDGE_MARGIN_NM,
               on_stage: Callable[[str], None] | None = None) -> InkPaths:
     """ink_program up to the pen paths: the fills and the centre lines, not yet rows."""
