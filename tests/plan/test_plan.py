@@ -323,6 +323,53 @@ def test_the_quick_travel_check_never_passes_a_job_the_machine_refuses():
     assert quick > 50
 
 
+def test_the_rows_verdict_passes_only_jobs_the_command_walks_pass():
+    # plan_program skips check_job when the rows' arrays say the job surely passes
+    # (planner._rows_surely_fine): on random programs of moves, lines, arcs and
+    # flashes near the travel's edges, offset at random, whenever the rows say so the
+    # job's own commands pass both of check_job's walks; and it says so often enough
+    import random
+
+    from galileo_cnc.plan.planner import _machine_points, _surely_inside
+    from galileo_cnc.protocol.codec import first_range_problem
+
+    rng = random.Random(11)
+    step = CFG.nm_per_step
+    (x_min, y_min, _), (x_max, y_max, _) = CFG.travel_min_steps, CFG.travel_max_steps
+    fine = refused = 0
+    for _ in range(800):
+        ops = [(OpKind.SELECT, 0, 0, 0, 0, 10)]
+        for number in range(rng.randint(1, 6)):
+            kind = rng.choice([OpKind.MOVE, OpKind.LINE, OpKind.LINE, OpKind.ARC_CW,
+                               OpKind.ARC_CCW, OpKind.FLASH])
+            if number == 0 and kind in (OpKind.ARC_CW, OpKind.ARC_CCW):
+                kind = OpKind.MOVE
+            edge = rng.choice([x_min, x_max]), rng.choice([y_min, y_max])
+            nx = rng.choice([rng.randint(x_min, x_max), edge[0] + rng.randint(-30, 30)]) * step
+            ny = rng.choice([rng.randint(y_min, y_max), edge[1] + rng.randint(-30, 30)]) * step
+            if kind in (OpKind.ARC_CW, OpKind.ARC_CCW):
+                r = rng.randint(2, 80) * step
+                angle = rng.uniform(0, 2 * math.pi)
+                i, j = round(r * math.cos(angle)), round(r * math.sin(angle))
+                ops.append((kind, nx, ny, i, j, 10))
+            else:
+                ops.append((kind, nx, ny, 0, 0, 10))
+        offset = (rng.randint(-40, 40) * step, rng.randint(-40, 40) * step)
+        built = program(*ops)
+        verdict = _machine_points(built.table, CFG, offset)[3]
+        try:
+            job = plan_program(built, CFG, offset)
+        except PlanError:
+            refused += 1
+            assert not verdict, f"the rows passed a job check_job refuses: {ops}, {offset}"
+            continue
+        if verdict:
+            fine += 1
+            assert _surely_inside(job.commands, CFG), (ops, offset)
+            assert first_range_problem(job.commands) is None
+    assert fine > 50 and refused > 20
+
+
 def test_a_job_too_big_names_the_axis_and_the_profile_key_that_sets_the_travel(tmp_path):
     from dataclasses import replace
 
