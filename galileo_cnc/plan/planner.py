@@ -109,7 +109,7 @@ def _machine_points(table: np.ndarray, config: MachineConfig, offset_nm: tuple[i
     if not len(rows):
         none = np.zeros(0, dtype=np.int64)
         return xs.tolist(), ys.tolist(), arcs, _rows_surely_fine(
-            kinds, xs[positioned], ys[positioned], (none,) * 5, config)
+            kinds, xs[positioned], ys[positioned], (none,) * 8, config)
     last = np.maximum.accumulate(np.where(positioned, np.arange(count), -1))
     before = np.concatenate(([-1], last[:-1]))[rows]
     # the program point each arc starts from (nm, offset applied), and in steps
@@ -146,13 +146,18 @@ def _machine_points(table: np.ndarray, config: MachineConfig, offset_nm: tuple[i
         else:
             arcs[row] = (_AS_CHORDS, start, (int(sx_nm[k]), int(sy_nm[k])))
     sent = ~as_line
+    # per ArcTo: its centre, and its start and end from the centre (steps); the
+    # direction as the machine takes it (arc_setup's ccw)
     circles = None if (before < 0).any() or not in_range[sent].all() else (
-        cx[sent], cy[sent], cx[sent] - sx[sent], cy[sent] - sy[sent],
+        cx[sent], cy[sent], a[sent], b[sent], c[sent], d[sent], ~cw[sent],
         np.maximum(a * a + b * b, c * c + d * d)[sent])
     return xs.tolist(), ys.tolist(), arcs, _rows_surely_fine(
         kinds, xs[positioned], ys[positioned], circles, config)
 
 
+#: arcs near the travel's edges whose own box _rows_surely_fine works out at most
+#: (one arc_setup each); past that check_job decides
+_ARC_BOXES = 10_000
 #: op kinds whose commands _rows_surely_fine knows (others leave it to check_job)
 _PLAIN_KINDS = [int(OpKind[name]) for name in ("MOVE", "LINE", "ARC_CW", "ARC_CCW", "FLASH",
                                                "PEN_UP", "PEN_DOWN", "SELECT", "POLARITY",
@@ -165,9 +170,10 @@ def _rows_surely_fine(kinds: np.ndarray, xs: np.ndarray, ys: np.ndarray,
     (check_job's own two walks over the commands take 0.2 s of hellboard's plan):
     only moves, draws, flashes and pen moves; every positioned row's point (each
     Rapid, LineTo and ArcTo goes to one) inside the travel and on the wire; every
-    ArcTo's circle inside the travel, its centre offset on the wire. `circles`: the
-    ArcTos' centres, centre offsets and larger squared radius (steps), None where an
-    arc is drawn as chords or starts the job (then check_job decides). Any doubt is
+    ArcTo's circle inside the travel (else the box the machine works out for the arc,
+    as _surely_inside does), its centre offset on the wire. `circles`: per ArcTo its
+    centre, start and end from the centre, direction (ccw) and larger squared radius
+    (steps); None where an arc is drawn as chords or starts the job. Any doubt is
     False: check_job then walks the commands as before."""
     if circles is None or config.flash_dwell_ms < 0 or not np.isin(kinds, _PLAIN_KINDS).all():
         return False
@@ -180,14 +186,26 @@ def _rows_surely_fine(kinds: np.ndarray, xs: np.ndarray, ys: np.ndarray,
                         and max(y_min, COORD.lo) <= ys.min()
                         and ys.max() <= min(y_max, COORD.hi)):
         return False
-    cx, cy, i, j, radius2 = circles
+    cx, cy, a, b, c, d, ccw, radius2 = circles
     if not len(cx):
         return True
-    # as _surely_inside: the circle's box, its radius rounded down, plus 2 steps
+    i, j = -a, -b                          # the centre from the start
+    if not (COORD.lo <= min(i.min(), j.min()) and max(i.max(), j.max()) <= COORD.hi):
+        return False
+    # as _surely_inside: the circle's box (its radius rounded down, plus 2 steps),
+    # else the box the machine works out for the arc itself
     radius = np.array([math.isqrt(int(r)) for r in radius2.tolist()], dtype=np.int64) + 2
-    return bool(COORD.lo <= min(i.min(), j.min()) and max(i.max(), j.max()) <= COORD.hi
-                and (cx - radius).min() >= x_min and (cx + radius).max() <= x_max
-                and (cy - radius).min() >= y_min and (cy + radius).max() <= y_max)
+    outside = np.flatnonzero((cx - radius < x_min) | (cx + radius > x_max)
+                             | (cy - radius < y_min) | (cy + radius > y_max))
+    if len(outside) > _ARC_BOXES:
+        return False
+    for k in outside.tolist():
+        low_x, high_x, low_y, high_y = arc_setup((int(a[k]), int(b[k])), (int(c[k]), int(d[k])),
+                                                 bool(ccw[k]))[1]
+        if not (x_min <= cx[k] + low_x and cx[k] + high_x <= x_max
+                and y_min <= cy[k] + low_y and cy[k] + high_y <= y_max):
+            return False
+    return True
 
 
 def plotting_order(program: Program, config: MachineConfig, offset_nm: tuple[int, int],
