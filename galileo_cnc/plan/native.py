@@ -42,9 +42,9 @@ def _library() -> ctypes.CDLL | None:
 
 
 def tour_search() -> Callable | None:
-    """search(tour, moves, perturbations, kicks) -> whether it ran (plan/tour.py's
-    Tour: its tour and pos are changed in place, its travel lengths refreshed); None
-    where only the Python search is at hand."""
+    """search(tour, moves, perturbations, kicks) for plan/tour.py's Tour (its tour and
+    pos are changed in place, its travel lengths refreshed; `kicks`: Tour.kicks);
+    None where only the Python search is at hand."""
     if os.environ.get("GALILEO_NATIVE", "1") == "0":
         return None
     library = _library()
@@ -52,7 +52,7 @@ def tour_search() -> Callable | None:
 
 
 def _search_with(library: ctypes.CDLL) -> Callable:
-    def search(tour, moves: int, perturbations: int, kicks: list) -> bool:
+    def search(tour, moves: int, perturbations: int, kicks: list) -> None:
         m = tour.m
         xs = np.ascontiguousarray(tour.xs, dtype=np.float64)
         ys = np.ascontiguousarray(tour.ys, dtype=np.float64)
@@ -72,7 +72,6 @@ def _search_with(library: ctypes.CDLL) -> Callable:
         if found < 0:
             raise MemoryError("path order: out of memory in the compiled search")
         tour.travel = travel.tolist()
-        return True
     return search
 
 

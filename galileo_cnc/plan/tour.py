@@ -198,14 +198,16 @@ class Tour:
         """2-opt and Or-opt from every node, then `perturbations` perturbations, within
         `moves` candidates tried in all: compiled where it is built (native.py)."""
         compiled = native.tour_search()
-        if compiled is None or not compiled(self, moves, perturbations, self.kicks(
-                perturbations)):
-            tries = self.improve(deque(range(self.m)), moves)
-            self.perturb(perturbations, moves - tries)
+        if compiled is not None:
+            compiled(self, moves, perturbations, self.kicks(perturbations))
+            return
+        tries = self.improve(deque(range(self.m)), moves)
+        self.perturb(perturbations, moves - tries)
 
     def kicks(self, count: int) -> list[tuple[int, int, int]]:
-        """The perturbations' random draws, in the order `perturb` makes them: where the
-        runs start, and their lengths in chains (they never depend on the tour)."""
+        """The perturbations' random draws from the seeded generator: where each kick's
+        runs start, and their lengths in chains (they never depend on the tour, so the
+        compiled search takes them drawn here)."""
         rng = random.Random(_SEED)
         most = max(1, min(KICK_PAIRS, (self.m // 2 - 1) // 2))
         return [(rng.randrange(self.m), rng.randint(1, most), rng.randint(1, most))
@@ -394,25 +396,20 @@ class Tour:
         """`count` times: swap two short neighbouring runs of chains at random
         (a double bridge), run the local search from the six ends touched, and keep
         the result only if the tour got shorter (else undo it)."""
-        rng = random.Random(_SEED)
         m = self.m
         pairs = m // 2
         if pairs < 4:
             return
         tour, pos = self.tour, self.pos
         dist = self.dist
-        most = max(1, min(KICK_PAIRS, (pairs - 1) // 2))
-        for _ in range(count):
+        for start, l1, l2 in self.kicks(count):
             if budget <= 0:
                 break
             budget -= 1
             # a travel edge (a node and its travel partner on the following side),
             # then the runs of l1 and l2 chains after it swap places
-            start = rng.randrange(m)
             if tour[(start + 1) % m] == tour[start] ^ 1:
                 start = (start + 1) % m
-            l1 = rng.randint(1, most)
-            l2 = rng.randint(1, most)
             p1 = start                            # cut after p1, after p2, after p3
             p2 = (p1 + 2 * l1) % m
             p3 = (p2 + 2 * l2) % m
