@@ -417,13 +417,13 @@ def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray], spacing: i
                                     for stroke in strokes]
     opened = _opened_joins(lengths, stops, joins, len(rings), root)
     walker = _Walker(nodes, stops)
-    tours = []
+    tours = []                            # per walk: the rows' indices, in parts
     done = [False] * len(nodes)
     for start in range(len(nodes)):       # outermost rings first: each tree in its turn
         if done[start]:
             continue
         if root(start) not in opened:     # a ring alone: round from its vertex 0
-            tours.append(walker.tree(start, done))
+            tours.append([walker.tree(start, done)])
             continue
         # one side of the opened join as a closed walk from the join (a gap stroke at
         # the end of it: from its far end in), over the join, and the other side as a
@@ -432,12 +432,11 @@ def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray], spacing: i
         number = walker.stop_number(side, stop)
         if side >= len(rings) and len(stops[side]) == 1:
             done[side] = True
-            head = nodes[side][::-1]
+            head = walker.node_rows(side)[::-1]
         else:
             head = walker.tree(side, done, number)
-        tours.append(_without_repeats(np.concatenate(
-            [head, walker.tree(stop.other, done, walker.back[number])])))
-    return tours
+        tours.append([head, walker.tree(stop.other, done, walker.back[number])])
+    return walker.gather(tours)
 
 
 def _opened_joins(lengths: list[float], stops: list[list[_Stop]], joins: list[tuple],
@@ -556,6 +555,7 @@ class _Walker:
         t = np.array([stop.t for stop in flat], dtype=np.float64)
         points = np.array([stop.point for stop in flat], dtype=np.int64).reshape(-1, 2)
         first = np.cumsum(sizes) - sizes
+        self.first, self.sizes = first.tolist(), sizes.tolist()
         size = sizes[owner]
         # rows: every vertex of every node, then every stop's point (inner where the
         # stop sits on an inner vertex of its edge)
@@ -600,7 +600,8 @@ class _Walker:
 
     def tree(self, start: int, done: list[bool], entry: int | None = None) -> np.ndarray:
         """The tree of nodes holding `start` (but for nodes done already) as one closed
-        walk from its vertex 0, or from its stop number `entry` (not crossed)."""
+        walk from its vertex 0, or from its stop number `entry` (not crossed): the
+        indices of its rows (`gather` makes the points)."""
         ranges: list[int] = []             # begin, end, begin, end, ... in the order
         lo, hi, stop_at, other, back = self.lo, self.hi, self.stop_at, self.other, self.back
         done[start] = True
@@ -625,7 +626,14 @@ class _Walker:
             number = stop_at[place]
             done[other[number]] = True
             stack.append(self._enter(other[number], back[number], place, ranges))
-        return self.gather(ranges)
+        pairs = np.array(ranges, dtype=np.int64).reshape(-1, 2)
+        lengths = pairs[:, 1] - pairs[:, 0]
+        skip = np.repeat(np.cumsum(lengths) - lengths - pairs[:, 0], lengths)
+        return self.order[np.arange(int(lengths.sum())) - skip]
+
+    def node_rows(self, node: int) -> np.ndarray:
+        """The indices of a node's own vertices' rows, in its order."""
+        return np.arange(self.first[node], self.first[node] + self.sizes[node])
 
     def _enter(self, node: int, entry: int | None, come_back: int, ranges: list[int]) -> list:
         """A walk's frame: node, where it begins in the order, the places of the stops
@@ -649,23 +657,22 @@ class _Walker:
         else:
             ranges += (start, high, low, stop - (high - low))
 
-    def gather(self, ranges: list[int]) -> np.ndarray:
-        """The rows of the places in `ranges` (begin, end, begin, end, ...), in turn."""
-        pairs = np.array(ranges, dtype=np.int64).reshape(-1, 2)
-        lengths = pairs[:, 1] - pairs[:, 0]
-        skip = np.repeat(np.cumsum(lengths) - lengths - pairs[:, 0], lengths)
-        return _without_repeats(self.rows[self.order[np.arange(int(lengths.sum())) - skip]])
-
-
-def _without_repeats(path: np.ndarray) -> np.ndarray:
-    """The (x, y, inner) rows without a point equal to the one before it; a point kept
-    for several is inner if any of them is (a join's end on an inner ring's vertex)."""
-    path = path.astype(np.int64, copy=False)
-    keep = np.ones(len(path), dtype=bool)
-    keep[1:] = np.any(path[1:, :2] != path[:-1, :2], axis=1)
-    out = path[keep]
-    out[:, 2] = np.maximum.reduceat(path[:, 2], np.flatnonzero(keep))
-    return out
+    def gather(self, walks: list[list[np.ndarray]]) -> list[np.ndarray]:
+        """Each walk's rows (its parts' row indices in turn) without a point equal to
+        the one before it (a point kept for several is inner if any of them is: a join's
+        end on an inner ring's vertex), all walks in one gather."""
+        if not walks:
+            return []
+        parts = [np.concatenate(parts) for parts in walks]
+        sizes = np.array([len(part) for part in parts], dtype=np.int64)
+        path = self.rows[np.concatenate(parts)]
+        keep = np.ones(len(path), dtype=bool)
+        keep[1:] = np.any(path[1:, :2] != path[:-1, :2], axis=1)
+        keep[np.cumsum(sizes)[:-1]] = True          # each walk's first point
+        out = path[keep]
+        out[:, 2] = np.maximum.reduceat(path[:, 2], np.flatnonzero(keep))
+        kept = np.add.reduceat(keep.astype(np.int64), np.cumsum(sizes) - sizes)
+        return np.split(out, np.cumsum(kept)[:-1])
 
 
 # ---- gaps ----------------------------------------------------------------------------
