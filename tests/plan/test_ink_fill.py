@@ -266,7 +266,7 @@ def test_the_walker_crosses_every_join_and_comes_back_round_each_ring():
              [_Stop(0, 0.0, (8, 2), join=1, other=0)]]
     walker = _Walker([outer, ring, stroke], stops)
     done = [False] * 3
-    walk = walker.tree(0, done)
+    walk, = walker.gather([[walker.tree(0, done)]])     # the tree's rows, as points
     assert walk[:, :2].tolist() == [
         [0, 0], [3, 0], [3, 3], [7, 3], [7, 7], [3, 7], [3, 3], [3, 0],   # along, A round
         [8, 0], [8, 2], [9, 2], [8, 2], [8, 0],                            # S there and back
@@ -280,6 +280,7 @@ def test_the_walker_crosses_every_join_and_comes_back_round_each_ring():
     number = walker.stop_number(1, stops[1][0])
     head = walker.tree(1, done, number)
     rest = walker.tree(0, done, walker.back[number])
+    head, rest = walker.gather([[head], [rest]])
     assert head[:, :2].tolist() == [[3, 3], [7, 3], [7, 7], [3, 7], [3, 3]]
     assert rest[:, :2].tolist() == [[3, 0], [8, 0], [8, 2], [9, 2], [8, 2], [8, 0],
                                     [10, 0], [10, 10], [0, 10], [0, 0], [3, 0]]
