@@ -185,7 +185,7 @@ def ink_paths(program: Program, pens_nm: tuple[int, ...] | list[int], *,
     coverage = Coverage(fills, [piece for f in narrow for piece in f.pieces], smallest // 2,
                         region, tolerance_nm, fork=big)
     return InkPaths(program, pens, copper, fills, narrow, bridges, zero_size, close,
-                    clip.area_nm2(region), coverage, big, began, stage)
+                    clip.area_nm2(region), coverage, big, began, stage, tolerance_nm)
 
 
 def _kept_apart(narrow: list[NarrowFeature], islands: Islands, pen_nm: int
@@ -214,12 +214,13 @@ class InkPaths:
     big: bool                             # worth a second process
     began: float
     stage: Callable[[str], None]
+    tolerance_nm: int                     # the centre lines' chords', and their arcs'
     _fitted: dict = field(default_factory=dict)    # (fill, path) -> its arcs, once fitted
     _narrow: np.ndarray | None = None              # the centre lines' rows, once made
 
     def box_nm(self) -> tuple[int, int, int, int] | None:
         """The box of every point the ink's rows visit, arcs but by their ends: an arc
-        of a walk strays from its vertices by at most its tolerance (8 um), far inside
+        of a walk strays from its vertices by at most its tolerance (16 um), far inside
         the offset's margin, and this box is known before the arcs are fitted."""
         points = [path for fill in self.fills for path in fill.paths]
         narrow = self._narrow_rows()
@@ -273,7 +274,7 @@ class InkPaths:
         coarse = [fill.coarse[k] for k in which] if len(fill.coarse) == len(fill.paths) \
             else None
         for k, segments in zip(which, fit_paths([fill.paths[k] for k in which],
-                                                coarse=coarse)):
+                                                self.tolerance_nm, coarse=coarse)):
             self._fitted[(number, k)] = segments
 
     def _segments(self, short: set) -> dict:
@@ -298,7 +299,7 @@ class InkPaths:
         if self._narrow is None:
             out = ProgramBuilder(self.source.source)
             for feature in self.narrow:
-                _emit_feature(out, feature, len(self.pens_nm))
+                _emit_feature(out, feature, len(self.pens_nm), self.tolerance_nm)
             self._narrow = out.table().copy()
         return self._narrow
 
@@ -389,7 +390,9 @@ def _rows(program: Program, pens: tuple[int, ...], fills: list[PenFill],
 
 
 def _emit_path(out: ProgramBuilder, path: np.ndarray, key: int, line: int, col: int,
-               segments: list | None = None) -> None:
+               segments: list | None = None, tolerance_nm: int = INK_TOLERANCE_NM) -> None:
+    """A MOVE and the path's `segments` (else its arcs fitted to `tolerance_nm`, the
+    one its chords were made with), or a FLASH for a path of one point."""
     x, y = int(path[0][0]), int(path[0][1])
     if len(path) == 1:
         out.emit(_FLASH, x, y, tool=key, line=line, col=col)
@@ -397,7 +400,7 @@ def _emit_path(out: ProgramBuilder, path: np.ndarray, key: int, line: int, col: 
     out.emit(_MOVE, x, y, tool=key, line=line, col=col)
     if segments is None:
         closed = len(path) > 3 and np.array_equal(path[0], path[-1])
-        segments = fit_arcs(path[:-1] if closed else path, closed=closed)
+        segments = fit_arcs(path[:-1] if closed else path, tolerance_nm, closed=closed)
     if not segments:
         return
     # all the path's rows at once: a fill's walk has up to 100k of them
@@ -407,7 +410,8 @@ def _emit_path(out: ProgramBuilder, path: np.ndarray, key: int, line: int, col: 
     out.rows.frombytes(rows.tobytes())
 
 
-def _emit_feature(out: ProgramBuilder, feature: NarrowFeature, key: int) -> None:
+def _emit_feature(out: ProgramBuilder, feature: NarrowFeature, key: int,
+                  tolerance_nm: int) -> None:
     row = feature.row
     line, col = row[LINE], row[COL]
     if not feature.cut and row[KIND] != _FLASH:
@@ -417,7 +421,7 @@ def _emit_feature(out: ProgramBuilder, feature: NarrowFeature, key: int) -> None
         out.emit(*drawn)
         return
     for piece in feature.pieces:
-        _emit_path(out, piece, key, line, col)
+        _emit_path(out, piece, key, line, col, tolerance_nm=tolerance_nm)
 
 
 def _warnings(program: Program, plan: InkPlan) -> tuple[list[ReaderWarning], slice]:
