@@ -77,11 +77,12 @@ def test_a_fill_with_its_gap_tests_forked_equals_one_without(monkeypatch):
     monkeypatch.setattr(Counted, "made", [])
     monkeypatch.setattr(fill, "BACKGROUND_VERTICES", 0)
     forked = fill.fill_region(region, 300_000, 1_000)
-    # per batch: depth 0's gap test while the deeper rings are made, then the next
-    # depths' while the joins are made (the rest here)
-    gap_work = [made for made in Counted.made if made[0] == "_gaps"]
+    # per batch: depth 0's gap test while the deeper rings are made, then the other
+    # depths', the gaps' union and their strokes while the joins are made
+    gap_work = [made for made in Counted.made if made[0] in ("_gaps", "_gap_work")]
     assert gap_work and all(fork for _name, _depths, fork in gap_work)
-    assert [depths for _name, depths, _fork in gap_work][:2] == [(0, 1), (1, gap_work[1][1][1])]
+    assert [(name, depths) for name, depths, _fork in gap_work][:2] == [
+        ("_gaps", (0, 1)), ("_gap_work", ())]
     monkeypatch.setattr(fill, "BACKGROUND_VERTICES", 10 ** 12)
     inline = fill.fill_region(region, 300_000, 1_000)
     assert forked.gap_strokes == inline.gap_strokes > 0

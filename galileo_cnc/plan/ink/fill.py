@@ -47,11 +47,6 @@ BATCH_VERTICES = 4_000
 #: forked process (background.py): a fork costs milliseconds, this many vertices'
 #: gap tests a few tenths of a second.
 BACKGROUND_VERTICES = 20_000
-#: The share of the gap tests below depth 0 done there (depth 0's has a process of its
-#: own while the deeper rings are made): at this share, on hellboard, this process
-#: (the joins between the rings, then the rest of the gap tests) and that one end
-#: together (0.65 before the joins got faster: 0.7 s of gap tests left here after them).
-BACKGROUND_SHARE = 0.8
 #: The rings inside E0 and the gap tests are offset with this many times the tolerance
 #: (E0 keeps it: it runs along the copper's edge), and those rings' arcs are fitted to
 #: it: 8 um, just over a motor step. 4 um took hellboard's fill from 11 to 7 s CPU and
@@ -294,28 +289,27 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     first = clip.offset(start, -spacing, deep, cleaned=True)
     big = sum(len(ring) for ring in centre_area) >= BACKGROUND_VERTICES
     # the gap tests (a third of a large pour's fill) in second processes: depth 0's
-    # (the largest) while the deeper rings are made, most of the others while the
-    # joins between rings are made here; the same result either way
+    # (the largest) while the deeper rings are made, then the others, their union and
+    # their strokes while the joins between the rings are made here; the same result
+    # either way
     outermost = Deferred(_gaps, [start, first], radius, deep, 0, 1, fork=big)
-    others = None
+    rest = None
     try:
         coarse = [start] + _concentric(first, spacing, deep)
         areas = [centre_area] + coarse[1:]
-        split = _gap_split(coarse, 1)
-        others = Deferred(_gaps, coarse, radius, deep, 1, split, fork=big)
+        # depth 0's gaps are found by now (they take less than the rings)
+        rest = Deferred(_gap_work, outermost.result(), coarse, centre_area, radius,
+                        tolerance_nm, fork=big)
         depths = [clip.rings_as_arrays(area) for area in areas]
         fill.rings = sum(len(rings) for rings in depths)
         ring_joins = _ring_joins(depths, spacing)
         every_ring = EdgeIndex([ring for at_depth in depths for ring in at_depth],
                                cell_nm=spacing)        # where the gap strokes join
-        deeper = _gaps(coarse, radius, deep, split)
-        gaps = clip.union(outermost.result() + others.result() + deeper)
+        gaps, strokes = rest.result()
     finally:
         outermost.cancel()
-        if others is not None:
-            others.cancel()
-    opened = clip.opening(gaps, GAP_NM, tolerance_nm)
-    strokes = _gap_strokes(opened, centre_area, radius) if opened else []
+        if rest is not None:
+            rest.cancel()
     fill.gap_strokes = len(strokes)
     recipe = InkRecipe(centre_area, gaps, strokes, radius, tolerance_nm)
     # the coverage figures' share of a large batch (a second of Clipper on hellboard's
@@ -692,15 +686,14 @@ def _gaps(areas: list[list], radius: int, tolerance_nm: int, first: int = 0,
     return gaps
 
 
-def _gap_split(areas: list[list], first: int = 0) -> int:
-    """The depth up to which the background process tests for gaps from depth `first`:
-    BACKGROUND_SHARE of the work (counted in the vertices of E(k) and E(k+1)); the
-    rest is done here, after the joins between rings."""
-    sizes = [sum(len(ring) for ring in area) for area in areas] + [0]
-    cost = np.cumsum([sizes[k] + sizes[k + 1] for k in range(first, len(areas))])
-    if not len(cost):
-        return first
-    return first + int(np.searchsorted(cost, BACKGROUND_SHARE * cost[-1])) + 1
+def _gap_work(outermost: list, coarse: list[list], centre_area: list, radius: int,
+              tolerance_nm: int) -> tuple[list, list[np.ndarray]]:
+    """The gaps (depth 0's `outermost`, found already, and the deeper ones of the
+    `coarse` areas, offset at DEEP_TOLERANCE times the tolerance) and their strokes:
+    the gaps opened by GAP_NM, a stroke along each (_gap_strokes)."""
+    gaps = clip.union(outermost + _gaps(coarse, radius, tolerance_nm * DEEP_TOLERANCE, 1))
+    opened = clip.opening(gaps, GAP_NM, tolerance_nm)
+    return gaps, (_gap_strokes(opened, centre_area, radius) if opened else [])
 
 
 def _gap_strokes(gaps: list, centre_area: list, radius: int) -> list[np.ndarray]:
