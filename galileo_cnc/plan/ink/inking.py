@@ -259,6 +259,7 @@ class InkPaths:
                                if (number, k) not in self._fitted])
         rows = _rows(self.source, self.pens_nm, self.fills, self._narrow_rows(),
                      self._fitted)
+        self._fitted = {}        # 100k small tuples on a pour: freed before the collector runs
         plan = InkPlan(rows, self.pens_nm, self.copper, self.fills, self.narrow, self.bridges,
                        self.zero_size, self.close, self.copper_nm2, self.coverage)
         plan.warnings, plan.bridge_warnings = _warnings(self.source, plan)
