@@ -51,7 +51,6 @@ from its arc's start.
 
 from __future__ import annotations
 
-import itertools
 import math
 
 import numpy as np
@@ -80,18 +79,19 @@ def fit_arcs(points: np.ndarray, tolerance_nm: int = 1000, closed: bool = False,
     least `min_edges` edges on a common circle by an arc (see the module docstring
     for the guarantees); a closed path ends back at points[0]."""
     _check_options(tolerance_nm, min_edges)
-    return _fit_many([_open_path(points, closed)], tolerance_nm, min_edges)[0]
+    return _as_tuples(_fit_many([_open_path(points, closed)], tolerance_nm, min_edges)[0])
 
 
 def fit_paths(paths: list[np.ndarray], tolerance_nm: int = 1000,
-              min_edges: int = 4, coarse: list[np.ndarray] | None = None
-              ) -> list[list[Segment] | None]:
+              min_edges: int = 4, coarse: list[np.ndarray] | None = None,
+              rows: bool = False) -> list[list[Segment] | np.ndarray | None]:
     """`fit_arcs` for many pen paths at once, with the same answers: a path of one
     point is a dot (None), one of more than 3 points that ends where it starts is
     closed. All paths go through each numpy step together (a fill's thousands of
     short paths would otherwise cost a few dozen numpy calls each). `coarse`: per
     path, a tolerance per vertex (nm, at least `tolerance_nm`: the one its ring was
-    offset with); an arc is held to the smallest of its vertices'."""
+    offset with); an arc is held to the smallest of its vertices'. `rows`: each path's
+    segments as an (k, 5) int64 array (kind, x, y, i, j) instead of tuples."""
     _check_options(tolerance_nm, min_edges)
     found: list[list[Segment] | None] = [None] * len(paths)
     drawn = [k for k, path in enumerate(paths) if len(path) != 1]
@@ -105,8 +105,12 @@ def fit_paths(paths: list[np.ndarray], tolerance_nm: int = 1000,
             tolerances.append(np.concatenate([tol[:-1], tol[:1]]) if closed else tol)
     for k, segments in zip(drawn, _fit_many(opened, tolerance_nm, min_edges,
                                             tolerances if coarse is not None else None)):
-        found[k] = segments
+        found[k] = segments if rows else _as_tuples(segments)
     return found
+
+
+def _as_tuples(rows: np.ndarray) -> list[Segment]:
+    return list(map(tuple, rows.tolist()))
 
 
 def _check_options(tolerance_nm: int, min_edges: int) -> None:
@@ -129,8 +133,8 @@ def _open_path(points: np.ndarray, closed: bool) -> np.ndarray:
 
 
 def _fit_many(paths: list[np.ndarray], tol: int, min_edges: int,
-              tolerances: list[np.ndarray] | None = None) -> list[list[Segment]]:
-    """The segments of each open path. The paths are laid end to end in one array of
+              tolerances: list[np.ndarray] | None = None) -> list[np.ndarray]:
+    """The segments of each open path, as rows (_segments). The paths are laid end to end in one array of
     complex points (exact: integers below 2^53), a NaN between neighbours: no triple
     through a NaN is usable, so no chain crosses from one path into the next."""
     if not paths:
@@ -373,15 +377,21 @@ def _regrow(z: np.ndarray, s0: np.ndarray, e0: np.ndarray, tol: int | np.ndarray
     return arcs
 
 
-def _segments(path: np.ndarray, arcs: list[Arc]) -> list[Segment]:
-    """The segments from path[0]: a LINE to each vertex that no arc replaces."""
-    xs, ys = path[:, 0].tolist(), path[:, 1].tolist()    # columns: no list per point
-    line, zero = itertools.repeat(_LINE), itertools.repeat(0)
-    out: list[Segment] = []
-    here = 0
-    for s, e, kind, i, j in arcs:
-        out.extend(zip(line, xs[here + 1:s + 1], ys[here + 1:s + 1], zero, zero))
-        out.append((kind, xs[e], ys[e], i, j))
-        here = e
-    out.extend(zip(line, xs[here + 1:], ys[here + 1:], zero, zero))
-    return out
+def _segments(path: np.ndarray, arcs: list[Arc]) -> np.ndarray:
+    """The segments from path[0] as (k, 5) rows kind, x, y, i, j: a LINE to each vertex
+    that no arc replaces, an arc's row at its end vertex (the vertices inside it left
+    out). All rows at once: a fill's walk has 200k vertices."""
+    count = len(path)
+    kind = np.full(count, _LINE, dtype=np.int64)
+    i = np.zeros(count, dtype=np.int64)
+    j = np.zeros(count, dtype=np.int64)
+    inside = np.zeros(count + 1, dtype=np.int64)
+    if arcs:
+        s, e, arc_kind, arc_i, arc_j = (np.array(column, dtype=np.int64)
+                                        for column in zip(*arcs))
+        kind[e], i[e], j[e] = arc_kind, arc_i, arc_j
+        np.add.at(inside, s + 1, 1)                  # vertices s + 1 .. e - 1 replaced
+        np.add.at(inside, e, -1)
+    keep = np.cumsum(inside[:count]) == 0
+    keep[0] = False                                  # drawn from path[0]
+    return np.column_stack([kind, path[:, 0], path[:, 1], i, j])[keep]

@@ -275,7 +275,7 @@ class InkPaths:
         coarse = [fill.coarse[k] for k in which] if len(fill.coarse) == len(fill.paths) \
             else None
         for k, segments in zip(which, fit_paths([fill.paths[k] for k in which],
-                                                self.tolerance_nm, coarse=coarse)):
+                                                self.tolerance_nm, coarse=coarse, rows=True)):
             self._fitted[(number, k)] = segments
 
     def _segments(self, short: set) -> dict:
@@ -285,7 +285,8 @@ class InkPaths:
             for k, path in enumerate(fill.paths):
                 if (number, k) in short:
                     end = path[-1]
-                    segments[(number, k)] = [(_LINE, int(end[0]), int(end[1]), 0, 0)]
+                    segments[(number, k)] = np.array([[_LINE, end[0], end[1], 0, 0]],
+                                                     dtype=np.int64)
                 else:
                     segments[(number, k)] = self._fitted.get((number, k))
         return segments
@@ -391,7 +392,8 @@ def _rows(program: Program, pens: tuple[int, ...], fills: list[PenFill],
 
 
 def _emit_path(out: ProgramBuilder, path: np.ndarray, key: int, line: int, col: int,
-               segments: list | None = None, tolerance_nm: int = INK_TOLERANCE_NM) -> None:
+               segments: list | np.ndarray | None = None,
+               tolerance_nm: int = INK_TOLERANCE_NM) -> None:
     """A MOVE and the path's `segments` (else its arcs fitted to `tolerance_nm`, the
     one its chords were made with), or a FLASH for a path of one point."""
     x, y = int(path[0][0]), int(path[0][1])
@@ -402,7 +404,7 @@ def _emit_path(out: ProgramBuilder, path: np.ndarray, key: int, line: int, col: 
     if segments is None:
         closed = len(path) > 3 and np.array_equal(path[0], path[-1])
         segments = fit_arcs(path[:-1] if closed else path, tolerance_nm, closed=closed)
-    if not segments:
+    if not len(segments):
         return
     # all the path's rows at once: a fill's walk has up to 100k of them
     rows = np.zeros((len(segments), len(COLUMNS)), dtype=np.int64)
