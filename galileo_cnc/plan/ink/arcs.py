@@ -134,9 +134,10 @@ def _open_path(points: np.ndarray, closed: bool) -> np.ndarray:
 
 def _fit_many(paths: list[np.ndarray], tol: int, min_edges: int,
               tolerances: list[np.ndarray] | None = None) -> list[np.ndarray]:
-    """The segments of each open path, as rows (_segments). The paths are laid end to end in one array of
-    complex points (exact: integers below 2^53), a NaN between neighbours: no triple
-    through a NaN is usable, so no chain crosses from one path into the next."""
+    """The segments of each open path, as rows (_segments). The paths are laid end to
+    end in one array of complex points (exact: integers below 2^53), a NaN between
+    neighbours: no triple through a NaN is usable, so no chain crosses from one path
+    into the next."""
     if not paths:
         return []
     sizes = np.array([len(path) for path in paths], dtype=np.int64)

@@ -49,10 +49,12 @@ BATCH_VERTICES = 4_000
 BACKGROUND_VERTICES = 20_000
 #: The rings inside E0 and the gap tests are offset with this many times the tolerance
 #: (E0 keeps it: it runs along the copper's edge), and those rings' arcs are fitted to
-#: it: 8 um, just over a motor step. 4 um took hellboard's fill from 11 to 7 s CPU and
-#: 344k to 140k rows, 8 um (and the deep rings started from E0 cleaned to it) 140k to
-#: 127k rows; each time eight or ten layers measured from the steps inked within
-#: 0.012 % of before (docs/ink.md, "Measured on the corpus").
+#: it: 16 um at the ink's 2 um (inking.INK_TOLERANCE_NM), far inside the 60 um by which
+#: neighbouring rings overlap. At 1 um, 4 um took hellboard's fill from 11 to 7 s CPU
+#: and 344k to 140k rows, 8 um (and the deep rings started from E0 cleaned to it) 140k
+#: to 127k rows; each time eight or ten layers measured from the steps inked within
+#: 0.012 % of before, and the corpus at 2 um (16 um here) as at 1 um (docs/ink.md,
+#: "Measured on the corpus").
 DEEP_TOLERANCE = 8
 
 
@@ -283,8 +285,8 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     deep = tolerance_nm * DEEP_TOLERANCE
     # E0's own ring keeps the fine tolerance (it runs along the copper's edge); the
     # rings inside it and the gap tests start from E0 cleaned to theirs, which drops
-    # half its vertices (1 um chords of arcs; hellboard: 122k -> 58k) and two thirds
-    # of the first offset's work
+    # half its vertices (chords of arcs at the fine tolerance; hellboard at 1 um:
+    # 122k -> 58k) and two thirds of the first offset's work
     start = clip.clean(centre_area, deep) or centre_area
     first = clip.offset(start, -spacing, deep, cleaned=True)
     big = sum(len(ring) for ring in centre_area) >= BACKGROUND_VERTICES
