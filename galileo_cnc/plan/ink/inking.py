@@ -47,9 +47,9 @@ SHOWN_BRIDGES = 20
 
 #: The ink's polygon tolerance: the copper's curves as chords within it, the fill's
 #: offsets' round joins, the arcs fitted to E0 (and DEEP_TOLERANCE times it inside E0:
-#: fill.py). A third of a motor step (6.25 um); 1 um (geometry.py's default) took
-#: hellboard 18 % longer for 28 % more rows, and inked the corpus as this does
-#: (docs/ink.md, "The ink's tolerance").
+#: fill.py). A third of a motor step (6.25 um). At 1 um (geometry.py's default)
+#: hellboard planned in 7.5-7.9 s against 6.0-6.3 s with 28 % more commands, and the
+#: corpus inked as it does at this (docs/ink.md, "The ink's tolerance").
 INK_TOLERANCE_NM = 2_000
 
 #: Default pen margin from the copper's edge: the stepped path strays up to ~0.7 step
