@@ -175,13 +175,11 @@ def _rows_surely_fine(kinds: np.ndarray, xs: np.ndarray, ys: np.ndarray,
     centre, start and end from the centre, direction (ccw) and larger squared radius
     (steps); None where an arc is drawn as chords or starts the job. Any doubt is
     False: check_job then walks the commands as before."""
-    if circles is None or config.flash_dwell_ms < 0 or not np.isin(kinds, _PLAIN_KINDS).all():
+    if circles is None or not _shortcut_holds(config) \
+            or not np.isin(kinds, _PLAIN_KINDS).all():
         return False
-    x_min, y_min, z_min = config.travel_min_steps
-    x_max, y_max, z_max = config.travel_max_steps
-    if x_min > 0 or y_min > 0 or not all(z_min <= z <= z_max for z in (
-            0, config.pen_up_z_steps, config.pen_down_z_steps)):
-        return False
+    x_min, y_min, _ = config.travel_min_steps
+    x_max, y_max, _ = config.travel_max_steps
     if len(xs) and not (max(x_min, COORD.lo) <= xs.min() and xs.max() <= min(x_max, COORD.hi)
                         and max(y_min, COORD.lo) <= ys.min()
                         and ys.max() <= min(y_max, COORD.hi)):
@@ -199,13 +197,31 @@ def _rows_surely_fine(kinds: np.ndarray, xs: np.ndarray, ys: np.ndarray,
                              | (cy - radius < y_min) | (cy + radius > y_max))
     if len(outside) > _ARC_BOXES:
         return False
-    for k in outside.tolist():
-        low_x, high_x, low_y, high_y = arc_setup((int(a[k]), int(b[k])), (int(c[k]), int(d[k])),
-                                                 bool(ccw[k]))[1]
-        if not (x_min <= cx[k] + low_x and cx[k] + high_x <= x_max
-                and y_min <= cy[k] + low_y and cy[k] + high_y <= y_max):
-            return False
-    return True
+    return all(_arc_box_inside(int(cx[k]), int(cy[k]), (int(a[k]), int(b[k])),
+                               (int(c[k]), int(d[k])), bool(ccw[k]), config)
+               for k in outside.tolist())
+
+
+def _shortcut_holds(config: MachineConfig) -> bool:
+    """What both travel shortcuts (_surely_inside, _rows_surely_fine) assume of the
+    machine: flashes without a dwell of their own, the pen's heights and the origin
+    (where the machine starts) inside the travel."""
+    x_min, y_min, z_min = config.travel_min_steps
+    _, _, z_max = config.travel_max_steps
+    return (config.flash_dwell_ms >= 0 and x_min <= 0 and y_min <= 0
+            and all(z_min <= z <= z_max for z in (0, config.pen_up_z_steps,
+                                                  config.pen_down_z_steps)))
+
+
+def _arc_box_inside(cx: int, cy: int, start: tuple[int, int], end: tuple[int, int],
+                    ccw: bool, config: MachineConfig) -> bool:
+    """Whether the box the machine works out for an arc (arc_setup; start and end from
+    the centre (cx, cy), steps) lies inside the travel."""
+    x_min, y_min, _ = config.travel_min_steps
+    x_max, y_max, _ = config.travel_max_steps
+    low_x, high_x, low_y, high_y = arc_setup(start, end, ccw)[1]
+    return (x_min <= cx + low_x and cx + high_x <= x_max
+            and y_min <= cy + low_y and cy + high_y <= y_max)
 
 
 def plotting_order(program: Program, config: MachineConfig, offset_nm: tuple[int, int],
@@ -408,16 +424,11 @@ def _surely_inside(commands: list[Command], config: MachineConfig) -> bool:
     steps stay within a step of the circle whatever its ends: machine/arcs.py) or
     else the box the machine itself works out for it. Planning 300k ink commands
     takes the machine 5-9 s, this 0.1 s; any doubt leaves the answer to the machine."""
-    if config.flash_dwell_ms < 0:
+    if not _shortcut_holds(config):
         return False
-    x_min, y_min, z_min = config.travel_min_steps
-    x_max, y_max, z_max = config.travel_max_steps
-    if not all(z_min <= z <= z_max for z in (0, config.pen_up_z_steps,
-                                             config.pen_down_z_steps)):
-        return False
+    x_min, y_min, _ = config.travel_min_steps
+    x_max, y_max, _ = config.travel_max_steps
     x = y = 0                                   # the machine starts at its origin
-    if x_min > 0 or y_min > 0:
-        return False
     last = len(commands) - 1
     for at, command in enumerate(commands):
         kind = type(command)
@@ -438,9 +449,7 @@ def _surely_inside(commands: list[Command], config: MachineConfig) -> bool:
             if x_min <= cx - radius and cx + radius <= x_max \
                     and y_min <= cy - radius and cy + radius <= y_max:
                 continue
-            low_x, high_x, low_y, high_y = arc_setup(start, end, not command.cw)[1]
-            if not (x_min <= cx + low_x and cx + high_x <= x_max
-                    and y_min <= cy + low_y and cy + high_y <= y_max):
+            if not _arc_box_inside(cx, cy, start, end, not command.cw, config):
                 return False
         elif kind is EndJob:
             if at != last:

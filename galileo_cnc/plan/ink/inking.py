@@ -214,7 +214,7 @@ class InkPaths:
     big: bool                             # worth a second process
     began: float
     stage: Callable[[str], None]
-    tolerance_nm: int                     # the centre lines' chords', and their arcs'
+    tolerance_nm: int                     # the ink's (ink_paths): its arcs are fitted to it
     _fitted: dict = field(default_factory=dict)    # (fill, path) -> its arcs, once fitted
     _narrow: np.ndarray | None = None              # the centre lines' rows, once made
 
