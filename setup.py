@@ -1,13 +1,19 @@
-"""The one compiled part: plan/tour_search.c, path order's local search (plan/tour.py).
+"""The compiled parts: plan/tour_search.c, path order's local search (plan/tour.py), and
+plan/ink/nearest_edges.c, the ink's nearest-edge search (plan/ink/edges.py).
 
-Optional: where no C compiler is found the build goes on without it and path order runs
-the same search in Python, to the same tour (docs/plan.md, "Compiled search").
-Everything else about the package is in pyproject.toml.
+Optional: where no C compiler is found the build goes on without them and the planner
+runs the same searches in Python and numpy, to the same answers (docs/plan.md,
+"Compiled search"). Everything else about the package is in pyproject.toml.
 """
 
 from setuptools import Extension, setup
 
-setup(ext_modules=[Extension(
-    "galileo_cnc.plan._tour_search", ["galileo_cnc/plan/tour_search.c"], optional=True,
-    # the same double arithmetic as Python's: no fused multiply-adds, no reordering
-    extra_compile_args=["-O2", "-ffp-contract=off", "-fno-fast-math"])])
+#: the same double arithmetic as Python's and numpy's: no fused multiply-adds, no reordering
+SAME_ARITHMETIC = ["-O2", "-ffp-contract=off", "-fno-fast-math"]
+
+setup(ext_modules=[
+    Extension("galileo_cnc.plan._tour_search", ["galileo_cnc/plan/tour_search.c"],
+              optional=True, extra_compile_args=SAME_ARITHMETIC),
+    Extension("galileo_cnc.plan.ink._nearest_edges", ["galileo_cnc/plan/ink/nearest_edges.c"],
+              optional=True, extra_compile_args=SAME_ARITHMETIC),
+])

@@ -1,10 +1,12 @@
-"""The compiled part of path order, where setup.py could build it (plan/tour_search.c).
+"""The compiled parts of the planner, where setup.py could build them: path order's
+local search (plan/tour_search.c) and the ink's nearest-edge search
+(plan/ink/nearest_edges.c).
 
-`tour_search()` gives a function that runs Tour.search's local search compiled, or
+`tour_search()` and `nearest_edges()` give a function that runs the work compiled, or
 None where the extension is missing (no C compiler at install time), cannot be loaded,
-or GALILEO_NATIVE=0 asks for the Python search (the tests compare the two). The
-extension is plain C loaded with ctypes: it holds no Python objects, so it cannot
-leak or crash on a reference, and the answer is the same either way.
+or GALILEO_NATIVE=0 asks for the Python (the tests compare the two). The extensions
+are plain C loaded with ctypes: they hold no Python objects, so they cannot leak or
+crash on a reference, and the answer is the same either way.
 """
 
 from __future__ import annotations
@@ -17,15 +19,24 @@ from typing import Callable
 
 import numpy as np
 
-_MODULE = "galileo_cnc.plan._tour_search"
 _DOUBLES = ctypes.POINTER(ctypes.c_double)
 _INTS = ctypes.POINTER(ctypes.c_int64)
+_INT = ctypes.c_int64
+#: per extension module: its function, what it returns and its arguments' types
+_FUNCTIONS = {
+    "galileo_cnc.plan._tour_search": ("tour_search", _INT, [
+        _INT, _DOUBLES, _DOUBLES, _DOUBLES, _INTS, _INTS, _DOUBLES, _INTS, _INTS, _DOUBLES,
+        _INT, _INT, _INTS]),
+    "galileo_cnc.plan.ink._nearest_edges": ("nearest_edges", None, [
+        _INT, _INTS, _INT, _INT, _INT, _INTS, _INTS, _INTS, _INTS, _INTS, _INTS, _DOUBLES,
+        _DOUBLES]),
+}
 
 
-@lru_cache(maxsize=1)
-def _library() -> ctypes.CDLL | None:
+@lru_cache(maxsize=None)
+def _library(module: str) -> ctypes.CDLL | None:
     try:
-        spec = importlib.util.find_spec(_MODULE)
+        spec = importlib.util.find_spec(module)
     except (ImportError, ValueError):
         return None
     if spec is None or not spec.origin:
@@ -34,21 +45,33 @@ def _library() -> ctypes.CDLL | None:
         library = ctypes.CDLL(spec.origin)
     except OSError:
         return None
-    library.tour_search.restype = ctypes.c_int64
-    library.tour_search.argtypes = [ctypes.c_int64, _DOUBLES, _DOUBLES, _DOUBLES, _INTS,
-                                    _INTS, _DOUBLES, _INTS, _INTS, _DOUBLES, ctypes.c_int64,
-                                    ctypes.c_int64, _INTS]
+    name, returns, arguments = _FUNCTIONS[module]
+    function = getattr(library, name)
+    function.restype, function.argtypes = returns, arguments
     return library
+
+
+def _wanted(module: str) -> ctypes.CDLL | None:
+    """The module's library, unless GALILEO_NATIVE=0 asks for the Python."""
+    if os.environ.get("GALILEO_NATIVE", "1") == "0":
+        return None
+    return _library(module)
 
 
 def tour_search() -> Callable | None:
     """search(tour, moves, perturbations, kicks) for plan/tour.py's Tour (its tour and
     pos are changed in place, its travel lengths refreshed; `kicks`: Tour.kicks);
     None where only the Python search is at hand."""
-    if os.environ.get("GALILEO_NATIVE", "1") == "0":
-        return None
-    library = _library()
+    library = _wanted("galileo_cnc.plan._tour_search")
     return _search_with(library) if library is not None else None
+
+
+def nearest_edges() -> Callable | None:
+    """nearest(index, points, search_nm) -> (edge, t, distance) for a
+    plan/ink/edges.py EdgeIndex with edges, as its nearest_many; None where only numpy's
+    search is at hand."""
+    library = _wanted("galileo_cnc.plan.ink._nearest_edges")
+    return _nearest_with(library) if library is not None else None
 
 
 def _search_with(library: ctypes.CDLL) -> Callable:
@@ -73,6 +96,26 @@ def _search_with(library: ctypes.CDLL) -> Callable:
             raise MemoryError("path order: out of memory in the compiled search")
         tour.travel = travel.tolist()
     return search
+
+
+def _nearest_with(library: ctypes.CDLL) -> Callable:
+    def nearest(index, points: np.ndarray, search_nm: int):
+        count = len(points)
+        points = np.ascontiguousarray(points, dtype=np.int64)
+        keys = np.ascontiguousarray(index._keys, dtype=np.int64)
+        members = np.ascontiguousarray(index._members, dtype=np.int64)
+        a = np.ascontiguousarray(index.a, dtype=np.int64)
+        b = np.ascontiguousarray(index.b, dtype=np.int64)
+        grid = np.ascontiguousarray([*index._cells_lo, *index._cells_hi], dtype=np.int64)
+        edge = np.empty(count, dtype=np.int64)
+        t = np.empty(count, dtype=np.float64)
+        distance = np.empty(count, dtype=np.float64)
+        library.nearest_edges(count, _p(points, _INTS), int(search_nm), index.cell, len(keys),
+                              _p(keys, _INTS), _p(members, _INTS), _p(a, _INTS), _p(b, _INTS),
+                              _p(grid, _INTS), _p(edge, _INTS), _p(t, _DOUBLES),
+                              _p(distance, _DOUBLES))
+        return edge, t, distance
+    return nearest
 
 
 def _p(array: np.ndarray, kind):

@@ -66,7 +66,8 @@ class Counted(fill.Deferred):
         super().__init__(fn, *args, fork=fork)
 
 
-def test_a_fill_with_its_gap_tests_forked_equals_one_without(monkeypatch):
+@pytest.mark.parametrize("share", [0.0, 0.3, 1.0])
+def test_a_fill_with_its_gap_tests_forked_equals_one_without(share, monkeypatch):
     # a pour with sharp corners and holes (gaps at several depths), and pads
     pour = [[[0, 0], [12 * MM, 0], [6 * MM, 9 * MM]],
             [[4 * MM, 2 * MM], [5 * MM, 4 * MM], [6 * MM, 2 * MM]]]
@@ -76,13 +77,14 @@ def test_a_fill_with_its_gap_tests_forked_equals_one_without(monkeypatch):
     monkeypatch.setattr(fill, "Deferred", Counted)
     monkeypatch.setattr(Counted, "made", [])
     monkeypatch.setattr(fill, "BACKGROUND_VERTICES", 0)
+    monkeypatch.setattr(fill, "MAIN_GAP_SHARE", share)    # the deepest gaps found here
     forked = fill.fill_region(region, 300_000, 1_000)
     # per batch: depth 0's gap test while the deeper rings are made, then the other
-    # depths', the gaps' union and their strokes while the joins are made
-    gap_work = [made for made in Counted.made if made[0] in ("_gaps", "_gap_work")]
+    # depths' but the deepest (MAIN_GAP_SHARE) while the joins are made
+    gap_work = [made for made in Counted.made if made[0] == "_gaps"]
     assert gap_work and all(fork for _name, _depths, fork in gap_work)
-    assert [(name, depths) for name, depths, _fork in gap_work][:2] == [
-        ("_gaps", (0, 1)), ("_gap_work", ())]
+    assert gap_work[0][1] == (0, 1) and gap_work[1][1][0] == 1
+    assert (gap_work[1][1][1] == 1) == (share == 1.0)        # 1: none of them there
     monkeypatch.setattr(fill, "BACKGROUND_VERTICES", 10 ** 12)
     inline = fill.fill_region(region, 300_000, 1_000)
     assert forked.gap_strokes == inline.gap_strokes > 0

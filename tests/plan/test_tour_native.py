@@ -15,20 +15,14 @@ from galileo_cnc.plan import native
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 from galileo_cnc.plan.tour import Tour
 
+from compiled import require
 from corpus import CORPUS
 
 
 @pytest.fixture(autouse=True)
 def compiled():
-    """The compiled search must be there: built by `pip install` (setup.py). Outside CI
-    a machine without a C compiler skips; in CI it fails, so the comparison runs."""
     os.environ.pop("GALILEO_NATIVE", None)
-    if native.tour_search() is None:
-        message = "the compiled path-order search is not built (no C compiler, gcc, " \
-                  "when the package was installed)"
-        if os.environ.get("CI"):
-            pytest.fail(message)
-        pytest.skip(message)
+    require(native.tour_search() is not None, "path-order search")
 
 
 def chains(count: int, seed: int, spread: int = 10 ** 8) -> tuple[list[float], list[float]]:
@@ -80,6 +74,8 @@ def test_compiled_search_gives_the_python_tour(count, seed, moves, goal, monkeyp
     ("eagle/pcb-tools-example/copper.GTL", "ink"),
     ("allegro/tracespace-371/l1_primary.art", "centre")])
 def test_a_layer_plans_to_the_same_job_either_way(layer, mode, monkeypatch):
+    # GALILEO_NATIVE turns every compiled part off: in ink mode the nearest-edge
+    # search of the fill's joins too (test_nearest_native.py)
     path = CORPUS / layer
     if not path.exists():
         pytest.skip(f"corpus layer missing: {path}")

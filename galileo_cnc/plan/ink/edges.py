@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+from galileo_cnc.plan import native
+
 _KEY = 1 << 31   # cell key = column * _KEY + row (columns and rows fit in 31 bits)
 
 
@@ -68,8 +70,27 @@ class EdgeIndex:
 
     def _build(self) -> None:
         self._keys, self._members = cell_keys(self.a, self.b, self.cell)
+        self._bounds()
+
+    def _bounds(self) -> None:
         cells = np.floor(np.concatenate([self.a, self.b]) / self.cell).astype(np.int64)
         self._cells_lo, self._cells_hi = cells.min(axis=0), cells.max(axis=0)
+
+    def rings_part(self, first: int, end: int) -> "EdgeIndex":
+        """The index of rings first .. end-1 alone, as EdgeIndex(those rings) would be
+        (numbered from 0), taken out of this one: a ring's cells are its own, and
+        the (cell, edge) pairs stay sorted when some are left out (the fill's joins
+        look up each depth of rings, its walks all of them)."""
+        part = EdgeIndex([], self.cell)
+        lo, hi = np.searchsorted(self.ring, [first, end])
+        if hi <= lo:
+            return part
+        part.a, part.b = self.a[lo:hi], self.b[lo:hi]
+        part.ring, part.edge = self.ring[lo:hi] - first, self.edge[lo:hi]
+        mine = (self._members >= lo) & (self._members < hi)
+        part._keys, part._members = self._keys[mine], self._members[mine] - lo
+        part._bounds()
+        return part
 
     def __len__(self) -> int:
         return len(self.a)
@@ -153,6 +174,9 @@ class EdgeIndex:
         distance = np.full(count, np.inf)
         if not len(self.a) or not count:
             return edge, t, distance
+        compiled = native.nearest_edges()       # the same search, compiled (native.py)
+        if compiled is not None:
+            return compiled(self, points, search_nm)
         p = np.asarray(points, dtype=np.int64)
         todo = np.arange(count)
         radius = max(int(search_nm), self.cell)
@@ -262,8 +286,10 @@ def point_to_edges(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndar
     parameter t in [0, 1] of the nearest point of each segment, and the distance to it."""
     a = a.astype(np.float64)
     d = b.astype(np.float64) - a
-    length2 = np.einsum("ij,ij->i", d, d)
-    t = np.einsum("ij,ij->i", p - a, d) / np.where(length2 > 0, length2, 1.0)
+    # products and sums written out: nearest_edges.c does the same operations
+    length2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]
+    q = p - a
+    t = (q[:, 0] * d[:, 0] + q[:, 1] * d[:, 1]) / np.where(length2 > 0, length2, 1.0)
     t = np.clip(t, 0.0, 1.0)
     closest = a + d * t[:, None]
     return t, np.hypot(*(closest - p).T)

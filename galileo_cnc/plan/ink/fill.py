@@ -47,6 +47,10 @@ BATCH_VERTICES = 4_000
 #: forked process (background.py): a fork costs milliseconds, this many vertices'
 #: gap tests a few tenths of a second.
 BACKGROUND_VERTICES = 20_000
+#: Share of the gap tests below depth 0 done after the joins, not in the second
+#: process (the deepest depths): with the joins' nearest edges compiled, hellboard's
+#: pour waited 0.6 s for that process (docs/ink.md)
+MAIN_GAP_SHARE = 0.3
 #: The rings inside E0 and the gap tests are offset with this many times the tolerance
 #: (E0 keeps it: it runs along the copper's edge), and those rings' arcs are fitted to
 #: it: 16 um at the ink's 2 um (inking.INK_TOLERANCE_NM), far inside the 60 um by which
@@ -291,27 +295,29 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     first = clip.offset(start, -spacing, deep, cleaned=True)
     big = sum(len(ring) for ring in centre_area) >= BACKGROUND_VERTICES
     # the gap tests (a third of a large pour's fill) in second processes: depth 0's
-    # (the largest) while the deeper rings are made, then the others, their union and
-    # their strokes while the joins between the rings are made here; the same result
-    # either way
+    # (the largest) while the deeper rings are made, then most of the others while the
+    # joins between the rings are made here; the deepest ones, their union and their
+    # strokes here after the joins. The same result either way
     outermost = Deferred(_gaps, [start, first], radius, deep, 0, 1, fork=big)
-    rest = None
+    deeper = None
     try:
         coarse = [start] + _concentric(first, spacing, deep)
         areas = [centre_area] + coarse[1:]
-        # depth 0's gaps are found by now (they take less than the rings)
-        rest = Deferred(_gap_work, outermost.result(), coarse, centre_area, radius,
-                        tolerance_nm, fork=big)
+        split = _gap_split(coarse)
+        deeper = Deferred(_gaps, coarse, radius, deep, 1, split, fork=big)
         depths = [clip.rings_as_arrays(area) for area in areas]
         fill.rings = sum(len(rings) for rings in depths)
-        ring_joins = _ring_joins(depths, spacing)
+        # where the gap strokes join, and (a depth of it at a time) the rings
         every_ring = EdgeIndex([ring for at_depth in depths for ring in at_depth],
-                               cell_nm=spacing)        # where the gap strokes join
-        gaps, strokes = rest.result()
+                               cell_nm=spacing)
+        ring_joins = _ring_joins(depths, spacing, every_ring)
+        deepest = _gaps(coarse, radius, deep, split)
+        gaps, strokes = _gap_work(outermost.result() + deeper.result() + deepest,
+                                  centre_area, radius, tolerance_nm)
     finally:
         outermost.cancel()
-        if rest is not None:
-            rest.cancel()
+        if deeper is not None:
+            deeper.cancel()
     fill.gap_strokes = len(strokes)
     recipe = InkRecipe(centre_area, gaps, strokes, radius, tolerance_nm)
     # the coverage figures' share of a large batch (a second of Clipper on hellboard's
@@ -351,14 +357,18 @@ class _Stop:
     other: int         # the ring node at the join's other end
 
 
-def _ring_joins(depths: list[list[np.ndarray]], spacing: int) -> list[tuple]:
+def _ring_joins(depths: list[list[np.ndarray]], spacing: int,
+                every_ring: EdgeIndex | None = None) -> list[tuple]:
     """The candidate joins between the rings of each depth and the depth outside it
-    (see _joins_out), rings numbered depth after depth."""
-    first_node = np.cumsum([0] + [len(at_depth) for at_depth in depths])
+    (see _joins_out), rings numbered depth after depth. `every_ring`: an EdgeIndex of
+    all the rings in that order (cell: the spacing), where the caller has one."""
+    first_node = np.cumsum([0] + [len(at_depth) for at_depth in depths]).tolist()
     joins = []
     for depth in range(1, len(depths)):
-        joins.extend(_joins_out(depths[depth], depths[depth - 1], int(first_node[depth]),
-                                int(first_node[depth - 1]), spacing))
+        outer = (every_ring.rings_part(first_node[depth - 1], first_node[depth])
+                 if every_ring is not None else EdgeIndex(depths[depth - 1], cell_nm=spacing))
+        joins.extend(_joins_out(depths[depth], outer, first_node[depth],
+                                first_node[depth - 1], spacing))
     return joins
 
 
@@ -457,12 +467,11 @@ def _opened_joins(lengths: list[float], stops: list[list[_Stop]], joins: list[tu
     return {key: (node, stop) for key, (_length, _join, node, stop) in best.items()}
 
 
-def _joins_out(inner: list[np.ndarray], outer: list[np.ndarray], first_inner: int,
+def _joins_out(inner: list[np.ndarray], index: EdgeIndex, first_inner: int,
                first_outer: int, spacing: int) -> list[tuple]:
     """For each ring of one depth, its shortest join to each ring of the depth outside
-    it that one of its sampled vertices is nearest to (all samples queried at once;
-    of equally short joins the earliest sample's)."""
-    index = EdgeIndex(outer, cell_nm=spacing)
+    it (`index`: their EdgeIndex) that one of its sampled vertices is nearest to (all
+    samples queried at once; of equally short joins the earliest sample's)."""
     picked = _samples(inner, spacing)
     if not picked or not len(index):
         return []
@@ -688,12 +697,25 @@ def _gaps(areas: list[list], radius: int, tolerance_nm: int, first: int = 0,
     return gaps
 
 
-def _gap_work(outermost: list, coarse: list[list], centre_area: list, radius: int,
+def _gap_split(areas: list[list]) -> int:
+    """The first depth whose gaps are found after the joins, not in the second process
+    (_fill_batch): the deepest, with about MAIN_GAP_SHARE of the gap tests' work
+    (depth k's: the vertices of E(k) and E(k+1)) from depth 1 on."""
+    sizes = [sum(len(ring) for ring in area) for area in areas] + [0]
+    work = [sizes[k] + sizes[k + 1] for k in range(len(areas))]
+    budget = MAIN_GAP_SHARE * sum(work[1:])
+    split = len(areas)
+    while split > 1 and work[split - 1] <= budget:
+        split -= 1
+        budget -= work[split]
+    return split
+
+
+def _gap_work(gaps: list, centre_area: list, radius: int,
               tolerance_nm: int) -> tuple[list, list[np.ndarray]]:
-    """The gaps (depth 0's `outermost`, found already, and the deeper ones of the
-    `coarse` areas, offset at DEEP_TOLERANCE times the tolerance) and their strokes:
+    """The gaps of every depth (_gaps, in depth order) as one set, and their strokes:
     the gaps opened by GAP_NM, a stroke along each (_gap_strokes)."""
-    gaps = clip.union(outermost + _gaps(coarse, radius, tolerance_nm * DEEP_TOLERANCE, 1))
+    gaps = clip.union(gaps)
     opened = clip.opening(gaps, GAP_NM, tolerance_nm)
     return gaps, (_gap_strokes(opened, centre_area, radius) if opened else [])
 
