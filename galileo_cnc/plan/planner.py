@@ -30,6 +30,7 @@ PenUp/EndJob) and the aperture in force, for progress, resume and pen changes.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -75,14 +76,30 @@ class PlanError(GalileoError):
                                          "PEN_UP", "PEN_DOWN", "SELECT", "DWELL", "FEED"))
 #: how an arc row is sent (_machine_points)
 _AS_LINE, _AS_ARC, _AS_CHORDS = 0, 1, 2
+_PATH_KINDS_LIST = [_LINE, _ARC_CW, _ARC_CCW]
+
+
+@dataclass
+class _MachineRows:
+    """Every row (in plotting order) as the machine takes it (_machine_points): its
+    point in steps, for an arc how it is sent, and the command of each draw."""
+
+    xs: list[int]
+    ys: list[int]
+    how: np.ndarray             # _AS_LINE, _AS_ARC or _AS_CHORDS for an arc, else -1
+    #: per arc drawn as chords (its row): its start in steps and in program nm
+    chords_from: dict[int, tuple[tuple[int, int], tuple[int, int]]]
+    emits: np.ndarray           # per row: whether its draw makes a LineTo or an ArcTo
+    made: list[Command]         # those LineTos and ArcTos, in row order
+    surely_fine: bool           # the job these rows make surely passes check_job
 
 
 def _machine_points(table: np.ndarray, config: MachineConfig, offset_nm: tuple[int, int]
-                    ) -> tuple[list[int], list[int], list[tuple | None], bool]:
+                    ) -> _MachineRows:
     """For every row (in plotting order): its point in steps (offset subtracted, the
     nearest step) and, for an arc, how the machine draws it, all rows at once:
 
-    - (_AS_LINE, start): a LineTo to the end, unless the end is the start. The
+    - _AS_LINE: a LineTo to the end, unless the end is the start. The
       straight line from start to end stays within half a step of the arc (steps;
       never a full circle), so its steps are within a step of the arc, as the arc's
       own are. Such arcs are sent as lines: an arc costs the firmware a band table and
@@ -90,69 +107,82 @@ def _machine_points(table: np.ndarray, config: MachineConfig, offset_nm: tuple[i
       (docs/motion.md, "Short arcs"). When both ends round to one step (Altium writes
       arcs of 0.4 um) the file's own arc (nm) decides: under half a turn it is a point,
       not the whole circle that an arc ending where it starts means to the machine;
-    - (_AS_ARC, i, j): an ArcTo, centre rounded to the nearest step and given relative
+    - _AS_ARC: an ArcTo, centre rounded to the nearest step and given relative
       to the rounded start;
-    - (_AS_CHORDS, start, start_nm): farther than the machine's MAX_ARC_COORD steps
-      from its centre (machine/arcs.py): chords within half a step of it.
+    - _AS_CHORDS: farther than the machine's MAX_ARC_COORD steps from its centre
+      (machine/arcs.py): chords within half a step of it (plan_program draws them).
 
     The start of an arc is the point of the positioned row before it, or the
-    program's origin (the offset) at the start. The last value: whether the job
-    these rows make surely passes check_job (_rows_surely_fine)."""
+    program's origin (the offset) at the start. A LINE draws a LineTo unless it ends
+    where the positioned row before it did (`emits`, `made`: the commands of every
+    draw, made at once; plan_program adds the PenDown and pen changes around them)."""
     ox, oy = offset_nm
     count = len(table)
     kinds = table[:, KIND]
     x_nm, y_nm = table[:, X] - ox, table[:, Y] - oy
     xs, ys = config.nm_to_steps_array(x_nm), config.nm_to_steps_array(y_nm)
-    arcs: list[tuple | None] = [None] * count
+    how = np.full(count, -1, dtype=np.int64)
+    chords_from = {}
     rows = np.flatnonzero((kinds == OpKind.ARC_CW) | (kinds == OpKind.ARC_CCW))
     positioned = np.isin(kinds, POSITIONED_KINDS)
-    if not len(rows):
-        none = np.zeros(0, dtype=np.int64)
-        return xs.tolist(), ys.tolist(), arcs, _rows_surely_fine(
-            kinds, xs[positioned], ys[positioned], (none,) * 8, config)
+    # the positioned row before each row (-1: none), where the head is when it starts
     last = np.maximum.accumulate(np.where(positioned, np.arange(count), -1))
-    before = np.concatenate(([-1], last[:-1]))[rows]
-    # the program point each arc starts from (nm, offset applied), and in steps
-    sx_nm = np.where(before >= 0, x_nm[np.maximum(before, 0)], -ox)
-    sy_nm = np.where(before >= 0, y_nm[np.maximum(before, 0)], -oy)
-    sx, sy = config.nm_to_steps_array(sx_nm), config.nm_to_steps_array(sy_nm)
-    cx = config.nm_to_steps_array(sx_nm + table[rows, I])
-    cy = config.nm_to_steps_array(sy_nm + table[rows, J])
-    ex, ey = xs[rows], ys[rows]
-    cw = kinds[rows] == OpKind.ARC_CW
-    # from the centre: start (a, b) and end (c, d)
-    a, b, c, d = sx - cx, sy - cy, ex - cx, ey - cy
-    cross = a * d - b * c
-    flat = np.where(cw, cross <= 0, cross >= 0)         # over half a turn: a bulge
-    radius = np.array([math.hypot(p, q) for p, q in zip(a.tolist(), b.tolist())])
-    chord2 = (ex - sx) ** 2 + (ey - sy) ** 2
-    half = 0.5
-    # sagitta r - sqrt(r^2 - c^2/4) < h  <=>  c^2 < 4h(2r - h)   (a choice: floats)
-    as_line = flat & (chord2 < 4 * half * (2 * radius - half))
-    same = (sx == ex) & (sy == ey)
-    for k in np.flatnonzero(same).tolist():
-        row = rows[k]
-        sweep = arc_angles(int(sx_nm[k]), int(sy_nm[k]), int(x_nm[row]), int(y_nm[row]),
-                           int(sx_nm[k] + table[row, I]), int(sy_nm[k] + table[row, J]),
-                           bool(cw[k]))[1]
-        as_line[k] = abs(sweep) < math.pi
-    in_range = np.maximum.reduce([np.abs(a), np.abs(b), np.abs(c), np.abs(d)]) <= MAX_ARC_COORD
-    for k, row in enumerate(rows.tolist()):
-        start = (int(sx[k]), int(sy[k]))
-        if as_line[k]:
-            arcs[row] = (_AS_LINE, start)
-        elif in_range[k]:
-            arcs[row] = (_AS_ARC, int(cx[k] - sx[k]), int(cy[k] - sy[k]))
-        else:
-            arcs[row] = (_AS_CHORDS, start, (int(sx_nm[k]), int(sy_nm[k])))
-    sent = ~as_line
-    # per ArcTo: its centre, and its start and end from the centre (steps); the
-    # direction as the machine takes it (arc_setup's ccw)
-    circles = None if (before < 0).any() or not in_range[sent].all() else (
-        cx[sent], cy[sent], a[sent], b[sent], c[sent], d[sent], ~cw[sent],
-        np.maximum(a * a + b * b, c * c + d * d)[sent])
-    return xs.tolist(), ys.tolist(), arcs, _rows_surely_fine(
-        kinds, xs[positioned], ys[positioned], circles, config)
+    before = np.concatenate(([-1], last[:-1]))[:count].astype(np.int64)
+    moved = (before < 0) | (xs != xs[np.maximum(before, 0)]) | (ys != ys[np.maximum(before, 0)])
+    emits = (kinds == OpKind.LINE) & moved
+    centre_i, centre_j = np.zeros(count, dtype=np.int64), np.zeros(count, dtype=np.int64)
+    circles = (np.zeros(0, dtype=np.int64),) * 8
+    if len(rows):
+        before = before[rows]
+        # the program point each arc starts from (nm, offset applied), and in steps
+        sx_nm = np.where(before >= 0, x_nm[np.maximum(before, 0)], -ox)
+        sy_nm = np.where(before >= 0, y_nm[np.maximum(before, 0)], -oy)
+        sx, sy = config.nm_to_steps_array(sx_nm), config.nm_to_steps_array(sy_nm)
+        cx = config.nm_to_steps_array(sx_nm + table[rows, I])
+        cy = config.nm_to_steps_array(sy_nm + table[rows, J])
+        ex, ey = xs[rows], ys[rows]
+        cw = kinds[rows] == OpKind.ARC_CW
+        # from the centre: start (a, b) and end (c, d)
+        a, b, c, d = sx - cx, sy - cy, ex - cx, ey - cy
+        cross = a * d - b * c
+        flat = np.where(cw, cross <= 0, cross >= 0)         # over half a turn: a bulge
+        radius = np.array([math.hypot(p, q) for p, q in zip(a.tolist(), b.tolist())])
+        chord2 = (ex - sx) ** 2 + (ey - sy) ** 2
+        half = 0.5
+        # sagitta r - sqrt(r^2 - c^2/4) < h  <=>  c^2 < 4h(2r - h)   (a choice: floats)
+        as_line = flat & (chord2 < 4 * half * (2 * radius - half))
+        same = (sx == ex) & (sy == ey)
+        for k in np.flatnonzero(same).tolist():
+            row = rows[k]
+            sweep = arc_angles(int(sx_nm[k]), int(sy_nm[k]), int(x_nm[row]), int(y_nm[row]),
+                               int(sx_nm[k] + table[row, I]), int(sy_nm[k] + table[row, J]),
+                               bool(cw[k]))[1]
+            as_line[k] = abs(sweep) < math.pi
+        in_range = np.maximum.reduce([np.abs(a), np.abs(b), np.abs(c), np.abs(d)]) \
+            <= MAX_ARC_COORD
+        how[rows] = np.where(as_line, _AS_LINE, np.where(in_range, _AS_ARC, _AS_CHORDS))
+        for k in np.flatnonzero(~as_line & ~in_range).tolist():
+            chords_from[int(rows[k])] = ((int(sx[k]), int(sy[k])),
+                                         (int(sx_nm[k]), int(sy_nm[k])))
+        # an arc sent as a line draws unless it ends on its start's step
+        emits[rows] = np.where(as_line, ~same, in_range)
+        centre_i[rows], centre_j[rows] = cx - sx, cy - sy
+        sent = ~as_line
+        # per ArcTo: its centre, and its start and end from the centre (steps); the
+        # direction as the machine takes it (arc_setup's ccw)
+        circles = None if (before < 0).any() or not in_range[sent].all() else (
+            cx[sent], cy[sent], a[sent], b[sent], c[sent], d[sent], ~cw[sent],
+            np.maximum(a * a + b * b, c * c + d * d)[sent])
+    drawn = np.flatnonzero(emits)
+    arc_of = how[drawn] == _AS_ARC
+    made: list[Command] = [
+        ArcTo(x, y, i, j, kind == _ARC_CW) if arc else LineTo(x, y)
+        for x, y, arc, i, j, kind in zip(
+            xs[drawn].tolist(), ys[drawn].tolist(), arc_of.tolist(), centre_i[drawn].tolist(),
+            centre_j[drawn].tolist(), kinds[drawn].tolist())]
+    return _MachineRows(xs.tolist(), ys.tolist(), how, chords_from, emits, made,
+                        _rows_surely_fine(kinds, xs[positioned], ys[positioned], circles,
+                                          config))
 
 
 #: arcs near the travel's edges whose own box _rows_surely_fine works out at most
@@ -288,16 +318,42 @@ def plan_program(program: Program, config: MachineConfig | None = None,
 
     total = len(ordered)
     table = np.array([row for _index, row in ordered], dtype=np.int64).reshape(-1, len(COLUMNS))
-    *points, surely_fine = _machine_points(table, config, (int(ox), int(oy)))
-    for done, ((index, row), x, y, arc) in enumerate(zip(ordered, *points)):
+    rows = _machine_points(table, config, (int(ox), int(oy)))
+    indices = [op for op, _row in ordered]
+    kinds, tools = table[:, KIND], table[:, TOOL]
+    # a draw that follows a draw of the same aperture (or of none) finds the pen down
+    # and the right pen in: its command alone, and such runs are copied in whole
+    drawing = np.isin(kinds, _PATH_KINDS_LIST) & (rows.how != _AS_CHORDS)
+    plain = np.zeros(total, dtype=bool)
+    plain[1:] = drawing[1:] & drawing[:-1] & ((tools[1:] == NO_TOOL) | (tools[1:] == tools[:-1]))
+    run_end = np.minimum.accumulate(np.where(plain, total, np.arange(total))[::-1])[::-1]
+    made_before = np.concatenate([[0], np.cumsum(rows.emits)]).tolist()
+    made_ops = [indices[k] for k in np.flatnonzero(rows.emits).tolist()]
+    plain, run_end, how = plain.tolist(), run_end.tolist(), rows.how.tolist()
+    kinds, tools, values = kinds.tolist(), tools.tolist(), table[:, VALUE].tolist()
+    done = 0
+    while done < total:
+        if plain[done]:                 # the run of plain draws from here
+            end = run_end[done]
+            first, last = made_before[done], made_before[end]
+            commands.extend(rows.made[first:last])
+            op_indices.extend(made_ops[first:last])
+            apertures.extend([aperture] * (last - first))
+            at = (rows.xs[end - 1], rows.ys[end - 1])
+            if on_progress is not None:
+                for mark in range(-(-done // PROGRESS_OPS) * PROGRESS_OPS, end, PROGRESS_OPS):
+                    on_progress(mark, total)
+            done = end
+            continue
         if on_progress is not None and done % PROGRESS_OPS == 0:
             on_progress(done, total)
-        kind = row[KIND]
+        index, kind, x, y = indices[done], kinds[done], rows.xs[done], rows.ys[done]
         if kind == _SELECT:
-            aperture = row[TOOL]
+            aperture = tools[done]
+            done += 1
             continue
-        if kind in DRAWING_KINDS and row[TOOL] != NO_TOOL:
-            aperture = row[TOOL]
+        if kind in DRAWING_KINDS and tools[done] != NO_TOOL:
+            aperture = tools[done]
         # the pen changes before it is first lowered: at a PEN_DOWN (G-code's M3 after
         # T, Gerber's D01 after a move) as at a draw, else the old pen dips first
         if several_pens and (kind in DRAWING_KINDS or kind == _PEN_DOWN) \
@@ -314,33 +370,24 @@ def plan_program(program: Program, config: MachineConfig | None = None,
                 add(Rapid(x, y))
                 pen_down = False
             at = target
-        elif kind == _LINE:
+        elif kind == _LINE or kind == _ARC_CW or kind == _ARC_CCW:
             if pen_down is not True:
                 add(PenDown())
                 pen_down = True
-            if target != at:
-                add(LineTo(x, y))
-            at = target
-        elif kind == _ARC_CW or kind == _ARC_CCW:
-            if pen_down is not True:
-                add(PenDown())
-                pen_down = True
-            if arc[0] == _AS_LINE:
-                if target != arc[1]:
-                    add(LineTo(x, y))
-            elif arc[0] == _AS_ARC:
-                add(ArcTo(x, y, arc[1], arc[2], cw=kind == _ARC_CW))
-            else:
+            if how[done] == _AS_CHORDS:
                 # the machine's arcs reach MAX_ARC_COORD steps from the centre (204.8 mm
                 # on the seed's machine): a flatter arc is drawn as chords within half a
                 # step of it
-                point, (sx, sy) = arc[1], arc[2]
+                point, (sx, sy) = rows.chords_from[done]
+                row = table[done].tolist()
                 chords = arc_points(sx, sy, row[X] - ox, row[Y] - oy, row[I], row[J],
                                     kind == _ARC_CW, max(config.nm_per_step // 2, 1))
                 for cx, cy in chords[1:].tolist():
                     if (step := (steps(cx), steps(cy))) != point:
                         add(LineTo(*step))
                         point = step
+            elif rows.emits[done]:
+                add(rows.made[made_before[done]])
             at = target
         elif kind == _FLASH:
             if target != at:
@@ -355,15 +402,16 @@ def plan_program(program: Program, config: MachineConfig | None = None,
             add(PenDown())
             pen_down = True
         elif kind == _DWELL:
-            add(Dwell(row[VALUE]))
+            add(Dwell(values[done]))
         elif kind == _FEED:
-            add(SetFeed(steps(row[VALUE])))
+            add(SetFeed(steps(values[done])))
         # POLARITY, REGION_BEGIN, REGION_END: nothing to do on a pen plotter.
+        done += 1
 
     job.add(PenUp(), NO_OP, aperture)
     job.add(EndJob(), NO_OP, aperture)
     _label_pens(job, program)
-    if not surely_fine:
+    if not rows.surely_fine:
         check_job(job, program, config)
     if on_progress is not None:
         on_progress(total, total)

@@ -79,6 +79,39 @@ def test_gerber_work_is_grouped_by_aperture_one_pen_change_each():
     assert len(job_program) == 7
 
 
+def test_runs_of_draws_keep_their_pen_changes_and_drop_draws_that_go_nowhere():
+    # plan_program copies a run of draws of one aperture (or of none) in whole: the
+    # draw of another aperture inside it still lifts the pen for the change, a draw
+    # without an aperture keeps the one in force, a draw to where it is makes nothing
+    job = plan_program(program((OpKind.SELECT, 0, 0, 0, 0, 10),
+                               (OpKind.MOVE, 1 * MM, 1 * MM),
+                               (OpKind.LINE, 2 * MM, 1 * MM, 0, 0, 10),
+                               (OpKind.LINE, 2 * MM, 1 * MM, 0, 0, 10),
+                               (OpKind.ARC_CW, 3 * MM, 2 * MM, 1 * MM, 0, 10),
+                               (OpKind.LINE, 3 * MM, 3 * MM, 0, 0, 11),
+                               (OpKind.LINE, 4 * MM, 3 * MM),
+                               (OpKind.LINE, 5 * MM, 3 * MM, 0, 0, 11)), CFG, group=False)
+    assert job.commands == [Rapid(160, 160), PenDown(), LineTo(320, 160),
+                            ArcTo(480, 320, 160, 0, cw=True), PenUp(), PenDown(),
+                            LineTo(480, 480), LineTo(640, 480), LineTo(800, 480)] + END
+    assert job.op_index == [1, 2, 2, 4, 5, 5, 5, 6, 7, NO_OP, NO_OP]
+    assert job.aperture == [10, 10, 10, 10, 11, 11, 11, 11, 11, 11, 11]
+    assert job.pen_changes == {1: 10, 5: 11}           # asked for after the PenUp
+
+
+def test_a_long_run_of_draws_reports_progress_every_so_many_ops():
+    from galileo_cnc.plan.planner import PROGRESS_OPS
+
+    count = 2 * PROGRESS_OPS + 500
+    rows = [(OpKind.MOVE, 0, 0)] + [(OpKind.LINE, (k % 2) * MM, k * 10_000, 0, 0, 10)
+                                    for k in range(1, count)]
+    marks = []
+    job = plan_program(program(*rows), CFG, on_progress=lambda done, total: marks.append(
+        (done, total)))
+    assert marks == [(done, count) for done in (0, PROGRESS_OPS, 2 * PROGRESS_OPS, count)]
+    assert sum(isinstance(c, LineTo) for c in job.commands) == count - 1
+
+
 def test_region_outlines_draw_with_the_selected_aperture_and_one_pen_needs_no_change():
     job = plan((OpKind.SELECT, 0, 0, 0, 0, 12),
                (OpKind.REGION_BEGIN,), (OpKind.MOVE, 1 * MM, 1 * MM),
@@ -356,7 +389,7 @@ def test_the_rows_verdict_passes_only_jobs_the_command_walks_pass():
                 ops.append((kind, nx, ny, 0, 0, 10))
         offset = (rng.randint(-40, 40) * step, rng.randint(-40, 40) * step)
         built = program(*ops)
-        verdict = _machine_points(built.table, CFG, offset)[3]
+        verdict = _machine_points(built.table, CFG, offset).surely_fine
         try:
             job = plan_program(built, CFG, offset)
         except PlanError:
