@@ -22,8 +22,11 @@ Planning: `plan_file(path, config, "auto", options=PlanOptions(mode=...))` (ink:
 through the old `plan_file(path, config, "auto")`, and one line says so. The machine
 is the default MachineConfig with 2 m of travel, so every board fits. Timed: the
 whole `plan_file` from the path (reading included), wall and CPU; "read" is
-`load_artwork` alone, for scale. The planning target is judged on the wall time;
-the CPU time counts the planner's forked helper too (the fill's gap tests).
+`load_artwork` alone, for scale. The planning target is judged on the wall time of
+the largest layer planned alone after the run (`--alone` times, each in a fresh
+process with nothing else running: the median), since with `--jobs 2` the run's own
+planning shares both cores with another file; the CPU time counts the planner's
+forked helpers too (the fill's gap tests).
 
 The ink comes from the STEPS, not from the planned paths. The job is cut into parts
 at its pen changes (`job.pen_changes`) and wherever the pen key of a drawing command
@@ -115,6 +118,7 @@ import gc
 import json
 import math
 import os
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -508,7 +512,43 @@ def child_main(rel: str, opts: dict) -> None:
     print(json.dumps(record), flush=True)
 
 
+def time_plan_main(rel: str, opts: dict) -> None:
+    """One planning of `rel` per mode, timed as measure_file times it, after a read
+    that loads the reader (the child of `time_alone`)."""
+    from galileo_cnc.plan.pipeline import load_artwork
+
+    path = Path(rel) if Path(rel).is_absolute() else CORPUS / rel
+    config = bench_config()
+    pens_nm = tuple(int(round(p * NM_PER_MM)) for p in opts["pens"])
+    times = {}
+    for mode in opts["modes"]:
+        gc.collect()
+        load_artwork(path)
+        start, cpu = time.perf_counter(), cpu_s()
+        plan(path, config, mode, pens_nm)
+        times[mode] = {"plan_s": time.perf_counter() - start, "plan_cpu_s": cpu_s() - cpu}
+    print(json.dumps(times), flush=True)
+
+
 # ---- the parent -------------------------------------------------------------------------------
+
+def time_alone(rel: str, opts: dict, runs: int) -> dict[str, list[float]]:
+    """Per mode, the wall seconds of `runs` plannings of `rel`, each in a child process of
+    its own with nothing else running: the planning target is a user's wait on an idle
+    machine, and with --jobs 2 the file in the pool shared both cores with another."""
+    found: dict[str, list[float]] = {}
+    for _ in range(runs):
+        done = subprocess.run([sys.executable, __file__, "--time-plan", rel, "--opts",
+                               json.dumps(opts)], capture_output=True, text=True, check=False)
+        lines = [line for line in done.stdout.splitlines() if line.startswith("{")]
+        if not lines:
+            print(f"timing {rel} alone failed: {(done.stderr.strip().splitlines() or ['?'])[-1]}",
+                  file=sys.stderr)
+            return found
+        for mode, times in json.loads(lines[-1]).items():
+            found.setdefault(mode, []).append(times["plan_s"])
+    return found
+
 
 def copper_files(args) -> list[str]:
     from bench_ink_union import copper_layers
@@ -549,7 +589,10 @@ def pct(part: float, whole: float) -> float:
     return 100.0 * part / whole if whole else float("nan")
 
 
-def report(records: list[dict], modes: list[str], opts: dict, wall: float) -> None:
+def report(records: list[dict], modes: list[str], opts: dict, wall: float,
+           alone: dict[str, list[float]] | None = None) -> None:
+    """The table, the totals and the targets; `alone`: per mode, the largest layer's
+    plannings timed alone (time_alone), which judge the planning target when given."""
     head = f"{'file':46} {'kB':>5} {'px/mm':>5} {'Cu mm2':>8} {'ref':>4} {'disp%':>5}"
     for mode in modes:
         head += f" | {mode[:6]:6} {'inked%':>6} {'outA%':>6} {'outB%':>6} {'brdg':>4} " \
@@ -670,10 +713,14 @@ def report(records: list[dict], modes: list[str], opts: dict, wall: float) -> No
                   + (" ..." if len(places) > 10 else ""))
         print(f"  {mark(bridges == 0)} [{mode}] zero bridges: {bridges} "
               f"({sum(x['bridges'] > 0 for x in m)} files)")
-        print(f"  {mark(lp['plan_s'] <= TARGET_PLAN_S)} [{mode}] planning <= {TARGET_PLAN_S:g} s "
-              f"for the largest copper layer: {lp['plan_s']:.2f} s ({largest['path']}, "
+        timed = (alone or {}).get(mode)
+        judged = statistics.median(timed) if timed else lp["plan_s"]
+        how = (f"median of {len(timed)} alone: " + ", ".join(f"{t:.2f}" for t in timed)
+               + f" s; in the run {lp['plan_s']:.2f} s") if timed else "in the run"
+        print(f"  {mark(judged <= TARGET_PLAN_S)} [{mode}] planning <= {TARGET_PLAN_S:g} s "
+              f"for the largest copper layer: {judged:.2f} s ({how}; {largest['path']}, "
               f"{largest['bytes'] / 1000:.0f} kB; CPU {lp['plan_cpu_s']:.2f} s, reading alone "
-              f"{lp['read_s']:.2f} s); slowest "
+              f"{lp['read_s']:.2f} s); slowest in the run "
               f"{slowest['modes'][mode]['plan_s']:.2f} s ({Path(slowest['path']).name})")
     if failures:
         print("\nfailures:")
@@ -882,16 +929,22 @@ def main() -> None:
                     help="%% of the copper beyond which pygerber is taken to misread a file")
     ap.add_argument("--tol", type=float, default=0.5, help="chord tolerance in steps")
     ap.add_argument("--jobs", type=int, default=1, help="files measured at once")
+    ap.add_argument("--alone", type=int, default=3,
+                    help="plannings of the largest layer timed alone after the run (0: none)")
     ap.add_argument("--timeout", type=float, default=1800.0, help="seconds per file")
     ap.add_argument("--max-gb", type=float, default=8.0, help="address space per child (0: no cap)")
     ap.add_argument("--png", default=None, help="save an overlay per file and mode in this folder")
     ap.add_argument("--json", default=None, help="save every file's record (JSON) here")
     ap.add_argument("--selftest", action="store_true", help="check the measurement and stop")
     ap.add_argument("--child", help=argparse.SUPPRESS)
+    ap.add_argument("--time-plan", help=argparse.SUPPRESS)
     ap.add_argument("--opts", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child:
         child_main(args.child, json.loads(args.opts))
+        return
+    if args.time_plan:
+        time_plan_main(args.time_plan, json.loads(args.opts))
         return
     opts = {"pens": [float(p) for p in args.pens.split(",")],
             "modes": [m.strip() for m in args.modes.split(",") if m.strip()],
@@ -929,9 +982,16 @@ def main() -> None:
     with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
         list(pool.map(one, range(len(files))))
     done = [r for r in records if r is not None]
+    measured = [r for r in done if "error" not in r]
+    alone = {}
+    if measured and args.alone > 0:
+        largest = max(measured, key=lambda r: r["bytes"])["path"]
+        print(f"timing the largest layer alone, {args.alone} times: {largest}", file=sys.stderr)
+        alone = time_alone(largest, opts, args.alone)
     if args.json:
-        Path(args.json).write_text(json.dumps({"opts": opts, "records": done}, indent=1))
-    report(done, opts["modes"], opts, time.perf_counter() - started)
+        Path(args.json).write_text(json.dumps({"opts": opts, "records": done,
+                                               "largest_alone_s": alone}, indent=1))
+    report(done, opts["modes"], opts, time.perf_counter() - started, alone)
 
 
 if __name__ == "__main__":
