@@ -1,5 +1,5 @@
 """The compiled parts: plan/tour_search.c, path order's local search (plan/tour.py), and
-plan/ink/nearest_edges.c, the ink's nearest-edge search (plan/ink/edges.py).
+plan/ink/edge_index.c, the ink's grid index of edges (plan/ink/edges.py).
 
 Optional: where no C compiler is found the build goes on without them and the planner
 runs the same searches in Python and numpy, to the same answers (docs/plan.md,
@@ -14,6 +14,6 @@ SAME_ARITHMETIC = ["-O2", "-ffp-contract=off", "-fno-fast-math"]
 setup(ext_modules=[
     Extension("galileo_cnc.plan._tour_search", ["galileo_cnc/plan/tour_search.c"],
               optional=True, extra_compile_args=SAME_ARITHMETIC),
-    Extension("galileo_cnc.plan.ink._nearest_edges", ["galileo_cnc/plan/ink/nearest_edges.c"],
+    Extension("galileo_cnc.plan.ink._edge_index", ["galileo_cnc/plan/ink/edge_index.c"],
               optional=True, extra_compile_args=SAME_ARITHMETIC),
 ])

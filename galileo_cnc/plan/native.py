@@ -1,8 +1,9 @@
 """The compiled parts of the planner, where setup.py could build them: path order's
-local search (plan/tour_search.c) and the ink's nearest-edge search
-(plan/ink/nearest_edges.c).
+local search (plan/tour_search.c) and the ink's grid index of edges, its cells and its
+nearest-edge search (plan/ink/edge_index.c).
 
-`tour_search()` and `nearest_edges()` give a function that runs the work compiled, or
+`tour_search()`, `cell_keys()` and `nearest_edges()` give a function that runs the
+work compiled, or
 None where the extension is missing (no C compiler at install time), cannot be loaded,
 or GALILEO_NATIVE=0 asks for the Python (the tests compare the two). The extensions
 are plain C loaded with ctypes: they hold no Python objects, so they cannot leak or
@@ -22,14 +23,15 @@ import numpy as np
 _DOUBLES = ctypes.POINTER(ctypes.c_double)
 _INTS = ctypes.POINTER(ctypes.c_int64)
 _INT = ctypes.c_int64
-#: per extension module: its function, what it returns and its arguments' types
+_TOUR, _EDGES = "galileo_cnc.plan._tour_search", "galileo_cnc.plan.ink._edge_index"
+#: per extension module: its functions, what each returns and its arguments' types
 _FUNCTIONS = {
-    "galileo_cnc.plan._tour_search": ("tour_search", _INT, [
-        _INT, _DOUBLES, _DOUBLES, _DOUBLES, _INTS, _INTS, _DOUBLES, _INTS, _INTS, _DOUBLES,
-        _INT, _INT, _INTS]),
-    "galileo_cnc.plan.ink._nearest_edges": ("nearest_edges", None, [
-        _INT, _INTS, _INT, _INT, _INT, _INTS, _INTS, _INTS, _INTS, _INTS, _INTS, _DOUBLES,
-        _DOUBLES]),
+    _TOUR: {"tour_search": (_INT, [_INT, _DOUBLES, _DOUBLES, _DOUBLES, _INTS, _INTS, _DOUBLES,
+                                   _INTS, _INTS, _DOUBLES, _INT, _INT, _INTS])},
+    _EDGES: {"nearest_edges": (None, [_INT, _INTS, _INT, _INT, _INT, _INTS, _INTS, _INTS,
+                                      _INTS, _INTS, _INTS, _DOUBLES, _DOUBLES]),
+             "cell_samples": (_INT, [_INT, _INTS, _INTS, _INT]),
+             "cell_keys": (_INT, [_INT, _INTS, _INTS, _INT, _INTS, _INTS])},
 }
 
 
@@ -45,9 +47,9 @@ def _library(module: str) -> ctypes.CDLL | None:
         library = ctypes.CDLL(spec.origin)
     except OSError:
         return None
-    name, returns, arguments = _FUNCTIONS[module]
-    function = getattr(library, name)
-    function.restype, function.argtypes = returns, arguments
+    for name, (returns, arguments) in _FUNCTIONS[module].items():
+        function = getattr(library, name)
+        function.restype, function.argtypes = returns, arguments
     return library
 
 
@@ -62,7 +64,7 @@ def tour_search() -> Callable | None:
     """search(tour, moves, perturbations, kicks) for plan/tour.py's Tour (its tour and
     pos are changed in place, its travel lengths refreshed; `kicks`: Tour.kicks);
     None where only the Python search is at hand."""
-    library = _wanted("galileo_cnc.plan._tour_search")
+    library = _wanted(_TOUR)
     return _search_with(library) if library is not None else None
 
 
@@ -70,8 +72,15 @@ def nearest_edges() -> Callable | None:
     """nearest(index, points, search_nm) -> (edge, t, distance) for a
     plan/ink/edges.py EdgeIndex with edges, as its nearest_many; None where only numpy's
     search is at hand."""
-    library = _wanted("galileo_cnc.plan.ink._nearest_edges")
+    library = _wanted(_EDGES)
     return _nearest_with(library) if library is not None else None
+
+
+def cell_keys() -> Callable | None:
+    """cells(a, b, cell_nm) -> (keys, owners) as plan/ink/edges.py's cell_keys; None
+    where only numpy's is at hand."""
+    library = _wanted(_EDGES)
+    return _cells_with(library) if library is not None else None
 
 
 def _search_with(library: ctypes.CDLL) -> Callable:
@@ -116,6 +125,20 @@ def _nearest_with(library: ctypes.CDLL) -> Callable:
                               _p(distance, _DOUBLES))
         return edge, t, distance
     return nearest
+
+
+def _cells_with(library: ctypes.CDLL) -> Callable:
+    def cells(a: np.ndarray, b: np.ndarray, cell: int) -> tuple[np.ndarray, np.ndarray]:
+        a = np.ascontiguousarray(a, dtype=np.int64)
+        b = np.ascontiguousarray(b, dtype=np.int64)
+        room = library.cell_samples(len(a), _p(a, _INTS), _p(b, _INTS), cell)
+        keys, owners = np.empty(room, dtype=np.int64), np.empty(room, dtype=np.int64)
+        count = library.cell_keys(len(a), _p(a, _INTS), _p(b, _INTS), cell, _p(keys, _INTS),
+                                  _p(owners, _INTS))
+        if count < 0:
+            raise MemoryError("the ink's edge index: out of memory in the compiled cells")
+        return keys[:count].copy(), owners[:count].copy()
+    return cells
 
 
 def _p(array: np.ndarray, kind):

@@ -27,6 +27,9 @@ def cell_keys(a: np.ndarray, b: np.ndarray, cell: int) -> tuple[np.ndarray, np.n
     key then k. Each segment is entered in the cells of samples half a cell apart
     along it (both ends included), so every point of it is within a quarter cell of
     a sample."""
+    compiled = native.cell_keys()           # the same pairs, compiled (native.py)
+    if compiled is not None and len(a) and a.dtype.kind == b.dtype.kind == "i":
+        return compiled(a, b, int(cell))
     a, b = a.astype(np.float64), b.astype(np.float64)
     length = np.hypot(*(b - a).T)
     samples = np.maximum(np.ceil(length / (cell / 2)).astype(np.int64), 1) + 1
@@ -286,7 +289,7 @@ def point_to_edges(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndar
     parameter t in [0, 1] of the nearest point of each segment, and the distance to it."""
     a = a.astype(np.float64)
     d = b.astype(np.float64) - a
-    # products and sums written out: nearest_edges.c does the same operations
+    # products and sums written out: edge_index.c does the same operations
     length2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]
     q = p - a
     t = (q[:, 0] * d[:, 0] + q[:, 1] * d[:, 1]) / np.where(length2 > 0, length2, 1.0)

@@ -1,9 +1,10 @@
-"""The compiled nearest-edge search of the ink (plan/ink/nearest_edges.c through
-plan/native.py) answers as numpy's EdgeIndex.nearest_many does: the same edge (the
-lowest index among equally near ones), t and distance, to the bit, on random rings and
-points (far ones, ones on vertices, ties) and on a pour's rings (whole layers planned
-either way: test_tour_native.py, GALILEO_NATIVE=0 turns both off); and an index of
-some of the rings taken out of one of all of them (EdgeIndex.rings_part, the fill's
+"""The compiled grid index of the ink (plan/ink/edge_index.c through plan/native.py)
+answers as numpy's plan/ink/edges.py does, to the bit: cell_keys gives the same
+(cell, edge) pairs, and the nearest-edge search (EdgeIndex.nearest_many) the same edge
+(the lowest index among equally near ones), t and distance, on random rings and points
+(far ones, ones on vertices, ties) and on a pour's rings (whole layers planned either
+way: test_tour_native.py, GALILEO_NATIVE=0 turns every compiled part off); and an index
+of some of the rings taken out of one of all of them (EdgeIndex.rings_part, the fill's
 joins) is the index those rings would get alone."""
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import pytest
 
 from galileo_cnc.plan import native
 from galileo_cnc.plan.ink import fill
-from galileo_cnc.plan.ink.edges import EdgeIndex
+from galileo_cnc.plan.ink.edges import EdgeIndex, cell_keys
 
 from compiled import require
 
@@ -23,7 +24,8 @@ from compiled import require
 @pytest.fixture(autouse=True)
 def compiled():
     os.environ.pop("GALILEO_NATIVE", None)
-    require(native.nearest_edges() is not None, "nearest-edge search")
+    require(native.nearest_edges() is not None and native.cell_keys() is not None,
+            "edge index")
 
 
 def both(index: EdgeIndex, points: np.ndarray, search: int, monkeypatch):
@@ -42,6 +44,27 @@ def random_rings(rng: np.random.Generator) -> list[np.ndarray]:
     rings += [square, square + [8000, 0]]
     rings[0][1] = rings[0][0]                          # an edge of no length
     return rings
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_compiled_cells_equal_numpys(seed, monkeypatch):
+    rng = np.random.default_rng(50 + seed)
+    count = int(rng.integers(1, 400))
+    a = rng.integers(-10 ** 8, 10 ** 8, (count, 2))
+    b = a + rng.integers(-10 ** 6, 10 ** 6, (count, 2))
+    b[: count // 4] = a[: count // 4]                        # segments of no length
+    cell = int(rng.integers(1, 2 * 10 ** 6))
+    answers = []
+    for setting in ("0", "1"):
+        monkeypatch.setenv("GALILEO_NATIVE", setting)
+        answers.append(cell_keys(a, b, cell))
+    (keys_np, owners_np), (keys_c, owners_c) = answers
+    assert np.array_equal(keys_c, keys_np) and np.array_equal(owners_c, owners_np)
+    # sorted by cell, then segment, each pair once, every segment in a cell
+    pairs = np.stack([keys_c, owners_c], axis=1)
+    assert (np.lexsort((owners_c, keys_c)) == np.arange(len(keys_c))).all()
+    assert len(np.unique(pairs, axis=0)) == len(pairs)
+    assert set(owners_c.tolist()) == set(range(count))
 
 
 @pytest.mark.parametrize("seed", range(12))
