@@ -70,7 +70,6 @@ _PIECE_SWEEP = math.radians(260)
 _BATCH = 32
 
 Segment = tuple[int, int, int, int, int]
-Arc = tuple[int, int, int, int, int]        # (start index, end index, kind, i, j)
 
 
 def fit_arcs(points: np.ndarray, tolerance_nm: int = 1000, closed: bool = False,
@@ -142,44 +141,38 @@ def _fit_many(paths: list[np.ndarray], tol: int, min_edges: int,
         return []
     sizes = np.array([len(path) for path in paths], dtype=np.int64)
     offsets = np.cumsum(sizes + 1) - (sizes + 1)
-    z = np.full(int(sizes.sum() + len(paths) - 1), np.nan + 0j)
+    # the paths end to end, one row between neighbours (the NaN's place in z)
+    points = np.zeros((int(sizes.sum() + len(paths) - 1), 2), dtype=np.int64)
     for path, at in zip(paths, offsets.tolist()):
-        z[at:at + len(path)] = np.ascontiguousarray(path, dtype=np.float64).view(
-            np.complex128).ravel()
+        points[at:at + len(path)] = path
+    z = points.astype(np.float64).view(np.complex128).ravel()
+    z[offsets[1:] - 1] = np.nan + 0j
     if tolerances is not None:          # per vertex (NaN gaps: the base tolerance)
         each = np.full(len(z), float(tol))
         for t, at in zip(tolerances, offsets.tolist()):
             each[at:at + len(t)] = t
         tol = each
-    arcs = _arcs(z, tol, min_edges, offsets, sizes)
-    # each path's arcs, in its own vertex numbers
-    owner = np.searchsorted(offsets, [arc[0] for arc in arcs], "right") - 1
-    mine: list[list[Arc]] = [[] for _ in paths]
-    for (s, e, kind, i, j), k in zip(arcs, owner.tolist()):
-        at = int(offsets[k])
-        mine[k].append((s - at, e - at, kind, i, j))
-    return [_segments(path, found) for path, found in zip(paths, mine)]
+    return _segments(points, offsets, sizes, *_arcs(z, tol, min_edges, offsets, sizes))
 
 
 def _arcs(z: np.ndarray, tol: int | np.ndarray, min_edges: int, offsets: np.ndarray,
-          sizes: np.ndarray) -> list[Arc]:
-    """The arcs of the paths laid out in z (see `_fit_many`), in order."""
+          sizes: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The arcs of the paths laid out in z (see `_fit_many`) as arrays, in no
+    particular order (no two overlap): start and end point indices, kind, centre i
+    and j."""
     starts, ends = _pieces(z, tol, min_edges, offsets, sizes)
     if not len(starts):
-        return []
+        return (np.zeros(0, np.int64),) * 5
     fits, curved, ccw, ij = _check(z, starts, ends, tol)
     good = fits & curved
     failed = np.flatnonzero(~good)
-    regrown = _regrow(z, starts[failed], ends[failed], tol, min_edges) if len(failed) else []
-    arcs: list[Arc] = []
-    again = iter(regrown)
-    for s, e, ok, left, (i, j) in zip(starts.tolist(), ends.tolist(), good.tolist(),
-                                      ccw.tolist(), ij.tolist()):
-        if ok:
-            arcs.append((s, e, _CCW if left else _CW, i, j))
-        else:
-            arcs.extend(next(again))
-    return arcs
+    # a piece that failed is grown again within itself: its arcs replace it
+    s, e, left, centre = _regrow(z, starts[failed], ends[failed], tol, min_edges)
+    s = np.concatenate([starts[good], s])
+    e = np.concatenate([ends[good], e])
+    kind = np.where(np.concatenate([ccw[good], left]), _CCW, _CW)
+    centre = np.concatenate([ij[good], centre])
+    return s, e, kind, centre[:, 0], centre[:, 1]
 
 
 def _circumcentre(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -284,19 +277,21 @@ def _check(z: np.ndarray, start: np.ndarray, end: np.ndarray,
 
 
 def _regrow(z: np.ndarray, s0: np.ndarray, e0: np.ndarray, tol: int | np.ndarray,
-            min_edges: int) -> list[list[Arc]]:
+            min_edges: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Arcs within each piece s0[k] .. e0[k] that failed the check, greedily: from
     each start whose `min_edges` fit a circle, the longest run that fits (`_BATCH`
     end points tried per step), an arc if it is curved enough, then on from its
-    end; edges no arc starts from stay lines.
+    end; edges no arc starts from stay lines. Arrays of their starts, ends, whether
+    counter-clockwise, and (k, 2) centres (i, j), in no particular order.
 
     The pieces are grown side by side, each step one `_check` call for all of them
     (state in arrays, one entry per piece), not one call per piece and step."""
-    arcs: list[list[Arc]] = [[] for _ in range(len(s0))]
+    no_arcs = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, bool),
+               np.zeros((0, 2), np.int64))
     # a piece of min_edges edges has one start, the piece itself, which failed
     longer = np.flatnonzero(e0 - s0 > min_edges)
     if not len(longer):
-        return arcs
+        return no_arcs
     s0, e0 = s0[longer], e0[longer]
     # which starts fit at least the shortest run: one call for every piece
     counts = e0 - min_edges + 1 - s0
@@ -371,28 +366,29 @@ def _regrow(z: np.ndarray, s0: np.ndarray, e0: np.ndarray, tol: int | np.ndarray
         lo[w], best_bent[w], best_left[w], best_ij[w] = ends[b_], bent[b_], left[b_], centres[b_]
         more = b_ + 1 < groups[1:][~none]
         hi[w[more]] = ends[b_[more] + 1]
-    for w, ss, ee, left_, centre in found:
-        for p, a_, e_, l_, (i, j) in zip(longer[w].tolist(), ss.tolist(), ee.tolist(),
-                                         left_.tolist(), centre.tolist()):
-            arcs[p].append((a_, e_, _CCW if l_ else _CW, i, j))
-    return arcs
+    if not found:
+        return no_arcs
+    return tuple(np.concatenate([arcs[k] for arcs in found]) for k in range(1, 5))
 
 
-def _segments(path: np.ndarray, arcs: list[Arc]) -> np.ndarray:
-    """The segments from path[0] as (k, 5) rows kind, x, y, i, j: a LINE to each vertex
-    that no arc replaces, an arc's row at its end vertex (the vertices inside it left
-    out). All rows at once: a fill's walk has 200k vertices."""
-    count = len(path)
-    kind = np.full(count, _LINE, dtype=np.int64)
-    i = np.zeros(count, dtype=np.int64)
-    j = np.zeros(count, dtype=np.int64)
-    inside = np.zeros(count + 1, dtype=np.int64)
-    if arcs:
-        s, e, arc_kind, arc_i, arc_j = (np.array(column, dtype=np.int64)
-                                        for column in zip(*arcs))
-        kind[e], i[e], j[e] = arc_kind, arc_i, arc_j
-        np.add.at(inside, s + 1, 1)                  # vertices s + 1 .. e - 1 replaced
-        np.add.at(inside, e, -1)
+def _segments(points: np.ndarray, offsets: np.ndarray, sizes: np.ndarray, s: np.ndarray,
+              e: np.ndarray, kind: np.ndarray, i: np.ndarray, j: np.ndarray
+              ) -> list[np.ndarray]:
+    """Per path (laid out as in `_fit_many`, `points` its int64 vertices), the segments
+    from its first point as (k, 5) rows kind, x, y, i, j: a LINE to each vertex that no
+    arc (starts s, ends e) replaces, an arc's row at its end vertex (the vertices inside
+    it left out). All paths at once: a fill's walk has 200k vertices."""
+    count = len(points)
+    kinds = np.full(count, _LINE, dtype=np.int64)
+    centre_i = np.zeros(count, dtype=np.int64)
+    centre_j = np.zeros(count, dtype=np.int64)
+    kinds[e], centre_i[e], centre_j[e] = kind, i, j
+    # vertices s + 1 .. e - 1 are replaced
+    inside = np.bincount(s + 1, minlength=count + 1) - np.bincount(e, minlength=count + 1)
     keep = np.cumsum(inside[:count]) == 0
-    keep[0] = False                                  # drawn from path[0]
-    return np.column_stack([kind, path[:, 0], path[:, 1], i, j])[keep]
+    keep[offsets] = False                            # each path drawn from its first point
+    keep[offsets[1:] - 1] = False                    # the rows between paths
+    rows = np.column_stack([kinds, points, centre_i, centre_j])[keep]
+    path = np.repeat(np.arange(len(sizes)), sizes + 1)[:count]
+    kept = np.bincount(path[keep], minlength=len(sizes))
+    return np.split(rows, np.cumsum(kept)[:-1])

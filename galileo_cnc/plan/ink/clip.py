@@ -9,6 +9,8 @@ nothing here ever leaves the integer grid.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pyclipper as pc
 
@@ -130,8 +132,21 @@ def area_nm2(polygons: PolygonSet) -> float:
 
 
 def rings_as_arrays(polygons: PolygonSet) -> list[np.ndarray]:
-    """Each ring as an int64 (n, 2) array; rings of fewer than 3 points dropped."""
-    return [np.asarray(ring, dtype=np.int64) for ring in polygons if len(ring) >= 3]
+    """Each ring as an int64 (n, 2) array; rings of fewer than 3 points dropped. Every
+    coordinate read in one pass: half the time of an array per ring (hellboard's 250k
+    ring vertices)."""
+    return _arrays([ring for ring in polygons if len(ring) >= 3])
+
+
+def _arrays(rings: list) -> list[np.ndarray]:
+    """Each ring ([x, y] lists) as an int64 (n, 2) array, every coordinate read in one
+    pass."""
+    if not rings:
+        return []
+    sizes = np.array([len(ring) for ring in rings], dtype=np.int64)
+    flat = np.fromiter(itertools.chain.from_iterable(itertools.chain.from_iterable(rings)),
+                       dtype=np.int64, count=2 * int(sizes.sum())).reshape(-1, 2)
+    return np.split(flat, np.cumsum(sizes)[:-1])
 
 
 def components(polygons: PolygonSet, strict: bool = False
@@ -148,17 +163,18 @@ def components(polygons: PolygonSet, strict: bool = False
     except pc.ClipperException:
         return []
     tree = clipper.Execute2(pc.CT_UNION, pc.PFT_POSITIVE, pc.PFT_POSITIVE)
-    found = []
+    pieces = []                  # (outer, holes) contours, then made arrays at once
     stack = list(tree.Childs)
     while stack:
         outer = stack.pop()
         holes = []
         for hole in outer.Childs:
-            holes.append(np.asarray(hole.Contour, dtype=np.int64))
+            holes.append(hole.Contour)
             stack.extend(hole.Childs)
-        found.append((np.asarray(outer.Contour, dtype=np.int64), holes))
+        pieces.append((outer.Contour, holes))
     free_tree(tree)
-    return found
+    arrays = iter(_arrays([ring for outer, holes in pieces for ring in (outer, *holes)]))
+    return [(next(arrays), [next(arrays) for _ in holes]) for _outer, holes in pieces]
 
 
 def free_tree(tree) -> None:

@@ -359,15 +359,14 @@ class _Stop:
 
 
 def _ring_joins(depths: list[list[np.ndarray]], spacing: int,
-                every_ring: EdgeIndex | None = None) -> list[tuple]:
+                every_ring: EdgeIndex) -> list[tuple]:
     """The candidate joins between the rings of each depth and the depth outside it
     (see _joins_out), rings numbered depth after depth. `every_ring`: an EdgeIndex of
-    all the rings in that order (cell: the spacing), where the caller has one."""
+    all the rings in that order (cell: the spacing); each depth's is a part of it."""
     first_node = np.cumsum([0] + [len(at_depth) for at_depth in depths]).tolist()
     joins = []
     for depth in range(1, len(depths)):
-        outer = (every_ring.rings_part(first_node[depth - 1], first_node[depth])
-                 if every_ring is not None else EdgeIndex(depths[depth - 1], cell_nm=spacing))
+        outer = every_ring.rings_part(first_node[depth - 1], first_node[depth])
         joins.extend(_joins_out(depths[depth], outer, first_node[depth],
                                 first_node[depth - 1], spacing))
     return joins
@@ -378,7 +377,7 @@ def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray], spacing: i
     """One pen-down polyline per tree of rings and gap strokes (see the module doc),
     as (n, 3) int64 rows x, y, inner: inner is 1 at the vertices of rings inside E0
     (their arcs may take the coarser tolerance), 0 elsewhere. `ring_joins` are
-    _ring_joins(depths, spacing), `every_ring` an EdgeIndex of all the rings in order.
+    _ring_joins(depths, spacing, every_ring), `every_ring` an EdgeIndex of all the rings in order.
 
     A gap stroke is walked there and back, joined at its first point to the nearest
     point of any ring: that point is inside E0 and no outline of E0 is nearer to it
