@@ -16,6 +16,8 @@ markers) are dropped: they would only add travel.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from galileo_cnc.plan.paths import cut_pieces, optimise
@@ -25,6 +27,20 @@ from galileo_cnc.program.ops import KIND, NO_TOOL, TOOL, X, Y, OpKind, Program
 DRAWING_KINDS = (int(OpKind.LINE), int(OpKind.ARC_CW), int(OpKind.ARC_CCW), int(OpKind.FLASH))
 _POSITIONED = (int(OpKind.MOVE),) + DRAWING_KINDS
 _PATH_KINDS = (int(OpKind.LINE), int(OpKind.ARC_CW), int(OpKind.ARC_CCW))
+
+
+@dataclass
+class OrderedRows:
+    """Rows in the order they are plotted, as arrays: each row's op index (`indices`)
+    and the rows themselves (`table`, Program.table's columns). What plan_program also
+    takes as a list of (op index, row) pairs, without a list per row (the ink's walks:
+    95k rows on hellboard)."""
+
+    indices: np.ndarray
+    table: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.indices)
 
 
 def drawing_apertures(program: Program) -> set[int]:

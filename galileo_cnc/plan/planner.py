@@ -45,8 +45,8 @@ from galileo_cnc.plan.ink.inking import mm_text
 from galileo_cnc.plan.ink.narrow import aperture_width
 from galileo_cnc.plan.ink.shapes import arc_angles, arc_points
 from galileo_cnc.plan import gcode_order
-from galileo_cnc.plan.order import (DRAWING_KINDS, drawing_apertures, group_by_aperture,
-                                   optimised_order, pure_geometry)
+from galileo_cnc.plan.order import (DRAWING_KINDS, OrderedRows, drawing_apertures,
+                                   group_by_aperture, optimised_order, pure_geometry)
 from galileo_cnc.plan.paths import optimise
 from galileo_cnc.protocol.codec import first_range_problem
 from galileo_cnc.protocol.spec import COORD
@@ -283,7 +283,7 @@ def plan_program(program: Program, config: MachineConfig | None = None,
                  offset_nm: tuple[int, int] = (0, 0), group: bool = True,
                  on_progress: Callable[[int, int], None] | None = None,
                  optimize: bool = False,
-                 ordered: list[tuple[int, list[int]]] | None = None) -> Job:
+                 ordered: list[tuple[int, list[int]]] | OrderedRows | None = None) -> Job:
     """Plan `program` for the machine `config` with `offset_nm` subtracted (see module
     doc); `group=False` keeps a Gerber file's own order. `on_progress(done, total)`
     hears about every PROGRESS_OPS ops, so a front end can show a long plan moving.
@@ -291,7 +291,8 @@ def plan_program(program: Program, config: MachineConfig | None = None,
     pure geometry; G-code only if it draws with a pen and nothing else, else PlanError:
     plan/gcode_order.py; plan_file asks for it for Gerber and DXF unless the user wants
     file order, for G-code when the user gives --optimize). `ordered`: the rows in the
-    order `optimize` gives them, worked out already (the ink's: plan/ink/walk_order.py)."""
+    order `optimize` gives them, worked out already, as (op index, row) pairs or
+    OrderedRows (the ink's: plan/ink/walk_order.py)."""
     config = config or MachineConfig()
     steps = config.nm_to_steps_function()
     ox, oy = offset_nm
@@ -317,9 +318,13 @@ def plan_program(program: Program, config: MachineConfig | None = None,
         apertures.append(aperture)
 
     total = len(ordered)
-    table = np.array([row for _index, row in ordered], dtype=np.int64).reshape(-1, len(COLUMNS))
+    if isinstance(ordered, OrderedRows):
+        table, indices = ordered.table, ordered.indices.tolist()
+    else:
+        table = np.array([row for _index, row in ordered], dtype=np.int64).reshape(
+            -1, len(COLUMNS))
+        indices = [op for op, _row in ordered]
     rows = _machine_points(table, config, (int(ox), int(oy)))
-    indices = [op for op, _row in ordered]
     kinds, tools = table[:, KIND], table[:, TOOL]
     # a draw that follows a draw of the same aperture (or of none) finds the pen down
     # and the right pen in: its command alone, and such runs are copied in whole

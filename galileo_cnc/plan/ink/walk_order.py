@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from galileo_cnc.plan.ink.background import Deferred
-from galileo_cnc.plan.order import drawing_apertures, optimised_order
+from galileo_cnc.plan.order import OrderedRows, drawing_apertures, optimised_order
 from galileo_cnc.plan.pieces import WHOLE_PATHS
 from galileo_cnc.program.ops import I, J, KIND, X, Y, OpKind, Program
 
@@ -60,6 +60,12 @@ def _cell_keys(cells: np.ndarray) -> np.ndarray:
 def reversed_rows(table: np.ndarray, first: int) -> list[tuple[int, Row]]:
     """Piece.reversed for a path of rows table[0:n] (MOVE, then segments) whose first
     op index is `first`: the same (op index, row) pairs, worked out at once."""
+    indices, rows = reversed_table(table, first)
+    return list(zip(indices.tolist(), rows.tolist()))
+
+
+def reversed_table(table: np.ndarray, first: int) -> tuple[np.ndarray, np.ndarray]:
+    """reversed_rows as arrays: the op indices and the rows."""
     n = len(table)
     head = table[n - 1].copy()
     head[KIND] = _MOVE
@@ -72,8 +78,8 @@ def reversed_rows(table: np.ndarray, first: int) -> list[tuple[int, Row]]:
     back[arcs, KIND] = np.where(back[arcs, KIND] == _CW, _CCW, _CW)
     back[arcs, I] = centre_to_end[arcs, 0]
     back[arcs, J] = centre_to_end[arcs, 1]
-    indices = [first + n - 1] + list(range(first + n - 1, first, -1))
-    return list(zip(indices, [head.tolist()] + back.tolist()))
+    indices = np.concatenate([[first + n - 1], np.arange(first + n - 1, first, -1)])
+    return indices.astype(np.int64), np.concatenate([head[None, :], back])
 
 
 @dataclass
@@ -98,9 +104,9 @@ class WalkOrder:
     def cancel(self) -> None:
         self._order.cancel()
 
-    def rows(self, program: Program) -> list[tuple[int, Row]]:
-        """The (op index, row) pairs `optimised_order` gives on `program`, the ink whose
-        skeleton this is."""
+    def rows(self, program: Program) -> OrderedRows:
+        """The rows, with their op indices, in the order `optimised_order` gives on
+        `program`, the ink whose skeleton this is."""
         ordered = self._order.result()
         walks = program.metadata[WHOLE_PATHS]
         skeleton_walks = self.skeleton.program.metadata[WHOLE_PATHS]
@@ -112,7 +118,16 @@ class WalkOrder:
                 forward[s_first] = (first, end)
                 backward[s_first + 1] = (first, end)
         table = program.table
-        out: list[tuple[int, Row]] = []
+        indices: list[np.ndarray] = []      # the parts, in order: op indices and rows
+        rows: list[np.ndarray] = []
+        single: list[tuple[int, Row]] = []  # rows kept as they are, since the last part
+
+        def flush() -> None:
+            if single:
+                indices.append(np.array([index for index, _row in single], dtype=np.int64))
+                rows.append(np.array([row for _index, row in single], dtype=np.int64))
+                single.clear()
+
         skip = None
         for index, row in ordered:
             if skip is not None:
@@ -122,15 +137,23 @@ class WalkOrder:
                 continue
             if row[KIND] == _MOVE and index in forward:
                 first, end = forward[index]
-                out.extend(zip(range(first, end), table[first:end].tolist()))
+                flush()
+                indices.append(np.arange(first, end, dtype=np.int64))
+                rows.append(table[first:end])
                 skip = index + 1
             elif row[KIND] == _MOVE and index in backward:
                 first, end = backward[index]
-                out.extend(reversed_rows(table[first:end], first))
+                flush()
+                part_indices, part_rows = reversed_table(table[first:end], first)
+                indices.append(part_indices)
+                rows.append(part_rows)
                 skip = index
             else:
-                out.append((int(index_map[index]), row))
-        return out
+                single.append((int(index_map[index]), row))
+        flush()
+        if not rows:
+            return OrderedRows(np.zeros(0, dtype=np.int64), table[:0])
+        return OrderedRows(np.concatenate(indices), np.concatenate(rows).astype(np.int64))
 
 
 def _index_map(skeleton_walks: list, walks: list, size: int) -> np.ndarray:
