@@ -119,8 +119,8 @@ def main() -> None:
         wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
         children = children_cpu_s() - children
         share = 100 * plan.inked_nm2 / plan.copper_nm2 if plan.copper_nm2 else 100.0
-        print(f"{path.name}: read {read_s:.1f} s, {'whole plan' if args.whole else 'ink'} "
-              f"{wall:.1f} s wall, {cpu:.1f} s CPU (+ {children:.1f} s in its forked helper), "
+        print(f"{path.name}: read {read_s:.2f} s, {'whole plan' if args.whole else 'ink'} "
+              f"{wall:.2f} s wall, {cpu:.2f} s CPU (+ {children:.2f} s in its forked helper), "
               f"{len(plan.program)} rows, {share:.2f} % inked, "
               f"{plan.pen_lifts} pen lifts, {len(plan.narrow)} narrow, "
               f"{len(plan.bridges)} bridges avoided", flush=True)
