@@ -3,11 +3,10 @@ local search (plan/tour_search.c) and the ink's grid index of edges, its cells a
 nearest-edge search (plan/ink/edge_index.c).
 
 `tour_search()`, `cell_keys()` and `nearest_edges()` give a function that runs the
-work compiled, or
-None where the extension is missing (no C compiler at install time), cannot be loaded,
-or GALILEO_NATIVE=0 asks for the Python (the tests compare the two). The extensions
-are plain C loaded with ctypes: they hold no Python objects, so they cannot leak or
-crash on a reference, and the answer is the same either way.
+work compiled, or None where the extension is missing (no C compiler at install time),
+cannot be loaded, or GALILEO_NATIVE=0 asks for the Python (the tests compare the two).
+The extensions are plain C loaded with ctypes: they hold no Python objects, so they
+cannot leak or crash on a reference, and the answer is the same either way.
 """
 
 from __future__ import annotations

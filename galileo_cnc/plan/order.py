@@ -26,7 +26,7 @@ from galileo_cnc.program.ops import KIND, NO_TOOL, TOOL, X, Y, OpKind, Program
 
 DRAWING_KINDS = (int(OpKind.LINE), int(OpKind.ARC_CW), int(OpKind.ARC_CCW), int(OpKind.FLASH))
 _POSITIONED = (int(OpKind.MOVE),) + DRAWING_KINDS
-_PATH_KINDS = (int(OpKind.LINE), int(OpKind.ARC_CW), int(OpKind.ARC_CCW))
+PATH_KINDS = (int(OpKind.LINE), int(OpKind.ARC_CW), int(OpKind.ARC_CCW))
 
 
 @dataclass
@@ -84,7 +84,7 @@ def group_by_aperture(program: Program) -> list[tuple[int, list[int]]]:
         if kind == OpKind.MOVE or kind == OpKind.FLASH \
                 or kind in DRAWING_KINDS and piece_aperture not in (None, row[TOOL]):
             close_piece()
-        if kind in _PATH_KINDS and not any(r[KIND] == OpKind.MOVE for _i, r in current):
+        if kind in PATH_KINDS and not any(r[KIND] == OpKind.MOVE for _i, r in current):
             move = list(row)                    # the path starts where the head was
             move[KIND], move[X], move[Y] = int(OpKind.MOVE), point[0], point[1]
             current.append((index, move))

@@ -45,8 +45,9 @@ from galileo_cnc.plan.ink.inking import mm_text
 from galileo_cnc.plan.ink.narrow import aperture_width
 from galileo_cnc.plan.ink.shapes import arc_angles, arc_points
 from galileo_cnc.plan import gcode_order
-from galileo_cnc.plan.order import (DRAWING_KINDS, OrderedRows, drawing_apertures,
-                                   group_by_aperture, optimised_order, pure_geometry)
+from galileo_cnc.plan.order import (DRAWING_KINDS, PATH_KINDS, OrderedRows,
+                                   drawing_apertures, group_by_aperture, optimised_order,
+                                   pure_geometry)
 from galileo_cnc.plan.paths import optimise
 from galileo_cnc.protocol.codec import first_range_problem
 from galileo_cnc.protocol.spec import COORD
@@ -76,7 +77,6 @@ class PlanError(GalileoError):
                                          "PEN_UP", "PEN_DOWN", "SELECT", "DWELL", "FEED"))
 #: how an arc row is sent (_machine_points)
 _AS_LINE, _AS_ARC, _AS_CHORDS = 0, 1, 2
-_PATH_KINDS_LIST = [_LINE, _ARC_CW, _ARC_CCW]
 
 
 @dataclass
@@ -328,7 +328,7 @@ def plan_program(program: Program, config: MachineConfig | None = None,
     kinds, tools = table[:, KIND], table[:, TOOL]
     # a draw that follows a draw of the same aperture (or of none) finds the pen down
     # and the right pen in: its command alone, and such runs are copied in whole
-    drawing = np.isin(kinds, _PATH_KINDS_LIST) & (rows.how != _AS_CHORDS)
+    drawing = np.isin(kinds, PATH_KINDS) & (rows.how != _AS_CHORDS)
     plain = np.zeros(total, dtype=bool)
     plain[1:] = drawing[1:] & drawing[:-1] & ((tools[1:] == NO_TOOL) | (tools[1:] == tools[:-1]))
     run_end = np.minimum.accumulate(np.where(plain, total, np.arange(total))[::-1])[::-1]

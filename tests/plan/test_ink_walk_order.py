@@ -113,7 +113,7 @@ def test_real_layers_get_the_same_job(name):
     the_same_job(planned)
 
 
-def test_reversed_rows_are_piece_reversed():
+def test_reversed_table_is_piece_reversed():
     move, line, cw, ccw = (int(k) for k in (OpKind.MOVE, OpKind.LINE, OpKind.ARC_CW,
                                              OpKind.ARC_CCW))
     rows = [[move, 0, 0, 0, 0, 1, 0, 0, 0],
@@ -123,7 +123,8 @@ def test_reversed_rows_are_piece_reversed():
             [line, 5000, -700, 0, 0, 1, 7, 0, 0]]
     first = 40
     expected = Piece([(first + k, list(row)) for k, row in enumerate(rows)]).reversed().rows
-    assert walk_order.reversed_rows(np.array(rows, dtype=np.int64), first) == expected
+    indices, table = walk_order.reversed_table(np.array(rows, dtype=np.int64), first)
+    assert list(zip(indices.tolist(), table.tolist())) == expected
 
 
 def test_touching_walks_agrees_with_path_orders_test_on_every_vertex():

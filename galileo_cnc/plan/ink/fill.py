@@ -377,7 +377,8 @@ def _tours(depths: list[list[np.ndarray]], strokes: list[np.ndarray], spacing: i
     """One pen-down polyline per tree of rings and gap strokes (see the module doc),
     as (n, 3) int64 rows x, y, inner: inner is 1 at the vertices of rings inside E0
     (their arcs may take the coarser tolerance), 0 elsewhere. `ring_joins` are
-    _ring_joins(depths, spacing, every_ring), `every_ring` an EdgeIndex of all the rings in order.
+    _ring_joins(depths, spacing, every_ring), `every_ring` an EdgeIndex of all the
+    rings in order.
 
     A gap stroke is walked there and back, joined at its first point to the nearest
     point of any ring: that point is inside E0 and no outline of E0 is nearer to it

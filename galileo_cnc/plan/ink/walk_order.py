@@ -16,7 +16,7 @@ the order `optimised_order` gives on the real rows, row for row:
   order among whole paths, chains' first rows) sorts the same;
 - a shortened walk comes back forward (its MOVE first) or reversed (its LINE's index
   first, as Piece.reversed leaves it), and is written out as its real rows or their
-  reverse (`reversed_rows`, the same rows as Piece.reversed).
+  reverse (`reversed_table`, the same rows as Piece.reversed).
 """
 
 from __future__ import annotations
@@ -57,15 +57,9 @@ def _cell_keys(cells: np.ndarray) -> np.ndarray:
     return (cells[:, 0] << 32) + (cells[:, 1] & 0xFFFFFFFF)
 
 
-def reversed_rows(table: np.ndarray, first: int) -> list[tuple[int, Row]]:
-    """Piece.reversed for a path of rows table[0:n] (MOVE, then segments) whose first
-    op index is `first`: the same (op index, row) pairs, worked out at once."""
-    indices, rows = reversed_table(table, first)
-    return list(zip(indices.tolist(), rows.tolist()))
-
-
 def reversed_table(table: np.ndarray, first: int) -> tuple[np.ndarray, np.ndarray]:
-    """reversed_rows as arrays: the op indices and the rows."""
+    """Piece.reversed for a path of rows table[0:n] (MOVE, then segments) whose first
+    op index is `first`: the same op indices and rows, worked out at once, as arrays."""
     n = len(table)
     head = table[n - 1].copy()
     head[KIND] = _MOVE
