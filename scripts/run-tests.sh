@@ -24,4 +24,5 @@ fi
 python3 -m pip install --quiet --disable-pip-version-check -e '.[test]'
 # One worker per core (pytest-xdist), a test file per worker at a time: a file's
 # fixtures (a built firmware, a board's session) are made once. `-n 0` runs serially.
-exec python3 -m pytest -n auto --dist loadfile "$@"
+# The 20 slowest tests are listed at the end, to keep an eye on the suite's time.
+exec python3 -m pytest -n auto --dist loadfile --durations=20 "$@"

@@ -48,7 +48,7 @@ TWO_PI = 2.0 * math.pi
 
 
 def corpus_dir() -> Path:
-    """The shared Gerber corpus: $GALILEO_CORPUS or ../shared/corpus/gerber."""
+    """The Gerber corpus in use: $GALILEO_CORPUS, ../shared or the curated one (corpus.py)."""
     return CORPUS
 
 

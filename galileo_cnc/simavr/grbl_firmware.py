@@ -2,10 +2,12 @@
 folder) and run it as a SimulatedBoard with its pins traced and simavr's timer
 quirks corrected (docs/harness.md "Timer quirks", docs/grbl.md).
 
-The GRBL source is read from `../shared/grbl-1.1h` beside the checkout (or
-$GALILEO_GRBL_SOURCE), never copied into the project; the built ELF is cached
-in the checkout's firmware/build-grbl/ (ignored by git), or, installed without a
-checkout, in the user's cache folder, with the source digest it came from.
+The GRBL source is $GALILEO_GRBL_SOURCE if set, else the checkout's unmodified
+copy, third_party/grbl-1.1h (a GPL-3 test fixture, never part of the package),
+else `../shared/grbl-1.1h` beside the checkout; it is built in a temporary folder
+and the ELF cached in the checkout's firmware/build-grbl/ (ignored by git), or,
+installed without a checkout, in the user's cache folder, with the source digest
+it came from.
 Lives beside the harness so `simavr://?firmware=grbl` (protocol_simavr) can use
 it; galileo_cnc.grbl.firmware re-exports it.
 """
@@ -28,7 +30,11 @@ from galileo_cnc.simavr.board import (REPO_ROOT, SimulatedBoard, missing_debian_
 from galileo_cnc.simavr.build_lock import build_lock
 
 GRBL_SOURCE_ENV = "GALILEO_GRBL_SOURCE"
-DEFAULT_SOURCE = REPO_ROOT.parent / "shared" / "grbl-1.1h"
+#: where the source is looked for, unless $GALILEO_GRBL_SOURCE names it: the first found
+SOURCE_PLACES = (REPO_ROOT / "third_party" / "grbl-1.1h",
+                 REPO_ROOT.parent / "shared" / "grbl-1.1h")
+DEFAULT_SOURCE = next((place for place in SOURCE_PLACES if (place / "Makefile").is_file()),
+                      SOURCE_PLACES[0])
 BUILD_DIR = REPO_ROOT / "firmware" / "build-grbl"
 ELF_NAME = "grbl.elf"
 BUILD_PACKAGES = ("gcc-avr", "avr-libc", "make")

@@ -8,7 +8,7 @@ opens the pseudo-terminal its UART0 is bridged to; closing the port stops the bo
 
 - `firmware=galileo` (the default): our firmware, $GALILEO_FIRMWARE, else
   firmware/build-uno/galileo.elf of the checkout (built by `make -C firmware`).
-- `firmware=grbl`: stock GRBL 1.1h, built from ../shared/grbl-1.1h (or
+- `firmware=grbl`: stock GRBL 1.1h, built from third_party/grbl-1.1h (or
   $GALILEO_GRBL_SOURCE) with its own Makefile in a temporary folder and cached
   (galileo_cnc.simavr.grbl_firmware, docs/grbl.md), on GRBL's pins, with the harness's
   timer corrections. Its EEPROM starts empty (GRBL's defaults, 250 steps/mm):

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from corpus import DXF_CORPUS, corpus_file
 from test_cli import galileo
 
 from galileo_cnc.config.machine import MachineConfig
@@ -17,7 +18,6 @@ from galileo_cnc.readers import read_file
 
 ROOT = Path(__file__).resolve().parents[2]
 BOARD = ROOT / "samples" / "led-blinker.gbr"
-CORPUS = ROOT.parent / "shared" / "corpus"
 
 
 def pen_down_runs(job, config: MachineConfig) -> list[list[tuple[int, int]]]:
@@ -70,7 +70,7 @@ def test_ink_with_two_pens_reads_back_to_the_same_plot(tmp_path):
 
 def test_a_dxf_drawing_converts_with_its_arcs(tmp_path):
     # 13 lines and 9 arcs like the seed's CAD2G example: chained into one stroke
-    drawing = CORPUS / "dxf" / "autocad" / "ezdxf-AC1003_LINE_Example.dxf"
+    drawing = corpus_file("autocad/ezdxf-AC1003_LINE_Example.dxf", DXF_CORPUS)
     stdout, text, back = converted_and_back(tmp_path, drawing)
     planned = plan_file(drawing)
     config = MachineConfig()

@@ -8,7 +8,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from corpus import CORPUS
+from corpus import corpus_file
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.plan.ink import clip, inking, walk_order
@@ -106,9 +106,7 @@ def test_file_order_starts_no_path_order(tmp_path, monkeypatch):
 @pytest.mark.parametrize("name", ["eagle/pcb-tools-example/copper.GTL",
                                   "allegro/tracespace-371/l1_primary.art"])
 def test_real_layers_get_the_same_job(name):
-    path = CORPUS / name
-    if not path.exists():
-        pytest.skip(f"the shared corpus is not at {CORPUS}")
+    path = corpus_file(name)
     planned = plan_file(path, CONFIG, "auto", options=PlanOptions(mode="ink", pens_nm=(300_000,)))
     the_same_job(planned)
 

@@ -23,7 +23,7 @@ from galileo_cnc.preview import render
 from galileo_cnc.preview.artwork import ART, PixelFrame
 from galileo_cnc.preview.render import STROKE, TRAVEL, render_preview
 
-from corpus import CORPUS
+from corpus import corpus_file
 
 SAMPLES = Path(__file__).resolve().parents[2] / "samples"
 BOARD = SAMPLES / "led-blinker.gbr"
@@ -202,9 +202,7 @@ CORPUS_FILES = [
 
 @pytest.mark.parametrize("path, renderer", CORPUS_FILES)
 def test_corpus_files(tmp_path, path, renderer):
-    source = CORPUS / path
-    if not source.exists():
-        pytest.skip(f"corpus not available at {CORPUS}")
+    source = corpus_file(path)
     info, image, job, trace = preview(source, tmp_path / "corpus.png")
     assert info.renderer == renderer
     assert info.strokes == expected_strokes(job) > 0

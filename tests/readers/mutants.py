@@ -8,9 +8,9 @@ reproduced by its seed alone:
     python3 bench/bench_fuzz.py --show SEED       # run it here, with the traceback
     python3 bench/bench_fuzz.py --write SEED DIR  # write the mutant file
 
-Sources: small files of the shared Gerber and DXF corpus (read in place, never
-copied), and G-code written from small Gerber corpus files plus the sample drawing
-and a few hand-written files that use the rest of the dialect.
+Sources: small files of the Gerber and DXF corpus (tests/corpus.py; read in place), and
+G-code written from small Gerber corpus files plus the sample drawing and a few
+hand-written files that use the rest of the dialect.
 
 Kinds of mutation:
 - flip: bytes flipped or replaced by characters that mean something to a parser;
@@ -31,12 +31,14 @@ from __future__ import annotations
 
 import random
 import re
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
-GERBER_CORPUS = REPO.parent / "shared" / "corpus" / "gerber"
-DXF_CORPUS = REPO.parent / "shared" / "corpus" / "dxf"
+if str(REPO / "tests") not in sys.path:  # bench/bench_fuzz.py puts only tests/readers there
+    sys.path.append(str(REPO / "tests"))
+from corpus import DXF_CORPUS, GERBER_CORPUS  # noqa: E402
 
 KINDS = ("flip", "truncate", "splice", "huge-number", "deep-nesting", "huge-repeat", "oddity",
          "binary")

@@ -24,7 +24,7 @@ BOUNDS_NM = {"gerber": 10**10, "gcode": 10**12, "dxf": 10**15}
 def pools():
     loaded = mutants.load_pools(max_gerber=30_000, max_dxf=40_000)
     if not loaded.gerber or not loaded.dxf:
-        pytest.skip("the shared corpus is missing")
+        pytest.skip(f"no corpus files at {mutants.GERBER_CORPUS} or {mutants.DXF_CORPUS}")
     return loaded
 
 

@@ -498,7 +498,7 @@ def test_other_text_is_not_gcode(text):
     assert not looks_like_gcode(text)
 
 
-@pytest.mark.skipif(not corpus_paths("real"), reason="shared Gerber corpus not beside the checkout")
+@pytest.mark.skipif(not corpus_paths("real"), reason="no Gerber corpus (tests/corpus.py)")
 def test_no_corpus_file_is_taken_for_gcode():
     taken = []
     for path in corpus_paths("real", "synthetic", "derived", "invalid", "drill"):
