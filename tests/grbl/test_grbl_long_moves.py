@@ -19,6 +19,8 @@ import re
 import threading
 import time
 
+import numpy as np
+import pytest
 import serial
 
 from galileo_cnc.cli import main as cli
@@ -38,6 +40,45 @@ MM = 1_000_000          # nm
 STEP_NM = 6250          # 160 steps/mm
 #: the product's rule: a board that stops answering is reported within this
 REPORTED_WITHIN_S = 5.0
+#: stock GRBL as a user starts it in simavr, paced to the wall clock (realtime=1 is
+#: the URL's default); only the steps/mm are the profile's (GRBL's max rate 500
+#: mm/min, acceleration 10 mm/s^2 as shipped)
+REALTIME_URL = "simavr://?firmware=grbl&$100=160&$101=160&$102=160"
+EXIT_OK, EXIT_FAILED = 0, 1             # plot's exit codes (docs/grbl.md)
+
+
+@pytest.fixture
+def profile(tmp_path, monkeypatch):
+    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path))
+    path = tmp_path / "fast.toml"
+    path.write_text(PROFILE)
+    return str(path)
+
+
+def gcode_file(folder, texts: list[str]) -> str:
+    path = folder / "job.nc"
+    path.write_text("\n".join(texts) + "\n")
+    return str(path)
+
+
+def planned(path: str, profile: str) -> list[GcodeLine]:
+    """The G-code `plot` sends for the file (as grbl_support.planned_gcode does)."""
+    config = load_profile(profile).config
+    job = plan_file(path, config, options=PlanOptions()).job
+    return job_to_gcode(job, SCALE, pen_from_config(config),
+                        feed_steps_per_s=config.feed_steps_per_s,
+                        flash_dwell_ms=config.flash_dwell_ms)
+
+
+def reported_work_steps(out: str) -> tuple[int, ...]:
+    """The end position plot prints, in steps (GRBL reports 3 decimals of a mm)."""
+    match = re.search(r"GRBL stands at X (\S+) Y (\S+) Z (\S+) mm \(work\)", out)
+    assert match, out[-500:]
+    return tuple(round(float(text) * MM / STEP_NM) for text in match.groups())
+
+
+def grbl_journal() -> Journal:
+    return Journal(data_dir() / "journal-grbl.json")
 
 
 class CountingPort:
@@ -116,3 +157,109 @@ def test_status_is_asked_while_an_ok_waits_and_a_silent_board_is_named():
     assert text.startswith(f"GRBL gave no answer to status queries for {stopped.silent_s:.1f} s")
     assert f"last reported at {position_mm(stopped.status)}" in text
     assert f"{len(acks)} of {len(back)} lines confirmed" in text and "resume continues" in text
+
+
+def test_a_move_longer_than_any_timeout_plots_to_its_last_line(profile, tmp_path, capsys):
+    """180 mm at 5 mm/s (36 s: GRBL holds back the next lines' `ok` all that time),
+    then 40 lines of 0.05 mm, plotted in real time over the simavr:// URL."""
+    grbl_elf()                      # built (or skipped with the missing package) first
+    texts = ["G21 G90", "G0 X0 Y0", "G1 X180 Y0 F300"]
+    texts += [f"G1 X{180 - 0.05 * (i + 1):.2f} Y{0.05 * ((i + 1) % 2):.2f}" for i in range(40)]
+    path = gcode_file(tmp_path, texts)
+    trace_file = tmp_path / "grbl.npz"
+    began = time.monotonic()
+    code = cli.main(["plot", path, "--port", REALTIME_URL, "--yes", "--profile", profile,
+                     "--trace", str(trace_file)])
+    took = time.monotonic() - began
+    out, err = capsys.readouterr()
+    with capsys.disabled():
+        print(f"\nthe 36 s line and 40 short ones plotted in {took:.1f} s")
+    assert code == EXIT_OK, err + out[-800:]
+    lines = planned(path, profile)
+    assert sum(1 for line in lines if line.text.startswith("G1 X")) == 41
+    assert "process has finished" in out and "no answer" not in out + err
+    assert "ALARM" not in out + err and "error" not in out + err
+    assert f"{len(lines)}/{len(lines)} lines" in out
+    end = expected_end_steps(lines, SCALE)[-1]
+    assert end[:2] == (179 * 160, 1 * 160)      # the last point, the 1 mm margin added
+    assert reported_work_steps(out) == end          # GRBL's own status at the end
+    trace = Trace.load(trace_file)                  # and its step pins
+    assert trace.final_position == end == tuple(trace.displacement())
+    pos = trace.positions()
+    last_of_tick = np.r_[trace.tick[1:] != trace.tick[:-1], True]
+    checked = check_trace(np.vstack([np.zeros((1, 3), np.int64), pos[last_of_tick]]), lines)
+    assert checked["motions"] == sum(1 for line in lines if line.text.startswith(("G0", "G1")))
+
+
+def test_a_board_that_stops_answering_is_reported_and_the_job_resumes(profile, tmp_path,
+                                                                       capsys):
+    """The board freezes mid-job (SIGSTOP to the simulator, the pty open): the plot
+    stops within 5 s of GRBL's last status answer, saying so, with the journal on the
+    last confirmed line; thawed and at rest, `plot --resume` finishes the job."""
+    texts = ["G21 G90", "G0 X0 Y0", "G1 X2.5 Y0 F600"]
+    texts += [f"G1 X{2.5 * (i % 2):.1f} Y{0.5 * (i + 1):.1f}" for i in range(50)]  # 13 s
+    path = gcode_file(tmp_path, texts)
+    lines = planned(path, profile)
+    pen = pen_from_config(load_profile(profile).config)
+    with grbl_machine({**SETTINGS, 10: "3"}, realtime=True) as (board, link):
+        link.port.close()
+        frozen: list[float] = []
+        done = threading.Event()
+
+        def freeze_mid_job() -> None:
+            """Freezes the board once GRBL confirmed half the job (journal: 0.25 s)."""
+            while not done.is_set():
+                try:
+                    entry = grbl_journal().load()
+                except Exception:           # being replaced as it is read
+                    entry = None
+                if entry is not None and entry.confirmed >= len(lines) // 2:
+                    board.freeze()
+                    frozen.append(time.monotonic())
+                    return
+                time.sleep(0.05)
+
+        watcher = threading.Thread(target=freeze_mid_job, daemon=True)
+        watcher.start()
+        try:
+            code = cli.main(["plot", path, "--port", board.port, "--yes", "--profile", profile])
+            ended = time.monotonic()
+        finally:
+            done.set()
+            watcher.join()
+        out, err = capsys.readouterr()
+        assert frozen, "the job ended before the board was frozen"
+        board.thaw()
+        stopped = grbl_journal().load()
+        silent = re.search(r"no answer to status queries for (\d+\.\d) s", out + err)
+        with capsys.disabled():
+            print(f"\nfrozen at line {stopped.confirmed + 1} of {len(lines)}: reported "
+                  f"{ended - frozen[0]:.2f} s after the freeze, {silent and silent[1]} s "
+                  f"after GRBL's last status answer")
+        assert code == EXIT_FAILED and silent, out[-800:] + err
+        assert STATUS_SILENCE_S <= float(silent[1]) <= REPORTED_WITHIN_S
+        assert ended - frozen[0] <= REPORTED_WITHIN_S + 5.0      # a loaded host's margin
+        assert "resume continues the job" in out + err
+        assert stopped.state == FAILED and "no answer to status queries" in stopped.reason
+        assert len(lines) // 2 <= stopped.confirmed < len(lines) - 10
+
+        # the user waits for the machine to stand, puts the pen on the work zero
+        wait_until_still(board.port)
+        with serial.Serial(board.port, 115200, timeout=0.2) as user_port:
+            user = GrblLink.connect(user_port)
+            user.command_checked("G90 G0 X0 Y0")
+            user.command_checked(f"G1 Z{SCALE.mm(2, pen.down_z_steps)} F600")
+            user.wait_idle()
+        code = cli.main(["plot", path, "--resume", "--yes", "--port", board.port,
+                         "--profile", profile])
+        out, err = capsys.readouterr()
+        assert code == EXIT_OK, err + out[-800:]
+        wait_until_still(board.port)
+        with serial.Serial(board.port, 115200, timeout=0.2) as port:
+            final = GrblLink(port).status()
+        board.stop()
+    assert "resuming at G-code line" in out and "process has finished" in out
+    assert grbl_journal().load().state == FINISHED
+    end = expected_end_steps(lines, SCALE)[-1]
+    assert reported_work_steps(out) == end
+    assert tuple(round(nm / STEP_NM) for nm in final.mpos_nm) == end     # G54 = 0
