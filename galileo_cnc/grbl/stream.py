@@ -115,12 +115,11 @@ def stream(link: GrblLink, lines: Sequence[GcodeLine], *,
                                       result.acked)
             fault = watch.fault(lines[in_flight[0][0]].text)
             if fault is not None:
-                raise GrblSilentError(
-                    f"{fault}; {result.acked} of {len(lines)} lines confirmed, "
-                    f"{len(in_flight)} sent after them. Once the board answers again and "
-                    f"stands still, resume continues the job after the last confirmed "
-                    f"line", result.errors, result.acked, silent_s=watch.silent_s(),
-                    status=watch.last)
+                raise GrblSilentError(f"{fault}{_confirmed(where, lines, result.acked)}. "
+                                      f"Once the board answers again and stands still, "
+                                      f"resume continues the job", result.errors,
+                                      result.acked, silent_s=watch.silent_s(),
+                                      status=watch.last)
             continue
         try:
             reply = link.classify(line) if watch is None else watch.classify(line)
@@ -156,3 +155,10 @@ def stream(link: GrblLink, lines: Sequence[GcodeLine], *,
 def _place(where, lines, index) -> str:
     place = where(lines[index].command) if 0 <= index < len(lines) else ""
     return f"{place}: " if place else ""
+
+
+def _confirmed(where, lines, acked: int) -> str:
+    """`; the last line GRBL confirmed came from board.gbr:123` (a job's pieces are
+    streamed one by one, so the file line names it, not a count), or ""."""
+    place = where(lines[acked - 1].command) if acked > 0 else ""
+    return f"; the last line GRBL confirmed came from {place}" if place else ""
