@@ -304,14 +304,12 @@ class GrblLink:
         return self.wait_banner(timeout_s, reset_sent=True)
 
 
-_DWELL = re.compile(r"\bG0*4\b.*?P(\d*\.?\d+)", re.IGNORECASE)
+_DWELL = re.compile(r"\bG0*4(?!\d)", re.IGNORECASE)
 
 
-def dwell_s(text: str) -> float:
-    """The seconds a `G4 P..` line waits (GRBL 1.1: P in seconds), else 0: GRBL
-    stands Idle while it dwells, which is no stall."""
-    match = _DWELL.search(text)
-    return float(match[1]) if match else 0.0
+def is_dwell(text: str) -> bool:
+    """A `G4` line: GRBL stands Idle, not moving, while it dwells, which is no stall."""
+    return _DWELL.search(text) is not None
 
 
 def position_mm(status: Status | None) -> str:
@@ -328,8 +326,8 @@ class StatusWatch:
     takes (a line behind a full planner is answered only when the moves ahead of it
     have run). The board is alive while reports come; `fault()` names a board that
     answered no `?` for the link's status_silence_s (at least three queries), or one
-    that stood Idle, not moving, with a line unanswered for reply_timeout_s plus
-    the line's own dwell (a byte lost on the line: GRBL waits for the rest).
+    that stood Idle, not moving, with a line unanswered for reply_timeout_s, unless
+    that line is a dwell (a byte lost on the line: GRBL waits for the rest).
     Each report goes to `on_status` (with WCO carried over: the link's tracker)."""
 
     def __init__(self, link: GrblLink, every_s: float = STATUS_EVERY_S,
@@ -387,7 +385,7 @@ class StatusWatch:
             return (f"GRBL gave no answer to status queries for {silent:.1f} s (asked "
                     f"every {self.every_s:g} s; last reported at {position_mm(self.last)})")
         stood = time.monotonic() - self.progress_at
-        if stood >= self.link.reply_timeout_s + dwell_s(waiting_for):
+        if stood >= self.link.reply_timeout_s and not is_dwell(waiting_for):
             return (f"GRBL stood Idle for {stood:.0f} s without answering a line sent to "
                     f"it (a byte lost on the line?), at {position_mm(self.last)}")
         return None

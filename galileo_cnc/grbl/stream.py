@@ -116,7 +116,7 @@ def stream(link: GrblLink, lines: Sequence[GcodeLine], *,
             fault = watch.fault(lines[in_flight[0][0]].text)
             if fault is not None:
                 raise GrblSilentError(f"{fault}{_confirmed(where, lines, result.acked)}. "
-                                      f"Once the board answers again and stands still, "
+                                      f"Once the board answers and stands still, "
                                       f"resume continues the job", result.errors,
                                       result.acked, silent_s=watch.silent_s(),
                                       status=watch.last)

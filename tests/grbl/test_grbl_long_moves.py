@@ -8,6 +8,8 @@ those answers (link.StatusWatch).
 - A board frozen mid-job (SIGSTOP to the simulator: the pty stays open, nothing
   answers) is reported within 5 s of its last status answer, and `plot --resume`
   finishes the job on its last point.
+- A line lost on the cable (GRBL stands Idle, answering `?`, the line never
+  answered) is named after reply_timeout_s; a dwell longer than that is not.
 - The rule itself, on short moves (paced to the wall clock: free-running simavr is
   faster than a board, or slower on a loaded host): `?` goes out while a line's `ok`
   is held back behind a long move, and a frozen board stops the stream with `acked`
@@ -33,6 +35,7 @@ from galileo_cnc.machine.trace import Trace
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 from galileo_cnc.stream.journal import FAILED, FINISHED, Journal
 
+from faults import FaultyPort
 from grbl_support import (PROFILE, SCALE, SETTINGS, check_trace, grbl_elf, grbl_machine,
                           wait_until_still)
 
@@ -156,9 +159,31 @@ def test_status_is_asked_while_an_ok_waits_and_a_silent_board_is_named():
     text = str(stopped)
     assert text.startswith(f"GRBL gave no answer to status queries for {stopped.silent_s:.1f} s")
     assert f"last reported at {position_mm(stopped.status)}" in text
-    assert text.endswith("Once the board answers again and stands still, resume continues "
+    assert text.endswith("Once the board answers and stands still, resume continues "
                          "the job")
 
+
+
+def test_a_lost_line_is_named_once_grbl_stands_idle_but_a_dwell_is_not():
+    with grbl_machine(realtime=True) as (board, link):
+        link.reply_timeout_s = 1.0
+        # GRBL stands Idle through a dwell longer than that, answering `?`: no stall
+        done = stream(link, [GcodeLine("G4 P1.5", 0), GcodeLine("G1 X1 F600", 1)],
+                      travel_check=False)
+        assert done.acked == 2 and link.tracker.last.mpos_nm[0] == 1 * MM
+        # the last line never reaches GRBL: Idle, not moving, the line unanswered
+        link.port = FaultyPort(link.port, drop_line=3)
+        lines = [GcodeLine(f"G1 X{x}", i) for i, x in enumerate((2, 3, 4))]
+        try:
+            stream(link, lines, travel_check=False)
+        except GrblSilentError as stuck:
+            stopped = stuck
+        else:
+            raise AssertionError("a line lost on the way was waited for forever")
+        board.stop()
+    assert stopped.acked == 2 and stopped.silent_s < 1.0 and not stopped.alarm
+    assert re.match(r"GRBL stood Idle for \d+ s without answering a line sent to it \(a "
+                    r"byte lost on the line\?\), at X 3\.000 Y 0\.000", str(stopped)), stopped
 
 def test_a_move_longer_than_any_timeout_plots_to_its_last_line(profile, tmp_path, capsys):
     """180 mm at 5 mm/s (36 s: GRBL holds back the next lines' `ok` all that time),
