@@ -7,13 +7,16 @@ port is anything pyserial-like (a real port, the simavr pseudo-terminal).
 
 from __future__ import annotations
 
+import re
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from galileo_cnc.grbl.reports import (
     SUPPORTED_MAJOR_MINOR, BuildInfo, GrblError, GrblSettings, Status, StatusTracker,
     alarm_text, banner_version, error_text, parse_build_info, parse_settings, parse_status,
 )
+from galileo_cnc.program.ops import NM_PER_MM
 
 BAUD = 115200
 # Real-time bytes (commands.md): picked off by GRBL's RX interrupt, never buffered.
@@ -22,13 +25,26 @@ FEED_HOLD = b"!"
 CYCLE_START = b"~"
 SOFT_RESET = b"\x18"
 #: silence after our own soft reset before it is sent again (a byte lost on the line):
-#: GRBL answers in milliseconds, a loaded host may read it a second or more later
+#: GRBL prints its banner in milliseconds, a loaded host may read it a second or more later
 RESET_AGAIN_S = 3.0
 JOG_CANCEL = b"\x85"
-#: How long GRBL may stay silent while it is still expected to answer (simulated
-#: boards run faster than the wall clock, real ones answer within ms).
+#: A command's answer: how long GRBL may stay silent after a line sent while its
+#: planner has room (answered in ms; `$H`'s only once homed, and GRBL answers no `?`
+#: while homing). A line behind a full planner is answered only when the moves
+#: ahead of it have run, which may take minutes: jobs (stream) and wait_idle judge
+#: the board by its status answers instead (StatusWatch), and give up on silence of
+#: the lines only when GRBL stands Idle, not moving, for this long (a byte lost).
 REPLY_TIMEOUT_S = 30.0
 READ_SLICE_S = 0.2
+#: How often `?` is asked while a job streams: GRBL's interface.md asks for at most
+#: 5 Hz; UGS polls every 200 ms, cncjs every 250 ms. The byte never enters the RX ring.
+STATUS_EVERY_S = 0.2
+#: No status report for this long means the board stopped answering. GRBL answers
+#: `?` within 5-20 ms (interface.md) from its main loop, also while a full planner
+#: holds back a line's `ok`, in a feed hold and in a dwell; 3 s is 15 unanswered
+#: queries, room for a loaded host to read late, and the stop is reported within
+#: 3.2 s (one more read slice), inside the 5 s a user waits for.
+STATUS_SILENCE_S = 3.0
 #: Hard (1) and soft (2) limit alarms: GRBL blocks until a reset, after this line.
 CRITICAL_ALARMS = (1, 2)
 RESET_TO_CONTINUE = "[MSG:Reset to continue]"
@@ -53,9 +69,11 @@ class GrblLink:
     """Open with `GrblLink.connect(port)`: waits for the banner (opening resets the
     board), reads `$I` and `$$`."""
 
-    def __init__(self, port, *, reply_timeout_s: float = REPLY_TIMEOUT_S):
+    def __init__(self, port, *, reply_timeout_s: float = REPLY_TIMEOUT_S,
+                 status_silence_s: float = STATUS_SILENCE_S):
         self.port = port
         self.reply_timeout_s = reply_timeout_s
+        self.status_silence_s = status_silence_s
         self.version: str | None = None
         self.build: BuildInfo | None = None
         self.settings: GrblSettings | None = None
@@ -176,6 +194,9 @@ class GrblLink:
         return reply
 
     def wait_reply(self) -> Reply:
+        """The answer to a line sent while GRBL's planner has room (or `$H`): silence
+        for reply_timeout_s is an error. Lines that may wait behind moves go through
+        stream() or wait_idle(), which judge the board by its status answers."""
         pushed = []
         while True:
             line = self.read_line()
@@ -184,7 +205,7 @@ class GrblLink:
             reply = self.classify(line)
             if isinstance(reply, Reply):
                 return Reply(reply.ok, reply.code, tuple(pushed))
-            if reply is not None:
+            if reply is not None and not line.startswith("<"):   # a late `?` answer
                 pushed.append(line)
 
     def classify(self, line: str):
@@ -234,32 +255,28 @@ class GrblLink:
                 self.classify(line)
         raise GrblError(f"no status report within {timeout_s:g} s")
 
-    def wait_idle(self) -> Status:
+    def wait_idle(self, on_status: Callable[[Status], None] | None = None) -> Status:
         """Returns once every queued move has run: `G4 P0` is answered only after
         GRBL's buffer has drained (protocol_buffer_synchronize). Polling `?` for
         Idle is not enough: between one block's end and the auto cycle start of a
-        block just queued, GRBL reports Idle with motion still to come."""
+        block just queued, GRBL reports Idle with motion still to come. The `ok` may
+        be a long move away: meanwhile `?` is asked (StatusWatch, each report handed
+        to `on_status`), and the wait gives up only when GRBL stops answering those
+        or stands Idle without answering."""
         self.write_line("G4 P0")
-        # the ok may be a long move away: ask `?` while silent, and give up only
-        # when GRBL neither answers nor moves for reply_timeout_s
-        deadline = time.monotonic() + self.reply_timeout_s
-        last = self.tracker.last.mpos_nm if self.tracker.last else None
+        watch = StatusWatch(self, on_status=on_status)
         while True:
-            line = self.read_line(min(1.0, self.reply_timeout_s))
+            line = watch.read_line()
             if line is None:
-                if time.monotonic() > deadline:
-                    raise GrblError(f"GRBL neither moved nor answered for "
-                                    f"{self.reply_timeout_s:g} s")
-                self.realtime(STATUS_QUERY)
+                fault = watch.fault()
+                if fault is not None:
+                    raise GrblError(f"{fault} (waiting for the last moves to run)")
                 continue
-            reply = self.classify(line)
+            reply = watch.classify(line)
             if isinstance(reply, Reply):
                 if not reply.ok:
                     raise GrblError(f"GRBL refused 'G4 P0': {reply.text}", reply.code)
                 break
-            if line.startswith("<") and self.tracker.last.mpos_nm != last:
-                last = self.tracker.last.mpos_nm
-                deadline = time.monotonic() + self.reply_timeout_s
         status = self.status()
         if status.state == "Alarm":
             raise GrblError("GRBL is in alarm state", alarm=True)
@@ -285,3 +302,90 @@ class GrblLink:
         self.realtime(SOFT_RESET)
         self._partial = b""
         return self.wait_banner(timeout_s, reset_sent=True)
+
+
+_DWELL = re.compile(r"\bG0*4(?!\d)", re.IGNORECASE)
+
+
+def is_dwell(text: str) -> bool:
+    """A `G4` line: GRBL stands Idle, not moving, while it dwells, which is no stall."""
+    return _DWELL.search(text) is not None
+
+
+def position_mm(status: Status | None) -> str:
+    """`X 5.000 Y 4.000 Z 1.875 mm (work)`, or that none was reported."""
+    if status is None or status.wpos_nm is None:
+        return "no position reported"
+    x, y, z = (f"{nm / NM_PER_MM:.3f}" for nm in status.wpos_nm[:3])
+    return f"X {x} Y {y} Z {z} mm (work)"
+
+
+class StatusWatch:
+    """Liveness while the host waits for GRBL's replies: asks `?` every `every_s`
+    and judges the board by its status answers, not by how long a line's `ok`
+    takes (a line behind a full planner is answered only when the moves ahead of it
+    have run). The board is alive while reports come; `fault()` names a board that
+    answered no `?` for the link's status_silence_s (at least three queries), or one
+    that stood Idle, not moving, with a line unanswered for reply_timeout_s, unless
+    that line is a dwell (a byte lost on the line: GRBL waits for the rest).
+    Each report goes to `on_status` (with WCO carried over: the link's tracker)."""
+
+    def __init__(self, link: GrblLink, every_s: float = STATUS_EVERY_S,
+                 on_status: Callable[[Status], None] | None = None):
+        self.link = link
+        self.every_s = every_s
+        self.silence_s = max(link.status_silence_s, 3 * every_s)
+        self.on_status = on_status
+        now = time.monotonic()
+        self.answered_at = now          # the last status report (or the start)
+        self.progress_at = now          # the last reply, or a report of motion or a hold
+        self.asked_at: float | None = None
+        self.queries = 0
+        self.reports = 0
+        self.last: Status | None = link.tracker.last
+
+    def read_line(self) -> str | None:
+        """Asks `?` when one is due, then one line or None by the next one."""
+        now = time.monotonic()
+        if self.asked_at is None or now - self.asked_at >= self.every_s:
+            self.link.realtime(STATUS_QUERY)
+            self.asked_at, now = now, time.monotonic()
+            self.queries += 1
+        return self.link.read_line(max(0.01, self.asked_at + self.every_s - now))
+
+    def classify(self, line: str):
+        """link.classify; a status report counts as an answer. A garbled report (a
+        byte flipped on the cable) is neither an answer nor an error: None."""
+        if not line.startswith("<"):
+            reply = self.link.classify(line)
+            if isinstance(reply, Reply):
+                self.progress_at = time.monotonic()
+            return reply
+        try:
+            status = self.link.tracker.update(parse_status(line))
+        except GrblError:
+            return None
+        now = time.monotonic()
+        if status.state != "Idle" or self.last is None or status.mpos_nm != self.last.mpos_nm:
+            self.progress_at = now
+        self.answered_at, self.last = now, status
+        self.reports += 1
+        if self.on_status is not None:
+            self.on_status(status)
+        return line
+
+    def silent_s(self) -> float:
+        """Seconds since the last status report (or since the watch began)."""
+        return time.monotonic() - self.answered_at
+
+    def fault(self, waiting_for: str = "") -> str | None:
+        """Why the board counts as gone, in a user's words, else None."""
+        silent = self.silent_s()
+        if silent >= self.silence_s:
+            return (f"GRBL gave no answer to status queries for {silent:.1f} s (asked "
+                    f"every {self.every_s:g} s; last reported at {position_mm(self.last)})")
+        stood = time.monotonic() - self.progress_at
+        if stood >= self.link.reply_timeout_s and not is_dwell(waiting_for):
+            return (f"GRBL stood Idle for {stood:.0f} s without answering a line sent to "
+                    f"it (a byte lost on the line?), at {position_mm(self.last)}")
+        return None
