@@ -1,6 +1,6 @@
 """Writes codes.py from GRBL's own tables (doc/csv of the GRBL 1.1h source tree).
 
-    python3 -m galileo_cnc.grbl.gen_codes ../shared/grbl-1.1h/doc/csv
+    python3 -m galileo_cnc.grbl.gen_codes third_party/grbl-1.1h/doc/csv
 
 The GRBL tree is not shipped to users, so its texts live in the package as a
 generated module; tests/grbl/test_codes.py checks it still matches the csv.
