@@ -1,6 +1,8 @@
 """The package's folders follow the data flow (docs/architecture.md): no module
 imports from a later stage than its own, nor sideways from another folder of its
-stage. Checked on the source, lazy imports inside functions included."""
+stage; the shell's front end (cli/) never imports the console's, both reach a
+machine through backends/; and no two modules import each other, directly or
+round a circle. Checked on the source, lazy imports inside functions included."""
 
 from __future__ import annotations
 

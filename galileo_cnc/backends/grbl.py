@@ -22,7 +22,7 @@ from galileo_cnc.config.machine import MIN_FEED_STEPS_PER_S, MachineConfig
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.grbl.check import check_job
 from galileo_cnc.grbl.jog import cancel_jog, home, jog, unlock, wait_jog
-from galileo_cnc.grbl.job import (FINISHED, GrblJob, InterruptiblePort, grbl_journal,
+from galileo_cnc.grbl.job import (GrblJob, InterruptiblePort, grbl_journal,
                                   journal_config, link_scale, pending_job, resume_from)
 from galileo_cnc.grbl.link import GrblLink
 from galileo_cnc.grbl.numbers import read_float
@@ -34,6 +34,7 @@ from galileo_cnc.machine.trace import Trace
 from galileo_cnc.plan.pipeline import plan_file
 from galileo_cnc.program.ops import NM_PER_MM
 from galileo_cnc.simavr.grbl_firmware import grbl_step_trace
+from galileo_cnc.stream.journal import FINISHED
 from galileo_cnc.stream.resume import replan
 from galileo_cnc.transport.link import LinkError, MachineAlarm, PortGone
 from galileo_cnc.transport.port import open_port, port_error_text

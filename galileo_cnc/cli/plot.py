@@ -22,7 +22,6 @@ from __future__ import annotations
 import sys
 from contextlib import contextmanager
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Callable, Iterator, TextIO
 
 from galileo_cnc.backends import JobResult, open_machine

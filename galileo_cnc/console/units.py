@@ -13,10 +13,6 @@ def jog_units_to_steps(units: int, config: MachineConfig) -> int:
     return config.nm_to_steps(units * NM_PER_JOG_UNIT)
 
 
-def steps_to_mm(steps: int, config: MachineConfig) -> float:
-    return steps / config.steps_per_mm
-
-
 def refusal_text(error: Exception, config: MachineConfig) -> str:
     """What the machine refused, with a soft limit said in mm rather than steps."""
     reply = getattr(error, "reply", None)

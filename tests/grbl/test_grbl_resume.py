@@ -26,7 +26,6 @@ from galileo_cnc.grbl.gcode import GcodeLine, GrblPen, pen_from_config
 from galileo_cnc.grbl.link import GrblLink
 from galileo_cnc.grbl.resume import PREAMBLE_TEXT, lead_in, rewind
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
-from galileo_cnc.plan.pipeline import PlanOptions
 from galileo_cnc.stream.journal import ABORTED, FINISHED, INTERRUPTED
 
 from grbl_support import (HOMING, LIMITS, PROFILE, SAMPLE, SCALE, SETTINGS, RecordingPort,
