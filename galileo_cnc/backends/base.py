@@ -75,6 +75,7 @@ class MachineJob:
     unit_long: str
     estimate_by: str            # "of machine time", "on GRBL (its planner's estimate)"
     engine: Any = None          # the kind's own job object (JobStreamer, grbl.job.GrblJob)
+    config: MachineConfig | None = None     # what it was planned for
 
     @property
     def remaining(self) -> int:

@@ -155,7 +155,8 @@ class GalileoMachine(Machine):
         job = planned.job
         return MachineJob(planned, len(job), start,
                           streamer.timing.seconds_between(start, len(job)), "commands",
-                          "machine commands", "of machine time", streamer)
+                          "machine commands", "of machine time", streamer,
+                          self.link.config)
 
     def prepare(self, planned, config: MachineConfig, timing=None,
                 homed: bool = False) -> MachineJob:

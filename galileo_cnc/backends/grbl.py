@@ -293,7 +293,7 @@ class GrblMachine(Machine):
     def _machine_job(self, job: GrblJob) -> MachineJob:
         return MachineJob(job.planned, len(job.lines), job.start, job.estimate_s,
                           "G-code lines", "G-code lines", "on GRBL (its planner's estimate)",
-                          job)
+                          job, job.config)
 
     def prepare(self, planned, config: MachineConfig, timing=None,
                 homed: bool = False) -> MachineJob:

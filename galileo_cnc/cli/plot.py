@@ -35,7 +35,7 @@ from galileo_cnc.plan.ink.inking import mm_text
 from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, PlanOptions, plan_file
 from galileo_cnc.program.ops import NM_PER_MM
 from galileo_cnc.stream.homing import check_homeable
-from galileo_cnc.stream.streamer import MachineReset, PenChange, Progress, after_reset_text
+from galileo_cnc.stream.streamer import MachineReset, PenChange, Progress
 from galileo_cnc.transport.link import PortGone
 from galileo_cnc.transport.port import SIM_URL, with_step_trace
 
@@ -275,7 +275,7 @@ def _run(machine, options: PlotOptions, operator: PlotOperator, run) -> JobResul
         return EXIT_PORT_LOST
     except MachineReset as reset:
         say(f"galileo-cnc: {reset}")
-        if after_reset_text(homed=True) not in str(reset):     # not homed: lost
+        if not reset.resumable:             # not homed: its position is lost
             return EXIT_FAILED
         say(again)
         return EXIT_PORT_LOST
@@ -327,8 +327,7 @@ def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO)
     plan), `copper` (ink mode) colouring what the ink left bare and drew outside."""
     if job is None or not (options.trace or options.preview):
         return
-    planned = job.planned
-    config = job.engine.config if hasattr(job.engine, "config") else machine.config
+    planned, config = job.planned, job.config
     from galileo_cnc.machine import simulate
     trace = simulate(planned.job.commands, config)
     if options.trace:
