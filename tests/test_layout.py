@@ -1,6 +1,8 @@
 """The package's folders follow the data flow (docs/architecture.md): no module
 imports from a later stage than its own, nor sideways from another folder of its
-stage. Checked on the source, lazy imports inside functions included."""
+stage; the shell's front end (cli/) never imports the console's, both reach a
+machine through backends/; and no two modules import each other, directly or
+round a circle. Checked on the source, lazy imports inside functions included."""
 
 from __future__ import annotations
 
@@ -19,9 +21,11 @@ STAGES = {
     "config": 1, "job": 1, "program": 1,
     "readers": 2, "machine": 2, "protocol": 2,
     "plan": 3, "transport": 3, "simavr": 3,
-    "sim": 4, "stream": 4, "preview": 4, "firmware_headers": 4, "grbl": 4,
-    "console": 5,
-    "cli": 6, "__main__": 7,
+    "sim": 4, "stream": 4, "preview": 4, "firmware_headers": 4,
+    "grbl": 5,                              # GRBL's job engine builds on stream/'s journal
+    "backends": 6,                          # one Machine interface over stream/ and grbl/
+    "console": 7, "cli": 7,                 # the front ends: neither imports the other
+    "__main__": 8,                          # the program: starts either front end
 }
 
 
@@ -71,6 +75,100 @@ def backward_imports(source: str, module: str, is_package: bool = False) -> list
 
 
 SOURCES = sorted(p for p in PACKAGE.rglob("*.py") if p.parent.name != "__pycache__")
+
+
+def front_end_imports(source: str, module: str, is_package: bool = False) -> list[str]:
+    """Each import of console/ in a cli/ module: the shell's front end never loads the
+    console's (prompt_toolkit); both go through backends/."""
+    if _unit(module) != "cli":
+        return []
+    return [f"{module}:{line}: cli imports {target}"
+            for line, target in _imports(source, module, is_package)
+            if _unit(target) == "console"]
+
+
+def import_graph(sources: dict[str, tuple[str, bool]]) -> dict[str, set[str]]:
+    """module -> the package's modules it imports (lazy imports included): `from pkg
+    import name` is an import of pkg.name when that is a module, else of pkg."""
+    graph: dict[str, set[str]] = {}
+    for module, (source, is_package) in sources.items():
+        package = module if is_package else module.rsplit(".", 1)[0]
+        targets = set()
+        for node in ast.walk(ast.parse(source)):
+            if isinstance(node, ast.Import):
+                targets |= {a.name for a in node.names}
+            elif isinstance(node, ast.ImportFrom):
+                if node.level:
+                    base = package.split(".")[: len(package.split(".")) - node.level + 1]
+                    target = ".".join(base + ([node.module] if node.module else []))
+                else:
+                    target = node.module or ""
+                for alias in node.names:
+                    name = f"{target}.{alias.name}"
+                    targets.add(name if name in sources else target)
+        graph[module] = {t for t in targets if t in sources and t != module}
+    return graph
+
+
+def import_cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The import circles of `graph` (its strongly connected parts of two or more)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found: list[list[str]] = []
+
+    def visit(node: str) -> None:           # Tarjan's algorithm
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        on_stack.add(node)
+        for other in sorted(graph.get(node, ())):
+            if other not in index:
+                visit(other)
+                low[node] = min(low[node], low[other])
+            elif other in on_stack:
+                low[node] = min(low[node], index[other])
+        if low[node] == index[node]:
+            part = []
+            while True:
+                other = stack.pop()
+                on_stack.discard(other)
+                part.append(other)
+                if other == node:
+                    break
+            if len(part) > 1:
+                found.append(sorted(part))
+
+    for node in sorted(graph):
+        if node not in index:
+            visit(node)
+    return found
+
+
+def _package_sources() -> dict[str, tuple[str, bool]]:
+    return {_module_name(p): (p.read_text(), p.name == "__init__.py") for p in SOURCES}
+
+
+def test_no_cli_module_imports_the_console():
+    problems = [problem for p in SOURCES
+                for problem in front_end_imports(p.read_text(), _module_name(p),
+                                                 p.name == "__init__.py")]
+    assert problems == []
+
+
+def test_no_import_circle_in_the_package():
+    assert import_cycles(import_graph(_package_sources())) == []
+
+
+def test_the_front_end_and_circle_checks_catch_what_they_forbid():
+    assert front_end_imports("def f():\n    from galileo_cnc.console import run_console\n",
+                             "galileo_cnc.cli.main") == [
+        "galileo_cnc.cli.main:2: cli imports galileo_cnc.console"]
+    graph = import_graph({
+        "galileo_cnc.console.app": ("from galileo_cnc.console.commands import x\n", False),
+        "galileo_cnc.console.commands": ("def f():\n    from galileo_cnc.console.app "
+                                         "import Console\n", False)})
+    assert import_cycles(graph) == [["galileo_cnc.console.app", "galileo_cnc.console.commands"]]
 
 
 def test_every_folder_and_module_has_a_stage():

@@ -102,56 +102,40 @@ def _layers(args: argparse.Namespace) -> tuple[str, ...]:
 
 def _run_plot(args: argparse.Namespace) -> int:
     from galileo_cnc.cli.plot import PlotOptions, run_plot
+    from galileo_cnc.stream.homing import check_homeable
     from galileo_cnc.transport.discovery import GRBL, open_board
     from galileo_cnc.transport.port import SIM_URL
 
-    from galileo_cnc.stream.homing import check_homeable
-
-    plan = _plan_options(args)             # contradictory options refused before connecting
+    _plan_options(args)                     # contradictory options refused before connecting
     check_output(args.preview, "--preview")
     check_output(args.trace, "--trace")
     profile = _profile(args)
+    if args.resume and args.check:
+        raise GalileoError("plot --resume --check: check the job without --resume")
     if args.home:                           # refused before anything is opened or moves
         if args.resume:
             raise GalileoError("plot --home --resume: a job resumed after a reset is homed "
                                "anyway, any other continues where the machine stands")
         check_homeable(profile.config)
-    # the probed port stays open for the link: an Uno resets each time it is opened
+    # the one probe; the probed port stays open for the machine (an Uno resets each
+    # time it is opened)
     device, kind, handle = open_board(profile.port, profile.baud)
     try:
-        if kind == GRBL:
-            return _run_grbl_plot(args, profile, device, plan, handle)
+        if kind == GRBL and args.home:
+            raise GalileoError("plot --home: on a GRBL board, home with `home` ($H) in the "
+                               "console; GRBL keeps the work offset (G54) from its switches")
         if profile.port is None and device != SIM_URL:
             profile = dataclasses.replace(profile, port=device)
-        if args.check:
-            raise GalileoError(f"plot --check runs GRBL's check mode ($C): it needs a GRBL "
-                               f"board, and {profile.port or 'sim://'} runs galileo-cnc "
-                               f"firmware (info and preview check a file without a machine)")
         options = PlotOptions(args.file, profile, offset=args.offset,
                               margin_nm=round(args.margin * NM_PER_MM), yes=args.yes,
                               preview=args.preview, trace=args.trace, resume=args.resume,
                               group=not args.file_order, mode=args.mode,
                               layers=_layers(args), units=args.units, optimize=args.optimize,
-                              home=args.home, handle=handle)
+                              home=args.home, check=args.check, handle=handle, kind=kind)
         return run_plot(options)
     finally:
         if handle is not None:
-            handle.close()                  # the link closed it already, unless refused
-
-
-def _run_grbl_plot(args: argparse.Namespace, profile, port: str, plan, handle=None) -> int:
-    from galileo_cnc.cli.plot_grbl import GrblPlotOptions, run_grbl_plot
-
-    # refused before anything is sent: these need what only our firmware reports or keeps
-    if args.resume and args.check:
-        raise GalileoError("plot --resume --check: check the job without --resume")
-    if args.home:
-        raise GalileoError("plot --home: on a GRBL board, home with `home` ($H) in the "
-                           "console; GRBL keeps the work offset (G54) from its switches")
-    return run_grbl_plot(GrblPlotOptions(
-        args.file, profile, port, plan, offset=args.offset,
-        margin_nm=round(args.margin * NM_PER_MM), yes=args.yes, check=args.check,
-        preview=args.preview, resume=args.resume, trace=args.trace), port=handle)
+            handle.close()                  # the machine closed it already, unless refused
 
 
 def _run_preview(args: argparse.Namespace) -> int:
@@ -246,10 +230,11 @@ def _probe(device: str, baud: int) -> str:
 
 
 def _run_console(args: argparse.Namespace) -> int:
-    from galileo_cnc.console import run_console
-
-    profile = _profile(args)
-    return run_console(profile.port, profile.baud, profile.config, config_path=profile.path)
+    """The console is another front end: the program's entry (galileo_cnc/__main__.py)
+    hands its start in as `start_console`; cli/ never imports console/."""
+    if args.start_console is None:
+        raise GalileoError("the console starts from galileo-cnc itself (python -m galileo_cnc)")
+    return args.start_console(_profile(args))
 
 
 def _add_connection_options(parser: argparse.ArgumentParser) -> None:
@@ -370,12 +355,15 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, start_console=None) -> int:
+    """`start_console(profile) -> exit code`: how `galileo-cnc console` (and no command)
+    starts the interactive front end."""
     parser = build_parser()
     argv = sys.argv[1:] if argv is None else argv
     if not argv or argv[0].startswith("--") and argv[0] not in ("--help", "--version"):
         argv = ["console", *argv]          # no command: the console, as the seed started
     args = parser.parse_args(argv)
+    args.start_console = start_console
     try:
         return args.run(args)
     except GalileoError as error:

@@ -1,9 +1,9 @@
 """The console: banner, connection line, the `>>` prompt loop and its bottom toolbar.
 
 Commands live in their own modules and reach the console through the registry
-(registry.py); this module owns what they share: the machine (a backend.Backend:
-our firmware or GRBL), the machine configuration, printing (also from the link's
-reader thread) and questions.
+(registry.py); this module owns what they share: the machine (a backends.Machine:
+our firmware or GRBL, opened by backends.open_machine), the machine configuration,
+printing (also from the link's reader thread) and questions.
 """
 
 from __future__ import annotations
@@ -20,11 +20,12 @@ from prompt_toolkit.shortcuts import print_formatted_text, prompt
 
 from galileo_cnc import __version__
 from galileo_cnc.config.machine import MachineConfig
-from galileo_cnc.console.backend import Backend, MachineView, open_backend
+from galileo_cnc.backends import Machine, MachineView, open_machine
+from galileo_cnc.config.profile import Profile
 from galileo_cnc.console.commands import build_registry
 from galileo_cnc.console.plans import PlanCache
 from galileo_cnc.errors import GalileoError
-from galileo_cnc.transport.link import MachineAlarm, PortGone
+from galileo_cnc.transport.link import LinkError, MachineAlarm, PortGone
 
 PROMPT = ">> "
 #: While the prompt waits, the toolbar's state and position are refreshed this often.
@@ -39,7 +40,7 @@ class Console:
         self.baud = baud
         self.config = config                    # feed changes from `setup` land here
         self.profile = config                   # as read: what the board must be built for
-        self.backend: Backend | None = None
+        self.machine: Machine | None = None
         self.last_status: MachineView | None = None
         self.leaving = False
         self.plans = PlanCache()                # getg again, resume: the last plan kept
@@ -85,19 +86,20 @@ class Console:
     # ---- the machine ----------------------------------------------------------------
     @property
     def link(self):
-        """The backend's link (MachineLink or GrblLink), None when not connected."""
-        return self.backend.link if self.backend is not None else None
+        """The machine's link (MachineLink or GrblLink), None when not connected."""
+        return self.machine.link if self.machine is not None else None
 
     def connect(self, port: str | None) -> bool:
         """Open `port` (None: find a board, else sim://); a working connection is kept
         when the new one cannot be made, and given up only to reopen the same port."""
-        old = self.backend
+        old = self.machine
         if old is not None and (port is None or port == old.port_name):
             self.disconnect()                   # a port opens once: close it first
             old = None
         try:
-            backend = open_backend(port, self.baud, self.config, self.config_path,
-                                   profile=self.profile, on_message=self.say_from_thread)
+            machine = open_machine(port, Profile(self.profile, port, self.baud,
+                                                 self.config_path),
+                                   config=self.config, on_message=self.say_from_thread)
         except GalileoError as error:
             if old is not None:
                 self.say(f"{error}; still connected to {old.port_name}")
@@ -107,33 +109,46 @@ class Console:
             return False
         if old is not None:
             self.disconnect()
-        self.backend = backend
-        line = backend.describe()
-        if port is None and backend.simulated:
+        self.machine = machine
+        line = machine.describe()
+        if port is None and machine.simulated:
             line += " (no board found)"
         self.say(line)
-        with backend.session():
-            backend.after_connect(self)
+        with machine.session():
+            try:  # the machine starts with its own default feed; make it ours
+                machine.set_feed(self.config, self.config.feed_mm_s)
+            except LinkError as error:
+                self.say(f"could not set the feed rate: {error}")
         self.refresh_status()
         return True
+
+    def jog_with_keypad(self, units: int) -> None:
+        """`setup`'s keypad: one jog a key; on a machine that queues jogs, a held key is
+        followed and cancelled when let go."""
+        if self.machine.queues_jogs:
+            from galileo_cnc.console.grbl_keypad import jog_with_keypad
+            jog_with_keypad(self, self.machine, units)
+        else:
+            from galileo_cnc.console.keypad import jog_with_keypad
+            jog_with_keypad(self, units)
 
     def use_config(self, config: MachineConfig) -> None:
         """Plan with `config` from now on; the link's copy goes into the job journal."""
         self.config = config
-        if self.backend is not None:
-            self.backend.use_config(config)
+        if self.machine is not None:
+            self.machine.use_config(config)
 
     def disconnect(self) -> None:
-        if self.backend is not None:
-            self.backend.close()
-            self.backend = None
+        if self.machine is not None:
+            self.machine.close()
+            self.machine = None
             self.last_status = None
 
     def refresh_status(self) -> MachineView | None:
         self.last_status = None
-        if self.backend is not None:
+        if self.machine is not None:
             try:
-                self.last_status = self.backend.view(timeout_s=1.0)
+                self.last_status = self.machine.view(timeout_s=1.0)
             except GalileoError:
                 pass
         return self.last_status
@@ -141,16 +156,16 @@ class Console:
     def stop_if_moving(self) -> None:
         """After an interrupted command: never leave the head moving."""
         view = self.refresh_status()
-        if self.backend is not None:
-            self.backend.stop_if_moving(self, view)
+        if self.machine is not None:
+            self.machine.stop_if_moving(view, self.say)
 
     def toolbar(self) -> str:
-        if self.backend is None:
+        if self.machine is None:
             return " not connected | type connect [PORT]"
         view = self.last_status
         state = view.state if view else "no answer"
         where = view.where if view else "position unknown"
-        return (f" {self.backend.port_name} | {state} | {where} | "
+        return (f" {self.machine.port_name} | {state} | {where} | "
                 f"feed {self.config.feed_mm_s:g} mm/s")
 
     # ---- the loop ------------------------------------------------------------------------
@@ -182,10 +197,10 @@ class Console:
         (a jog or a home may still be running); commands query for themselves."""
         while not self.leaving:
             self._at_prompt.wait()
-            backend = self.backend
-            if backend is not None and not self.leaving:
+            machine = self.machine
+            if machine is not None and not self.leaving:
                 try:
-                    self.last_status = backend.poll()
+                    self.last_status = machine.poll()
                 except GalileoError:
                     self.last_status = None     # the toolbar says "no answer"
             time.sleep(TOOLBAR_REFRESH_S)
@@ -202,17 +217,13 @@ class Console:
         if command is None:
             self.unknown(name)
             return
-        backend = self.backend
-        if command.needs_machine and backend is None:
+        machine = self.machine
+        if command.needs_machine and machine is None:
             self.say("not connected to a machine: type connect [PORT]")
-            return
-        why = backend.unsupported(command.name) if backend is not None else None
-        if why is not None:
-            self.say(why)
             return
         try:
             if command.needs_machine:
-                with backend.session():       # the toolbar's poller waits meanwhile
+                with machine.session():       # the toolbar's poller waits meanwhile
                     command.run(self, arguments)
             else:
                 command.run(self, arguments)
@@ -227,17 +238,17 @@ class Console:
         except (KeyboardInterrupt, EOFError):
             self.say("cancelled")
             self._stop_safely()
-        if self.backend is not None:
-            with self.backend.session():
+        if self.machine is not None:
+            with self.machine.session():
                 view = self.refresh_status()
-                lines = self.backend.after_command(view)
+                lines = self.machine.after_command(view)
             for text in lines:
                 self.say(text)
 
     def _stop_safely(self) -> None:
         try:
-            if self.backend is not None:
-                with self.backend.session():
+            if self.machine is not None:
+                with self.machine.session():
                     self.stop_if_moving()
         except GalileoError as error:
             self.say(f"could not stop the machine: {error}")

@@ -12,6 +12,7 @@ import os
 from prompt_toolkit.completion import PathCompleter
 
 from galileo_cnc.config.machine import pen_widths_from_text
+from galileo_cnc.console import jobs
 from galileo_cnc.plan.offsets import offset_from_text
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, Artwork, PlanOptions, load_artwork
@@ -24,7 +25,7 @@ def run(console, arguments: list[str]) -> None:
         "file to plot: ", completer=PathCompleter(expanduser=True))
     if not path:
         return
-    console.backend.check_before_planning(console)    # e.g. a board built for another machine
+    console.machine.check_profile()         # e.g. a board built for another machine
     artwork = load_artwork(os.path.expanduser(path), layers=options.layers,
                            units=options.units)     # GalileoError: one message, no traceback
     if (problem := artwork.misfit(console.config)) is not None:
@@ -45,7 +46,7 @@ def run(console, arguments: list[str]) -> None:
     if planned.ink is not None:
         for warning in planned.ink.warnings_to_show():
             console.say(warning)
-    console.backend.plot(console, planned, config)
+    jobs.plot(console, planned, config)
 
 
 def _options(console, arguments: list[str]) -> tuple[PlanOptions, object, list[str]]:

@@ -1,5 +1,5 @@
-"""`setup`'s keypad jog on GRBL: every key is one `$J=` jog of the distance chosen
-before (grbl.jog), at the console's feed rate.
+"""`setup`'s keypad jog on a machine that queues jogs (GRBL): every key is one jog
+of the distance chosen before (Machine.jog: GRBL's `$J=`), at the console's feed rate.
 
 The keys are those of keypad.py (8/2 Y, 4/6 X, 7/1 Z, NumLock-off twins, 0/o the
 origin, q back). GRBL queues jogs; 0x85 (`cancel_jog`) makes it decelerate on the
@@ -19,10 +19,10 @@ from prompt_toolkit.key_binding import KeyBindings
 from prompt_toolkit.layout import Layout, Window
 from prompt_toolkit.layout.controls import FormattedTextControl
 
-from galileo_cnc.console.grbl_backend import position_text
+from galileo_cnc.backends.grbl import position_text
 from galileo_cnc.console.keypad import HINT, LEAVE_KEYS, ORIGIN_KEYS, REFRESH_S
 from galileo_cnc.console.units import NM_PER_JOG_UNIT
-from galileo_cnc.grbl.jog import cancel_jog, jog, keypad_jog, wait_jog
+from galileo_cnc.grbl.jog import keypad_jog
 from galileo_cnc.grbl.reports import GrblError
 from galileo_cnc.program.ops import NM_PER_MM
 
@@ -37,9 +37,10 @@ AXIS_INDEX = {"X": 0, "Y": 1, "Z": 2}
 
 
 class GrblKeypadJog:
-    def __init__(self, console, backend, units: int):
+    def __init__(self, console, machine, units: int):
         self.console = console
-        self.link = backend.link
+        self.machine = machine
+        self.link = machine.link
         self.units = units
         self.step_mm = units * NM_PER_JOG_UNIT / NM_PER_MM
         self.feed_mm_min = console.config.feed_mm_s * 60
@@ -88,7 +89,8 @@ class GrblKeypadJog:
 
     def _jog(self, axis: str, distance_mm: float) -> None:
         try:
-            jog(self.link, axis, distance_mm, self.feed_mm_min)
+            self.machine.jog(AXIS_INDEX[axis], round(distance_mm * NM_PER_MM),
+                             self.console.config.feed_mm_s)
         except GrblError as refused:        # TravelError, JogError: GRBL's or our words
             self.note = str(refused)
         else:
@@ -106,7 +108,7 @@ class GrblKeypadJog:
     def cancel(self, note: str) -> None:
         """0x85: GRBL decelerates on its path and drops the queued jogs."""
         try:
-            self.status = cancel_jog(self.link)
+            self.status = self.machine.cancel_jog()
         except GrblError as problem:
             self.note = str(problem)
             return
@@ -118,7 +120,7 @@ class GrblKeypadJog:
         in its EEPROM)."""
         self.held = False
         try:
-            wait_jog(self.link)
+            self.machine.wait_still()
             reply = self.link.command("G10 L20 P0 X0 Y0 Z0")
         except GrblError as problem:
             self.note = str(problem)
@@ -147,10 +149,10 @@ class GrblKeypadJog:
         app.run()
 
 
-def jog_with_keypad(console, backend, units: int) -> None:
-    keypad = GrblKeypadJog(console, backend, units)
+def jog_with_keypad(console, machine, units: int) -> None:
+    keypad = GrblKeypadJog(console, machine, units)
     keypad.run()
-    status = wait_jog(backend.link)
-    backend.make_view(status)
+    status = machine.wait_still()
+    machine.make_view(status)
     console.say(f"position {position_text(status.wpos_nm)} (work), machine "
                 f"{position_text(status.mpos_nm)}")

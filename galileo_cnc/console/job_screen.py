@@ -1,8 +1,9 @@
 """A streamed job on screen: progress bar (lines, %, ETA), pen changes, q/Ctrl-C to stop.
 
-The job streams in the calling thread; prompt_toolkit's ProgressBar runs its own
-application in a second thread and owns the keyboard meanwhile, so the stop and
-continue keys arrive here as key bindings and reach the streaming thread through
+The console's Operator (backends/base.py): what a job run by the Machine needs from
+the user. The job streams in the calling thread; prompt_toolkit's ProgressBar runs
+its own application in a second thread and owns the keyboard meanwhile, so the stop
+and continue keys arrive here as key bindings and reach the streaming thread through
 events. The machine's messages and the pen-change requests print above the bar.
 """
 
@@ -15,14 +16,35 @@ from prompt_toolkit.key_binding import KeyBindings
 from prompt_toolkit.shortcuts import ProgressBar
 from prompt_toolkit.shortcuts.progress_bar import formatters
 
+from galileo_cnc.backends import JobResult
 from galileo_cnc.machine.timing import duration_text
-from galileo_cnc.stream.streamer import PenChange, Progress, StreamAborted, StreamResult
+from galileo_cnc.stream.streamer import PenChange, Progress, StreamAborted
 
 BELL = "\a"
 #: How often a pen-change wait looks for a stop request.
 _WAIT_POLL_S = 0.1
 
-RunStream = Callable[..., StreamResult]   # run(on_progress=..., on_pen_change=...)
+RunJob = Callable[["JobScreen"], JobResult]     # the machine's run_job, with this Operator
+
+
+class ConsoleOperator:
+    """The console as an Operator outside the progress bar (finding a resumed job's
+    position): lines printed, questions asked at the prompt."""
+
+    def __init__(self, console):
+        self.console = console
+
+    def say(self, text: str) -> None:
+        self.console.say(text)
+
+    def confirm(self, question: str) -> bool:
+        return self.console.confirm(f"{BELL}{question}. Is it there?", default=False)
+
+    def progress(self, p: Progress) -> None:
+        pass
+
+    def pen_change(self, change: PenChange) -> None:
+        pass
 
 
 class _MachineEta(formatters.Formatter):
@@ -39,9 +61,9 @@ class _MachineEta(formatters.Formatter):
         return 12
 
 
-class JobScreen:
+class JobScreen(ConsoleOperator):
     def __init__(self, console, title: str, total: int, start: int = 0):
-        self.console = console
+        super().__init__(console)
         self.title = title
         self.total = total
         self.start = start
@@ -51,9 +73,9 @@ class JobScreen:
         self._abort_stream: Callable[[], None] | None = None
         self._counter = None
 
-    def run(self, run_stream: RunStream, abort_stream: Callable[[], None]) -> StreamResult:
-        """Stream with the bar showing; `abort_stream` is called (from the key thread)
-        when the user stops the job."""
+    def run(self, run_job: RunJob, abort_stream: Callable[[], None]) -> JobResult:
+        """`run_job(self)` with the bar showing; `abort_stream` is called (from the key
+        thread) when the user stops the job."""
         self._abort_stream = abort_stream
         bar = ProgressBar(title=f"{self.title}   (q or Ctrl-C stops, the machine ramps down)",
                           formatters=self._formatters(), key_bindings=self._key_bindings(),
@@ -61,8 +83,7 @@ class JobScreen:
         with bar:
             self._counter = bar(label="lines", total=self.total)
             self._counter.items_completed = self.start
-            result = run_stream(on_progress=self._on_progress,
-                                on_pen_change=self._on_pen_change)
+            result = run_job(self)
             if result.completed:
                 self._counter.items_completed = self.total
                 self._counter.done = True
@@ -77,14 +98,14 @@ class JobScreen:
             if self._abort_stream is not None:
                 self._abort_stream()
 
-    # ---- called by the streamer, in the streaming thread ------------------------------------
-    def _on_progress(self, progress: Progress) -> None:
+    # ---- the Operator, called by the job in the streaming thread ---------------------------
+    def progress(self, progress: Progress) -> None:
         self.eta_s = progress.eta_s
         self._counter.total = progress.total
         self._counter.items_completed = progress.confirmed
         self._counter.progress_bar.invalidate()
 
-    def _on_pen_change(self, change: PenChange) -> None:
+    def pen_change(self, change: PenChange) -> None:
         """With the machine idle and the pen up: ask for the pen, wait for Enter."""
         self._continue.clear()
         if not self.stop_requested.is_set():   # q may have come while the machine stopped
@@ -115,14 +136,3 @@ class JobScreen:
             self._continue.set()
 
         return keys
-
-
-def report(console, result: StreamResult) -> None:
-    """The end of a job: the seed's "process has finished", a bell and the time taken."""
-    if result.completed:
-        console.say(f"{BELL}process has finished in {duration_text(result.elapsed_s)} "
-                    f"({result.total} commands)")
-    else:
-        reason = f": {result.reason}" if result.reason else ""
-        console.say(f"job stopped after {result.confirmed} of {result.total} commands"
-                    f"{reason}; type resume to continue it")

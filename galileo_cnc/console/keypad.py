@@ -13,9 +13,10 @@ from prompt_toolkit.key_binding import KeyBindings
 from prompt_toolkit.layout import Layout, Window
 from prompt_toolkit.layout.controls import FormattedTextControl
 
-from galileo_cnc.console.units import jog_units_to_steps, position_mm_text, refusal_text
+from galileo_cnc.backends.galileo import GalileoMachine, position_mm_text
+from galileo_cnc.console.units import NM_PER_JOG_UNIT, jog_units_to_steps, refusal_text
 from galileo_cnc.errors import GalileoError
-from galileo_cnc.job import Jog, SetOrigin
+from galileo_cnc.job import SetOrigin
 from galileo_cnc.transport.link import LinkError, PortGone
 
 #: key -> direction (x, y, z); each key has a NumLock-off twin.
@@ -35,9 +36,11 @@ HINT = "7/1 Z up/down  8/2 Y+/Y-  4/6 X-/X+  0 or o: origin here (X, Y and Z)  q
 
 
 class KeypadJog:
-    def __init__(self, console, units: int):
+    def __init__(self, console, units: int, machine=None):
+        """`machine`: the console's (a GalileoMachine over `console.link` by default)."""
         self.console = console
-        self.link = console.link
+        self.machine = machine if machine is not None else GalileoMachine(console.link)
+        self.link = self.machine.link
         self.step = jog_units_to_steps(units, console.config)
         self.units = units
         self.note = ""
@@ -51,16 +54,19 @@ class KeypadJog:
         return (f"jog {self.units} units = {self.step} steps   {where}{note}\n{HINT}")
 
     def jog(self, direction: tuple[int, int, int]) -> None:
-        dx, dy, dz = (self.step * d for d in direction)
-        self._do(Jog(dx, dy, dz), "")
+        axis = next(a for a, d in enumerate(direction) if d)
+        distance_nm = direction[axis] * self.units * NM_PER_JOG_UNIT
+        self._do(lambda: self.machine.jog(axis, distance_nm, self.console.config.feed_mm_s),
+                 "")
 
     def set_origin(self) -> None:
         self.link.wait_idle()
-        self._do(SetOrigin(), "origin set here: X, Y and Z are 0 now (Z 0 draws)")
+        self._do(lambda: self.link.send(SetOrigin()),
+                 "origin set here: X, Y and Z are 0 now (Z 0 draws)")
 
-    def _do(self, command, note: str) -> None:
+    def _do(self, action, note: str) -> None:
         try:
-            self.link.send(command)
+            action()
             self.note = note
         except PortGone:
             raise
@@ -75,7 +81,7 @@ class KeypadJog:
             pass                                 # the next redraw asks again
 
     def stop(self) -> None:
-        self.link.abort()
+        self.machine.cancel_jog()
         self.note = "stopped"
 
     def run(self) -> None:
@@ -100,7 +106,7 @@ class KeypadJog:
 
 
 def jog_with_keypad(console, units: int) -> None:
-    keypad = KeypadJog(console, units)
+    keypad = KeypadJog(console, units, console.machine)
     keypad.run()
-    status = console.link.wait_idle()
+    status = console.machine.link.wait_idle()
     console.say(f"position {position_mm_text(status, console.config)}")

@@ -1,5 +1,5 @@
 """Small machine commands: status, ports, connect, home, unlock (what differs
-between our firmware and GRBL lives in the backend)."""
+between our firmware and GRBL lives in the Machine, backends/)."""
 
 from __future__ import annotations
 
@@ -7,12 +7,12 @@ from galileo_cnc.transport.discovery import list_ports
 
 
 def status(console, arguments: list[str]) -> None:
-    console.say(console.backend.status_line(console.config))
+    console.say(console.machine.status_line(console.config))
 
 
 def ports(console, arguments: list[str]) -> None:
     found = list_ports()
-    current = console.backend.port_name if console.backend else None
+    current = console.machine.port_name if console.machine else None
     if not found:
         console.say("no serial ports found (sim:// is always there)")
     for port in found:
@@ -28,8 +28,8 @@ def connect(console, arguments: list[str]) -> None:
 
 
 def home(console, arguments: list[str]) -> None:
-    console.backend.home(console)
+    console.machine.home(console.say)
 
 
 def unlock(console, arguments: list[str]) -> None:
-    console.backend.unlock(console)
+    console.machine.unlock(console.say)

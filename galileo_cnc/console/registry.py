@@ -4,12 +4,9 @@ from __future__ import annotations
 
 import difflib
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Callable
+from typing import Any, Callable
 
 from prompt_toolkit.completion import Completer, NestedCompleter
-
-if TYPE_CHECKING:
-    from galileo_cnc.console.app import Console
 
 
 @dataclass(frozen=True, slots=True)
@@ -17,7 +14,7 @@ class ConsoleCommand:
     name: str
     usage: str                          # e.g. "getg [FILE]"
     summary: str                        # one line, used when helpfile.f has no section
-    run: Callable[["Console", list[str]], None]
+    run: Callable[[Any, list[str]], None]       # (the console.app.Console, its arguments)
     needs_machine: bool = False
     #: completion of the arguments (None: none); a callable gets the registry's names
     arguments: Completer | Callable[[list[str]], Completer] | None = None

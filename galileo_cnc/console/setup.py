@@ -36,7 +36,7 @@ def run(console, arguments: list[str]) -> None:
 def jog(console) -> None:
     units = _ask_jog_units(console)
     if units is not None:
-        console.backend.jog_with_keypad(console, units)
+        console.jog_with_keypad(units)
 
 
 def _ask_jog_units(console) -> int | None:
@@ -71,7 +71,7 @@ def feed(console) -> None:
         console.say(f"not a number: {answer!r}")
         return
     steps_per_s = config.feed_steps_per_s_of(mm_s)
-    refusal = console.backend.feed_refusal(config, mm_s)
+    refusal = console.machine.feed_refusal(config, mm_s)
     if refusal is not None:
         console.say(refusal)
         return
@@ -82,7 +82,7 @@ def feed(console) -> None:
         if not console.confirm("use it anyway?", default=False):
             console.say(f"feed rate stays {config.feed_mm_s:g} mm/s")
             return
-    note = console.backend.set_feed(console, mm_s)
+    note = console.machine.set_feed(console.config, mm_s)
     console.use_config(config.replace(feed_mm_s=mm_s))
     console.say(f"feed rate {mm_s:g} mm/s ({steps_per_s} steps/s, "
                 f"{config.feed_rpm(mm_s):.0f} rpm){note}")

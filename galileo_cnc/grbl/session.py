@@ -1,5 +1,5 @@
-"""Running a planned job on a connected GRBL board: what `plot` and the console's
-`getg` and `resume` share (cli/plot_grbl.py, console/grbl_job.py).
+"""Running a planned job on a connected GRBL board: the pieces of grbl/job.py's
+engine, which `plot` and the console's `getg` and `resume` run (backends/grbl.py).
 
 The connection line, the steps/mm check against the profile, the job cut into
 pieces at its pen changes and streamed (`stream_job`, a resume's lead-in first),
@@ -8,8 +8,7 @@ whole job, a stop on the user's word (feed hold, then soft reset, so no step is
 lost), and for a resume the position found again (`find_position`: $H, or the
 user re-zeroes); the job is planned again from its journal entry by
 stream/resume.py's `replan`, as for our firmware.
-The journal itself (stream/journal.py) sits beside grbl/ and is bound to a job in
-console/grbl_job.py.
+The journal itself (stream/journal.py) is bound to a job in grbl/job.py.
 """
 
 from __future__ import annotations

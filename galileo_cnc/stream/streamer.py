@@ -69,7 +69,10 @@ class StreamAborted(GalileoError):
 
 
 class MachineReset(LinkError):
-    """The machine's line count no longer matches the job's: it was reset mid-job."""
+    """The machine's line count no longer matches the job's: it was reset mid-job.
+    `resumable`: the job's frame was the homed one, so a resume homes and goes on."""
+
+    resumable = False
 
 
 def after_reset_text(homed: bool) -> str:
@@ -205,6 +208,7 @@ class JobStreamer:
         except MachineReset as reset:
             self._stop_machine()            # a fresh machine: nothing queued, unlocked
             told = MachineReset(f"{reset}; {after_reset_text(self.homed)}")
+            told.resumable = self.homed
             self._journal_end(RESET, str(told))
             raise told from None
         except LinkError as refused:

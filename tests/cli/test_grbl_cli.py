@@ -18,7 +18,7 @@ import pytest
 import serial
 
 from galileo_cnc.cli import main as cli
-from galileo_cnc.cli import plot_grbl
+from galileo_cnc.grbl import job as grbl_job
 from galileo_cnc.grbl import firmware
 from galileo_cnc.grbl.gcode import GcodeLine, expected_end_steps, job_to_gcode
 from galileo_cnc.grbl.link import GrblLink
@@ -141,7 +141,7 @@ def test_check_mode_reports_rejected_lines_and_moves_nothing(profile, capsys, mo
             for n in (5, 9):
                 lines[n] = GcodeLine("G5 " + lines[n].text[3:], lines[n].command)
             return lines
-        monkeypatch.setattr(plot_grbl, "job_to_gcode", spoiled)
+        monkeypatch.setattr(grbl_job, "job_to_gcode", spoiled)
         assert cli.main(args) == 1
         board.stop()
     out, _ = capsys.readouterr()
@@ -167,7 +167,7 @@ def test_a_line_grbl_refuses_stops_the_plot_naming_it(profile, capsys, monkeypat
         lines = job_to_gcode(*a, **k)
         lines[9] = GcodeLine("G5 " + lines[9].text[3:], lines[9].command)
         return lines
-    monkeypatch.setattr(plot_grbl, "job_to_gcode", spoiled)
+    monkeypatch.setattr(grbl_job, "job_to_gcode", spoiled)
     with grbl(SETTINGS) as board:
         code = cli.main(["plot", SAMPLE, "--port", board.port, "--mode", "centre", "--yes",
                          "--profile", profile])

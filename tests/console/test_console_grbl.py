@@ -27,7 +27,7 @@ from prompt_toolkit.output.vt100 import Vt100_Output
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.console.app import Console
-from galileo_cnc.console.grbl_job import grbl_journal
+from galileo_cnc.grbl.job import grbl_journal
 from galileo_cnc.grbl.gcode import expected_end_steps, job_to_gcode, pen_from_config
 from galileo_cnc.grbl.session import pen_pieces
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file

@@ -18,13 +18,14 @@ import pytest
 import serial
 
 from galileo_cnc.cli import main as cli
-from galileo_cnc.cli import plot_grbl
+from galileo_cnc.cli import plot as plot_cli
+from galileo_cnc.grbl.job import grbl_journal
+from galileo_cnc.transport.discovery import GRBL
 from galileo_cnc.config.profile import load_profile
 from galileo_cnc.grbl.gcode import GcodeLine, GrblPen, pen_from_config
 from galileo_cnc.grbl.link import GrblLink
 from galileo_cnc.grbl.resume import PREAMBLE_TEXT, lead_in, rewind
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
-from galileo_cnc.plan.pipeline import PlanOptions
 from galileo_cnc.stream.journal import ABORTED, FINISHED, INTERRUPTED
 
 from grbl_support import (HOMING, LIMITS, PROFILE, SAMPLE, SCALE, SETTINGS, RecordingPort,
@@ -50,11 +51,17 @@ def homed_at_work_zero():
         yield board, settled_trace(board)
 
 
-def sample_options(profile: str, board) -> plot_grbl.GrblPlotOptions:
+def sample_options(profile: str, board) -> plot_cli.PlotOptions:
     """`plot SAMPLE --mode centre --yes` on the board, as the first plot of a test."""
-    return plot_grbl.GrblPlotOptions(SAMPLE, load_profile(profile, port=board.port),
-                                     board.port, PlanOptions(mode="centre"),
-                                     margin_nm=DEFAULT_MARGIN_NM, yes=True)
+    return plot_cli.PlotOptions(SAMPLE, load_profile(profile, port=board.port),
+                                mode="centre", margin_nm=DEFAULT_MARGIN_NM, yes=True,
+                                kind=GRBL)
+
+
+def run_grbl_plot(options: plot_cli.PlotOptions, port=None) -> int:
+    """`plot` on the GRBL board over `port` (already open) when given."""
+    options.handle = port
+    return plot_cli.run_plot(options)
 
 
 def test_resume_after_a_lost_port_homes_and_finishes_the_job(profile, capsys):
@@ -65,11 +72,11 @@ def test_resume_after_a_lost_port_homes_and_finishes_the_job(profile, capsys):
 
         # the first plot: its port dies in the middle of the job
         port = RecordingPort(serial.Serial(board.port, 115200, timeout=0.2), die_after=45)
-        assert plot_grbl.run_grbl_plot(sample_options(profile, board),
-                                       port=port) == plot_grbl.EXIT_PORT_LOST
+        assert run_grbl_plot(sample_options(profile, board),
+                                       port=port) == plot_cli.EXIT_PORT_LOST
         out, _ = capsys.readouterr()
         assert f"galileo-cnc plot {SAMPLE} --resume" in out
-        entry = plot_grbl.grbl_journal().load()
+        entry = grbl_journal().load()
         assert entry.state == INTERRUPTED and entry.total == len(lines)
         confirmed, last_sent = entry.confirmed, sent_job_lines(port.sent, lines)
         assert 10 < confirmed <= last_sent < len(lines) - 10      # cut in the middle
@@ -80,7 +87,7 @@ def test_resume_after_a_lost_port_homes_and_finishes_the_job(profile, capsys):
                          "--profile", profile])
         out, err = capsys.readouterr()
         # the job is done: nothing left to resume
-        assert plot_grbl.grbl_journal().pending() is None
+        assert grbl_journal().pending() is None
         assert cli.main(["plot", SAMPLE, "--resume", "--yes", "--port", board.port,
                          "--profile", profile]) == 1
         assert "no interrupted GRBL job of" in capsys.readouterr().err
@@ -90,7 +97,7 @@ def test_resume_after_a_lost_port_homes_and_finishes_the_job(profile, capsys):
     start = int(re.search(r"resuming at G-code line (\d+) of", out)[1]) - 1
     assert start == confirmed + 1 and "after the last line GRBL acknowledged" in out
     assert "homing ($H)" in out and "process has finished" in out
-    assert plot_grbl.grbl_journal().load().state == FINISHED
+    assert grbl_journal().load().state == FINISHED
     # one pen asked for before going on (the one in use at the resumed line)
     assert out.count("(the pen the job goes on with)") <= 1
 
@@ -139,7 +146,7 @@ class ThawingPort(RecordingPort):
         return written
 
 
-def resume_options(profile: str, board) -> plot_grbl.GrblPlotOptions:
+def resume_options(profile: str, board) -> plot_cli.PlotOptions:
     """`plot SAMPLE --resume --yes` on the board."""
     options = sample_options(profile, board)
     options.resume = True
@@ -158,15 +165,15 @@ def test_resume_while_grbl_still_moves_goes_back_over_its_queue(profile, capsys)
         # longest drawing (no dwell there): GRBL is frozen with its planner full
         port = FreezingPort(serial.Serial(board.port, 115200, timeout=0.2), board,
                             die_after=70)
-        assert plot_grbl.run_grbl_plot(sample_options(profile, board),
-                                       port=port) == plot_grbl.EXIT_PORT_LOST
-        confirmed = plot_grbl.grbl_journal().load().confirmed
+        assert run_grbl_plot(sample_options(profile, board),
+                                       port=port) == plot_cli.EXIT_PORT_LOST
+        confirmed = grbl_journal().load().confirmed
         last_sent = sent_job_lines(port.sent, lines)
         resume_port = ThawingPort(serial.Serial(board.port, 115200, timeout=0.2), board)
-        code = plot_grbl.run_grbl_plot(resume_options(profile, board), port=resume_port)
+        code = run_grbl_plot(resume_options(profile, board), port=resume_port)
         out, err = capsys.readouterr()
         board.stop()
-    assert code == plot_grbl.EXIT_OK, err
+    assert code == plot_cli.EXIT_OK, err
     found = re.search(r"resuming at G-code line (\d+) of \d+: GRBL was reset while it "
                       r"still moved \(ALARM:3\), so the (\d+) lines before line (\d+) "
                       r"that GRBL had queued may not have run", out)
@@ -180,7 +187,7 @@ def test_resume_while_grbl_still_moves_goes_back_over_its_queue(profile, capsys)
     assert start <= confirmed and not dwell and (len(moves) == 20 or
                                                  lines[start - 1].text.startswith("G4"))
     assert "homing ($H)" in out and "process has finished" in out
-    assert plot_grbl.grbl_journal().load().state == FINISHED
+    assert grbl_journal().load().state == FINISHED
     # the first session stopped where the reset cut GRBL's queue (inside a line, and
     # before the end of what it had been sent); the resume drew the rest
     drawn = check_resumed(board, setup_end, resume_port.cut, lines, start, pen)
@@ -209,9 +216,9 @@ def test_resume_of_a_machine_held_when_the_port_went_goes_back_over_its_queue(pr
     pen = pen_from_config(load_profile(profile).config)
     with homed_at_work_zero() as (board, setup_end):
         port = HoldingPort(serial.Serial(board.port, 115200, timeout=0.2), die_after=70)
-        assert plot_grbl.run_grbl_plot(sample_options(profile, board),
-                                       port=port) == plot_grbl.EXIT_PORT_LOST
-        confirmed = plot_grbl.grbl_journal().load().confirmed
+        assert run_grbl_plot(sample_options(profile, board),
+                                       port=port) == plot_cli.EXIT_PORT_LOST
+        confirmed = grbl_journal().load().confirmed
         cut = settled_trace(board)              # held: the head stands, lines queued
         code = cli.main(["plot", SAMPLE, "--resume", "--yes", "--port", board.port,
                          "--profile", profile])
@@ -240,9 +247,9 @@ def test_resume_without_switches_has_the_user_re_zero(profile, capsys):
         link.port.close()
         setup_end = settled_trace(board)        # the job's work zero: where GRBL woke
         port = RecordingPort(serial.Serial(board.port, 115200, timeout=0.2), die_after=45)
-        assert plot_grbl.run_grbl_plot(sample_options(profile, board),
-                                       port=port) == plot_grbl.EXIT_PORT_LOST
-        confirmed = plot_grbl.grbl_journal().load().confirmed
+        assert run_grbl_plot(sample_options(profile, board),
+                                       port=port) == plot_cli.EXIT_PORT_LOST
+        confirmed = grbl_journal().load().confirmed
         wait_until_still(board.port)
         cut = settled_trace(board)
         with serial.Serial(board.port, 115200, timeout=0.2) as user_port:
@@ -251,10 +258,10 @@ def test_resume_without_switches_has_the_user_re_zero(profile, capsys):
             user.command_checked(f"G1 Z{SCALE.mm(2, pen.down_z_steps)} F600")
             user.command_checked("G10 L2 P1 X3 Y-2 Z1")     # GRBL's idea of it lost
             user.wait_idle()
-        code = plot_grbl.run_grbl_plot(resume_options(profile, board))
+        code = run_grbl_plot(resume_options(profile, board))
         out, err = capsys.readouterr()
         board.stop()
-    assert code == plot_grbl.EXIT_OK, err
+    assert code == plot_cli.EXIT_OK, err
     assert f"resuming at G-code line {confirmed + 2} of {len(lines)}, after the last line " \
            f"GRBL acknowledged" in out
     assert ("GRBL has no homing ($22=0): the reset lost its position. The pen must stand "
@@ -310,11 +317,11 @@ def test_ctrl_c_holds_then_resets_and_resume_finishes_the_job(profile, capsys):
     with homed_at_work_zero() as (board, setup_end):
 
         port = CtrlCPort(serial.Serial(board.port, 115200, timeout=0.2), after=60)
-        assert plot_grbl.run_grbl_plot(sample_options(profile, board),
-                                       port=port) == plot_grbl.EXIT_INTERRUPTED
+        assert run_grbl_plot(sample_options(profile, board),
+                                       port=port) == plot_cli.EXIT_INTERRUPTED
         out, _ = capsys.readouterr()
-        assert "stopped: GRBL held the feed, then was reset" in out
-        entry = plot_grbl.grbl_journal().load()
+        assert "GRBL held the feed and was reset" in out
+        entry = grbl_journal().load()
         assert entry.state == ABORTED and 0 < entry.confirmed < len(lines) - 10
         # the feed hold (!) came first, then the soft reset (0x18): the position is kept
         held = port.raw.index(b"!")
@@ -327,7 +334,7 @@ def test_ctrl_c_holds_then_resets_and_resume_finishes_the_job(profile, capsys):
         board.stop()
     assert code == 0, err
     assert "ALARM" not in out + err and "process has finished" in out
-    assert plot_grbl.grbl_journal().load().state == FINISHED
+    assert grbl_journal().load().state == FINISHED
     # stopped, GRBL's queue was dropped: back over what it may not have run
     start = int(re.search(r"resuming at G-code line (\d+) of \d+: the job was aborted "
                           r"\(stopped with Ctrl-C\)", out)[1]) - 1

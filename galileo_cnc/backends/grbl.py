@@ -1,0 +1,407 @@
+"""A stock GRBL 1.1 board as a Machine (docs/grbl.md): GrblLink + grbl/job.py.
+
+GrblLink is single-threaded (every read in the caller's loop), so one lock
+serialises it: a front end's command holds it while it runs (`session`), a toolbar's
+poller only asks `?` when it can take it at once. The port is wrapped so a job
+stopped from another thread can break the streaming thread's read
+(grbl.job.InterruptiblePort). The pieces come from galileo_cnc.grbl (jog, home,
+unlock, estimate, travel) and grbl/session.py (connection line, steps/mm check,
+feed hold then reset); jobs and their journal are grbl/job.py's.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from contextlib import contextmanager
+
+import serial
+
+from galileo_cnc.backends.base import JobResult, Machine, MachineJob, MachineView, Resumption
+from galileo_cnc.config.machine import MIN_FEED_STEPS_PER_S, MachineConfig
+from galileo_cnc.errors import GalileoError
+from galileo_cnc.grbl.check import check_job
+from galileo_cnc.grbl.jog import cancel_jog, home, jog, unlock, wait_jog
+from galileo_cnc.grbl.job import (GrblJob, InterruptiblePort, grbl_journal,
+                                  journal_config, link_scale, pending_job, resume_from)
+from galileo_cnc.grbl.link import GrblLink
+from galileo_cnc.grbl.numbers import read_float
+from galileo_cnc.grbl.reports import GrblError, Status, alarm_text, banner_version
+from galileo_cnc.grbl.stream import GrblStreamError
+from galileo_cnc.grbl.session import (describe, find_position, hold_and_reset,
+                                      position_text as stands_at, refuse_other_scale)
+from galileo_cnc.machine.trace import Trace
+from galileo_cnc.plan.pipeline import plan_file
+from galileo_cnc.program.ops import NM_PER_MM
+from galileo_cnc.simavr.grbl_firmware import grbl_step_trace
+from galileo_cnc.stream.journal import FINISHED
+from galileo_cnc.stream.resume import replan
+from galileo_cnc.transport.link import LinkError, MachineAlarm, PortGone
+from galileo_cnc.transport.port import open_port, port_error_text
+
+#: GRBL states in which the head may move: an interrupted command stops it.
+MOVING_STATES = ("Run", "Jog", "Hold", "Home")
+#: Alarms after which GRBL answers nothing, not even `?`, until a soft reset.
+CRITICAL_ALARMS = (1, 2)
+#: What a stopped job leaves GRBL in.
+HELD = "GRBL held the feed and was reset (its queue dropped, the position kept)"
+
+
+def mm3(nm: int) -> str:
+    return f"{nm / NM_PER_MM:.3f}"
+
+
+def position_text(nm: tuple[int, ...]) -> str:
+    return f"X {mm3(nm[0])}  Y {mm3(nm[1])}  Z {mm3(nm[2])} mm"
+
+
+class GrblMachine(Machine):
+    kind = "grbl"
+    simulated = False
+    checks_jobs = True              # GRBL's check mode ($C)
+    queues_jogs = True              # jogs queue up: a held key is followed, then cancelled
+    preview_note = " (the plan: GRBL cannot report its steps)"
+
+    def __init__(self, link: GrblLink, port: InterruptiblePort, name: str,
+                 config: MachineConfig, config_path=None):
+        self.link = link
+        self.port = port
+        self.port_name = name
+        self.config_path = config_path
+        self.profile_config = config
+        self.lock = threading.RLock()
+        self.alarms_said = len(link.alarms)     # ALARM:N already printed
+        self._last: MachineView | None = None
+        self._job: GrblJob | None = None
+        #: why no job can run (steps/mm differ from the profile's), None when fine
+        self.scale_problem: str | None = None
+        try:
+            refuse_other_scale(link, config.steps_per_mm, config_path, name)
+        except GalileoError as problem:
+            self.scale_problem = str(problem)
+
+    @classmethod
+    def open(cls, name: str, baud: int, config: MachineConfig, config_path=None,
+             profile: MachineConfig | None = None, handle=None,
+             shown_as: str | None = None) -> "GrblMachine":
+        """`handle`: the port already open and probed (discovery.open_board);
+        `shown_as`: the name messages give the port (`name` by default)."""
+        if handle is None:
+            try:
+                handle = open_port(name, baud, timeout=0.2)
+            except (serial.SerialException, OSError, ValueError) as problem:
+                raise LinkError(f"cannot open {name}: {port_error_text(problem)}") from None
+        port = InterruptiblePort(handle)
+        try:
+            link = GrblLink.connect(port)
+        except GrblError as problem:
+            port.close()
+            raise LinkError(f"{name}: {problem}") from None
+        except (serial.SerialException, OSError) as problem:
+            port.close()
+            raise LinkError(f"{name}: {port_error_text(problem)}") from None
+        return cls(link, port, shown_as or name, profile or config, config_path)
+
+    @property
+    def config(self) -> MachineConfig:
+        return self.profile_config
+
+    def step_recorder(self) -> "GrblSteps":
+        return GrblSteps(self)
+
+    def describe(self) -> str:
+        line = f"connected to {describe(self.link, self.port_name)}"
+        if self.scale_problem:
+            line += f"\nwarning: {self.scale_problem}; jobs are refused until they agree"
+        return line
+
+    def check_profile(self) -> None:
+        if self.scale_problem:
+            raise GalileoError(self.scale_problem)
+
+    def close(self) -> None:
+        with self.lock:
+            try:
+                self.port.close()
+            except (serial.SerialException, OSError):
+                pass
+
+    @contextmanager
+    def session(self):
+        """The link is ours while a command runs; a lost port says so as on our firmware."""
+        with self.lock:
+            try:
+                yield
+            except (serial.SerialException, OSError) as lost:
+                raise PortGone(f"{self.port_name}: {port_error_text(lost)}") from None
+
+    # ---- state -------------------------------------------------------------------
+    def make_view(self, status: Status) -> MachineView:
+        state = status.state + (f":{status.substate}" if status.substate is not None else "")
+        if status.pins:
+            state += f", pins {status.pins}"        # a limit switch closed, say so
+        self._last = MachineView(f"GRBL {state}", position_text(status.wpos_nm),
+                                 alarm=status.state == "Alarm",
+                                 moving=status.state in MOVING_STATES, raw=status)
+        return self._last
+
+    def view(self, timeout_s: float = 1.0) -> MachineView | None:
+        with self.lock:
+            for _ in range(2):          # a `?` that came during a reset is lost: ask again
+                try:
+                    return self.make_view(self.link.status(timeout_s=timeout_s))
+                except GrblError:
+                    continue
+                except (serial.SerialException, OSError):
+                    return None
+            return None
+
+    def poll(self) -> MachineView | None:
+        """The toolbar's `?`, unless a command is using the link (then the last view)."""
+        if not self.lock.acquire(blocking=False):
+            return self._last
+        try:
+            return self.view()
+        finally:
+            self.lock.release()
+
+    def settle(self, quiet_s: float = 0.3, reset_s: float = 3.0) -> None:
+        """Reads what GRBL still sends after an alarm that reset it (the `ok` of the
+        line that caused it, up to half a second later, then the banner and
+        `[MSG:'$H'|'$X' to unlock]`) until it is quiet after the banner, so the next
+        command's reply is not taken from them (and no `?` is lost in the reset)."""
+        deadline = time.monotonic() + reset_s
+        banner = False
+        while True:
+            wait = quiet_s if banner else max(0.05, deadline - time.monotonic())
+            line = self.link.read_line(wait)
+            if line is None:
+                return
+            banner = banner or banner_version(line) is not None
+            try:
+                self.link.classify(line)
+            except GrblError:
+                pass                    # another ALARM:N: kept in link.alarms
+
+    def news(self) -> list[str]:
+        """ALARM:N lines GRBL sent that were not printed yet, with GRBL's words."""
+        new = self.link.alarms[self.alarms_said:]
+        self.alarms_said = len(self.link.alarms)
+        return [alarm_text(code) for code in new]
+
+    def after_command(self, view: MachineView | None) -> list[str]:
+        lines = self.news()
+        if view is None and self.link.alarms and self.link.alarms[-1] in CRITICAL_ALARMS:
+            # after a limit alarm GRBL waits for a reset and answers nothing meanwhile
+            try:
+                self.link.soft_reset()
+                view = self.view()
+                lines.append("GRBL was reset to answer again after the alarm (its "
+                             "position may be lost)")
+            except (GrblError, serial.SerialException, OSError):
+                pass
+        if view is not None and view.alarm:
+            lines.append("GRBL is locked (Alarm): type home ($H) to home it, or unlock "
+                         "($X) to unlock it where it stands")
+        return lines
+
+    def status_line(self, config: MachineConfig) -> str:
+        status = self.link.status()
+        self.make_view(status)
+        state = status.state + (f":{status.substate}" if status.substate is not None else "")
+        scale = [float(read_float(self.link.settings.steps_per_mm_text(a))) for a in range(3)]
+        steps = [round(nm * s / NM_PER_MM) for nm, s in zip(status.wpos_nm, scale)]
+        extra = ""
+        if status.pins:
+            extra += f", pins {status.pins}"
+        if status.planner_free is not None:
+            extra += f", planner {status.planner_free} blocks free"
+        return (f"state {state}, {position_text(status.wpos_nm)} work "
+                f"(steps X {steps[0]} Y {steps[1]} Z {steps[2]}), machine "
+                f"{position_text(status.mpos_nm)}{extra}, feed {config.feed_mm_s:g} mm/s "
+                f"(GRBL {self.link.version})")
+
+    def stop_if_moving(self, view: MachineView | None, say) -> None:
+        if view is None or not view.moving:
+            return
+        if view.raw.state == "Jog":
+            say("cancelling the jog (GRBL decelerates)")
+            cancel_jog(self.link)
+            return
+        say("stopping GRBL: feed hold (it decelerates), then a reset")
+        hold_and_reset(self.link)
+
+    # ---- commands -----------------------------------------------------------------
+    def _alarm_settled(self, problem: GrblError) -> None:
+        """An alarm GRBL raised: what it still says read, then MachineAlarm (the front
+        end names the alarm: after_command)."""
+        if problem.alarm:
+            self.settle()
+            raise MachineAlarm(str(problem)) from None
+        raise problem
+
+    def home(self, say) -> None:
+        say("homing ($H)...")
+        try:
+            status = home(self.link)
+        except GrblError as problem:
+            self._alarm_settled(problem)
+        say(f"homed: {position_text(status.wpos_nm)} work, machine "
+            f"{position_text(status.mpos_nm)}")
+
+    def unlock(self, say) -> None:
+        before = self.link.alarms[-1] if self.link.alarms else None
+        if self.view() is None:        # waiting for a reset after a limit alarm
+            self.link.soft_reset()
+        status = unlock(self.link)
+        self.news()                     # what the unlock was for needs no second line
+        cause = f" (it was {alarm_text(before)})" if before is not None else ""
+        say(f"unlocked ($X){cause}: state {status.state}, "
+            f"{position_text(status.wpos_nm)}; the position may be off: home "
+            f"or set the origin before plotting")
+
+    def jog(self, axis: int, distance_nm: int, feed_mm_s: float) -> None:
+        """One `$J=` jog; GrblError (TravelError, JogError: GRBL's or our words) when
+        refused."""
+        jog(self.link, "XYZ"[axis], distance_nm / NM_PER_MM, feed_mm_s * 60)
+
+    def cancel_jog(self) -> Status:
+        """0x85: GRBL decelerates on its path and drops the queued jogs."""
+        return cancel_jog(self.link)
+
+    def wait_still(self) -> Status:
+        return wait_jog(self.link)
+
+    def max_feed_mm_s(self) -> float:
+        """GRBL's $110/$111 (mm/min): the fastest X and Y may go."""
+        return min(float(read_float(self.link.settings.max_rate_mm_min(a))) for a in (0, 1)) / 60
+
+    def feed_refusal(self, config: MachineConfig, mm_s: float) -> str | None:
+        lowest = MIN_FEED_STEPS_PER_S / config.steps_per_mm
+        highest = self.max_feed_mm_s()
+        if lowest <= mm_s <= highest:
+            return None
+        return (f"refused: GRBL runs {lowest:g} .. {highest:g} mm/s here (its $110/$111 "
+                f"max rates {self.link.settings.max_rate_mm_min(0)}/"
+                f"{self.link.settings.max_rate_mm_min(1)} mm/min)")
+
+    def set_feed(self, config: MachineConfig, mm_s: float) -> str:
+        # GRBL takes the feed with each line (F in mm/min): nothing to send now
+        return f", sent to GRBL as F{mm_s * 60:g} with each jog and job line"
+
+    # ---- jobs ---------------------------------------------------------------------
+    def _machine_job(self, job: GrblJob) -> MachineJob:
+        return MachineJob(job.planned, len(job.lines), job.start, job.estimate_s,
+                          "G-code lines", "G-code lines", "on GRBL (its planner's estimate)",
+                          job, job.config)
+
+    def prepare(self, planned, config: MachineConfig, timing=None,
+                homed: bool = False) -> MachineJob:
+        self.check_profile()
+        job = GrblJob(self.link, self.port, planned, config)
+        job.port_name = self.port_name
+        return self._machine_job(job)
+
+    def check_job(self, job: MachineJob):
+        """GRBL's check mode ($C) over the whole job: what GRBL rejects, moving nothing."""
+        engine: GrblJob = job.engine
+        return check_job(self.link, engine.lines, where=engine.where)
+
+    def run_job(self, job: MachineJob, operator) -> JobResult:
+        """The travel check, then the job journalled and streamed. Raises GrblPortLost
+        (a PortGone) for a lost port, GrblStreamError for a refusal or an alarm."""
+        engine: GrblJob = job.engine
+        engine.check_travel()
+        if engine.entry is None:                # a new job
+            self._warn_g92(operator)
+        engine.begin_journal(grbl_journal(), engine.entry)
+        self._job = engine
+        try:
+            result = engine.run(operator.progress, operator.pen_change)
+        except GrblStreamError:
+            self.news()                 # the alarm is in the error, with its file line
+            raise
+        finally:
+            self._job = None
+        if not result.completed:
+            try:
+                where = stands_at(self.link.status())
+            except GrblError:
+                where = "GRBL's position was not reported"
+            return JobResult(False, result.confirmed, result.total, result.elapsed_s,
+                             result.reason, "G-code lines", where, HELD)
+        return JobResult(True, result.total, result.total, result.elapsed_s,
+                         unit="G-code lines", where=stands_at(self.link.tracker.last))
+
+    def _warn_g92(self, operator) -> None:
+        """A G92 offset is lost on any reset, so a resume could not restore it: say so."""
+        reply = self.link.command("$#")
+        g92 = next((line for line in reply.lines if line.startswith("[G92:")), "")
+        if g92 and any(float(v) != 0 for v in g92[5:-1].split(",")):
+            operator.say(f"note: GRBL has a G92 offset {g92}: GRBL forgets it on a reset, "
+                         f"so a resume after a lost port could not restore it (set the "
+                         f"work zero with G10 L20 instead)")
+
+    def stop(self) -> None:
+        job = self._job
+        if job is not None:
+            job.stop()
+
+    def pending(self, file: str | None = None):
+        return pending_job(grbl_journal(), file)
+
+    def plan_resume(self, entry, *, on_stage=None, plan=None, timing=None) -> Resumption:
+        config = journal_config(entry)
+        refuse_other_scale(self.link, config.steps_per_mm, self.config_path, self.port_name)
+        planned = replan(entry, config, on_stage=on_stage, plan=plan or plan_file)
+        job = GrblJob(self.link, self.port, planned, config)
+        job.port_name = self.port_name
+        start, why = resume_from(self.link, entry, job.lines)
+        if start >= len(job.lines):
+            journal = grbl_journal()
+            journal.begin(entry)
+            journal.end(FINISHED, "every line was acknowledged before the job stopped")
+            return Resumption(None, why, nothing_left="nothing left to resume: GRBL had "
+                              "acknowledged every line of the job")
+        job.entry = entry
+        job.go_on_from(start)
+        return Resumption(self._machine_job(job), why)
+
+    def find_position(self, resumption: Resumption, operator) -> bool:
+        """Home ($H) or have the user re-zero: GRBL was reset since the job stopped."""
+        engine: GrblJob = resumption.job.engine
+        try:
+            found = find_position(self.link, engine.scale, engine.pen, operator.say,
+                                  lambda question: operator.confirm(f"{question}: move it "
+                                                                    f"there"))
+        except GrblError as problem:
+            self._alarm_settled(problem)
+        if found:
+            operator.say(resumption.job.estimate_line())
+        return found
+
+
+class GrblSteps:
+    """The steps GRBL's pins made on simavr:// (recorded from the board's power-on),
+    the final position GRBL's last work position; None from a real board."""
+
+    source = "GRBL's step pins in simavr"
+
+    def __init__(self, machine: GrblMachine):
+        self.machine = machine
+        board = getattr(machine.port, "board", None)
+        self._board = board if board is not None and board.records_steps else None
+        self._final = None
+
+    def job_done(self) -> None:
+        self._final = self.machine.link.tracker.last
+
+    def trace(self) -> Trace | None:
+        if self._board is None or self._final is None:
+            return None
+        link = self.machine.link
+        scale = link_scale(link)
+        tick, axis, direction = grbl_step_trace(self._board.trace(), link.settings.integer(3))
+        here = tuple(round(nm * float(scale.steps_per_mm[a]) / NM_PER_MM)
+                     for a, nm in enumerate(self._final.wpos_nm))
+        return Trace(tick, axis, direction, here, int(tick[-1]) if len(tick) else 0)

@@ -1,0 +1,63 @@
+"""`getg`'s and `resume`'s job on whichever machine is connected (backends/): the
+machine prepares, runs and resumes it; the console says what it will do, asks, and
+lends it the progress bar (job_screen.JobScreen, an Operator)."""
+
+from __future__ import annotations
+
+from galileo_cnc.console.job_screen import BELL, ConsoleOperator, JobScreen
+from galileo_cnc.machine.timing import duration_text
+from galileo_cnc.transport.link import PortGone
+
+
+def plot(console, planned, config) -> None:
+    """getg's job: estimated, travel-checked, journalled and streamed."""
+    machine = console.machine
+    job = machine.prepare(planned, config,
+                          timing=lambda: console.plans.timing(planned.job, console.config))
+    pens = len(planned.job.pen_changes)
+    console.say(f"{job.remaining} {job.unit_long}, {pens} pen change{'s' * (pens != 1)}, "
+                f"about {duration_text(job.estimate_s)} {job.estimate_by}")
+    _run(console, job, lambda operator: machine.run_job(job, operator))
+
+
+def resume(console) -> None:
+    """The job the machine's journal holds (from getg or `galileo-cnc plot`), continued
+    as `plot --resume` does it."""
+    machine = console.machine
+    entry = machine.pending()                      # GalileoError: none, and why
+    resumption = machine.plan_resume(entry, on_stage=console.say_stage,
+                                     plan=console.plans.plan_file,
+                                     timing=console.plans.timing)
+    console.say(f"{entry.source}: {resumption.why}")
+    if resumption.job is None:
+        console.say(resumption.nothing_left)
+        return
+    if not console.confirm("continue the job?"):
+        return
+    if not machine.find_position(resumption, ConsoleOperator(console)):
+        console.say("then move it there (setup jogs the head), and type resume again")
+        return
+    job = resumption.job
+    _run(console, job, lambda operator: machine.run_job(job, operator))
+
+
+def _run(console, job, run) -> None:
+    """The job under the progress bar, and how it ended."""
+    screen = JobScreen(console, job.source, job.total, start=job.start)
+    try:
+        result = screen.run(run, console.machine.stop)
+    except PortGone as gone:
+        runs_on = getattr(gone, "runs_on", "")
+        if runs_on:
+            console.say(f"{runs_on}; once the machine stands still, connect again and type "
+                        f"resume")
+        raise                           # the console says the port is gone
+    where = f"; {result.where}" if result.where else ""
+    if result.completed:
+        console.say(f"{BELL}process has finished in {duration_text(result.elapsed_s)} "
+                    f"({result.total} {result.unit}){where}")
+        return
+    reason = f": {result.reason}" if result.reason else ""
+    held = f"; {result.held}{where}" if result.held else ""
+    console.say(f"job stopped after {result.confirmed} of {result.total} {result.unit}"
+                f"{reason}{held}; type resume to continue it")
