@@ -29,7 +29,7 @@ from galileo_cnc.machine.trace import Trace
 from galileo_cnc.machine.timing import duration_text, job_timing
 from galileo_cnc.plan.ink.background import Deferred
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
-from galileo_cnc.plan.ink.inking import mm_text
+from galileo_cnc.plan.widths import mm_text
 from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, PlanOptions, plan_file
 from galileo_cnc.program.ops import NM_PER_MM, Program
 from galileo_cnc.stream.homing import check_homeable, home, home_after_reset, z_has_end_stop
@@ -136,7 +136,7 @@ class PlotOptions:
     mode: str = "auto"
     layers: tuple[str, ...] = ()
     units: str | None = None
-    optimize: bool = False          # reorder pen-drawing G-code too (plan/gcode_order.py)
+    optimize: bool = False          # reorder pen-drawing G-code too (plan/order/gcode_order.py)
     home: bool = False              # home before the job: a reset mid-job is resumable
     #: the board's port, already open and probed (discovery.open_identified): the
     #: link greets over it instead of opening `profile.port` again
