@@ -16,12 +16,12 @@ the reason. `--files` matches names as printed ("gerber/...", "dxf/..."). A last
 200 mm square, seed 1), from (0, 0): it is not in the totals (`--synthetic N` changes
 the count, 0 leaves it out; `--quick` uses 1,000, too few for check 2).
 
-The paths, as plan/order/paths.py sees them: a Gerber file's rows are grouped one pen per
-aperture as the planner does with `optimize=True` (`group_by_aperture`, then one
-group per run of the same aperture, as in `order.optimized_order`; a single-aperture
+The paths, as plan/order/paths.py sees them: a Gerber file's rows are grouped one pen
+per aperture as the planner does with `optimize=True` (`group_by_aperture`, then one
+group per run of the same aperture, as in `apertures.optimized_order`; a single-aperture
 file is one group in file order), a DXF drawing is one group; each group is cut into
-pieces by `paths.cut_pieces`. Flashes are one-point paths for all three methods:
-they are ordered, never joined (a flash ends with the pen up).
+pieces by `paths.cut_pieces`. Flashes are one-point paths for all three methods: they
+are ordered, never joined (a flash ends with the pen up).
 
 Three orders of the same pieces, each starting from the same point, the work origin
 (`load_artwork(path).proposal_nm`, the program point the planner puts at the machine's
@@ -29,11 +29,11 @@ origin), each group starting where the same method's previous group ended:
 
   file   the file's order (one pen per aperture, the file's order within it): what the
          planner draws without `optimize`
-  ours   `paths.optimize(rows, here, join_nm, goal=order.group_goal(next group))` per
+  ours   `paths.optimize(rows, here, join_nm, goal=apertures.group_goal(next group))` per
          group, as `plan_program(..., optimize=True)` calls it through
-         `order.optimize_groups`; its output re-cut with `cut_pieces` (a chain is one
-         piece). Repeats it leaves out (plan/order/repeats.py) are not drawn, so its pieces
-         can be fewer than the file's
+         `apertures.optimize_groups`; its output re-cut with `cut_pieces` (a chain is one
+         piece). Repeats it leaves out (plan/order/repeats.py) are not drawn, so its
+         pieces can be fewer than the file's
   vpype  vpype (bench/order_peers.py) in its own venv: the same pieces as polylines
          (arcs flattened with `curves.arc_points` to 5 um, flashes as zero-length
          two-point lines), `LineCollection.merge(tolerance=6250, flip=True)` (= linemerge)
@@ -42,11 +42,11 @@ origin), each group starting where the same method's previous group ended:
          again: see order_peers.py)
 
 vpype runs twice where the file draws something twice: on the file's pieces (check 1)
-and on the pieces we draw, the repeats `plan/order/repeats.py` leaves out left out (check
-1b; the same pieces as check 1 where there are none). Leaving out a repeat of 5 mm or
-more can cost a stroke (its ends turn odd) and still save time, so on the file's pieces
-ours can lift more than vpype while drawing less; 1b compares the two optimizers on the
-same drawing.
+and on the pieces we draw, the repeats `plan/order/repeats.py` leaves out left out
+(check 1b; the same pieces as check 1 where there are none). Leaving out a repeat of 5
+mm or more can cost a stroke (its ends turn odd) and still save time, so on the file's
+pieces ours can lift more than vpype while drawing less; 1b compares the two optimizers
+on the same drawing.
 
 Columns (one function, `measure`, computes travel and lifts for all three orders):
   paths     pieces in the file (paths and flashes), before any joining

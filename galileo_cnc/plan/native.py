@@ -1,6 +1,6 @@
 """The compiled parts of the planner, where setup.py could build them: path order's
-local search (plan/order/tour_search.c) and the ink's grid index of edges, its cells and its
-nearest-edge search (plan/ink/edge_index.c).
+local search (plan/order/tour_search.c) and the ink's grid index of edges, its cells and
+its nearest-edge search (plan/ink/edge_index.c).
 
 `tour_search()`, `cell_keys()` and `nearest_edges()` give a function that runs the
 work compiled, or None where the extension is missing (no C compiler at install time),

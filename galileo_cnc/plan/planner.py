@@ -1,7 +1,7 @@
 """The planner: a Program (ops in nm) becomes a Job (machine commands in steps).
 
 One pass over the op table (docs/plan.md). Gerber artwork with more than one
-aperture is first grouped by aperture (`order.group_by_aperture`), so each pen is
+aperture is first grouped by aperture (`order/apertures.py`), so each pen is
 inserted once; G-code keeps its file order, where feeds and pen moves are modal.
 
 - subtract the offset from every coordinate, then nm -> steps with
@@ -285,12 +285,12 @@ def plan_program(program: Program, config: MachineConfig | None = None,
     """Plan `program` for the machine `config` with `offset_nm` subtracted (see module
     doc); `group=False` keeps a Gerber file's own order. `on_progress(done, total)`
     hears about every PROGRESS_OPS ops, so a front end can show a long plan moving.
-    `optimize` chains and orders each pen's paths (plan/order/paths.py; Gerber and DXF of
-    pure geometry; G-code only if it draws with a pen and nothing else, else PlanError:
-    plan/order/gcode_order.py; plan_file asks for it for Gerber and DXF unless the user wants
-    file order, for G-code when the user gives --optimize). `ordered`: the rows in the
-    order `optimize` gives them, worked out already, as (op index, row) pairs or
-    OrderedRows (the ink's: plan/ink/walk_order.py)."""
+    `optimize` chains and orders each pen's paths (plan/order/paths.py; Gerber and DXF
+    of pure geometry; G-code only if it draws with a pen and nothing else, else
+    PlanError: plan/order/gcode_order.py; plan_file asks for it for Gerber and DXF
+    unless the user wants file order, for G-code when the user gives --optimize).
+    `ordered`: the rows in the order `optimize` gives them, worked out already, as (op
+    index, row) pairs or OrderedRows (the ink's: plan/ink/walk_order.py)."""
     config = config or MachineConfig()
     steps = config.nm_to_steps_function()
     ox, oy = offset_nm

@@ -1,13 +1,13 @@
 """Path order for the ink, worked out from the walks' ends while their arcs are fitted.
 
-Path order (plan/order/paths.py) moves and reverses each fill walk whole (pieces.WHOLE_PATHS):
-what it decides depends on a walk's two ends, its place in the rows and, for the last
-pen, whether a vertex of it lies near a centre line (paths.touching). It never looks
-inside a walk that touches nothing. So the order can be worked out on a *skeleton*
-of the ink, each such walk two rows (a MOVE to its start, a LINE to its end), in a
-forked process while this one fits the walks' arcs (arcs.py: a second of CPU on the
-largest layers), and then be spelled out with the walks' real rows. The answer is
-the order `optimized_order` gives on the real rows, row for row:
+Path order (plan/order/paths.py) moves and reverses each fill walk whole
+(pieces.WHOLE_PATHS): what it decides depends on a walk's two ends, its place in the
+rows and, for the last pen, whether a vertex of it lies near a centre line
+(paths.touching). It never looks inside a walk that touches nothing. So the order can be
+worked out on a *skeleton* of the ink, each such walk two rows (a MOVE to its start, a
+LINE to its end), in a forked process while this one fits the walks' arcs (arcs.py: a
+second of CPU on the largest layers), and then be spelled out with the walks' real rows.
+The answer is the order `optimized_order` gives on the real rows, row for row:
 
 - a walk keeps its rows in the skeleton (arcs fitted first) where any of its polyline
   vertices is near a centre line: its rows' ends are some of those vertices, so a walk

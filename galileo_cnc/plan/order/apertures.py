@@ -12,6 +12,10 @@ of a draw changes without a move. A piece whose path does not start with a MOVE
 it starts (a synthetic row carrying the first op's index), so it draws exactly
 what it drew in file order. Pieces that draw nothing (a lone MOVE,
 markers) are dropped: they would only add travel.
+
+`optimized_order` is path order's entry for a whole Program (the planner's, and the
+ink's on its walks' ends): one pen per aperture, each pen's paths chained and ordered
+(paths.optimize), each pen's work ending near where the next pen's starts.
 """
 
 from __future__ import annotations
@@ -121,7 +125,7 @@ def pure_geometry(program: Program) -> bool:
 def optimized_order(program: Program, start: tuple[int, int], join_nm: int,
                     by_aperture: bool) -> list[tuple[int, list[int]]]:
     """(op index, row) pairs: the pieces of each pen chained and ordered to cut pen-up
-    travel (plan/order/paths.py), from `start` (program coordinates); with `by_aperture`
+    travel (paths.py), from `start` (program coordinates); with `by_aperture`
     one pen per aperture in first-use order, else everything as one pen."""
     rows = group_by_aperture(program) if by_aperture else list(enumerate(program.table.tolist()))
     groups: list[tuple[list[int] | None, list[tuple[int, list[int]]]]] = []

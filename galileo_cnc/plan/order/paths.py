@@ -4,16 +4,16 @@ pen-up travel.
 The seed's CAM aligned DXF entities so each started where the last one ended
 (reversing where needed); `optimize` does that for every format's pieces of one pen:
 
-1. **pieces** (plan/order/pieces.py): pen paths and flashes, each drawable backwards with
+1. **pieces** (pieces.py): pen paths and flashes, each drawable backwards with
    the same geometry; what the pen would draw twice (a segment, a dot where the pen
-   passes anyway, a flash) is drawn once (plan/order/repeats.py);
-2. **chains** (plan/order/chains.py): paths whose ends meet within `join_nm` joined into as
+   passes anyway, a flash) is drawn once (repeats.py);
+2. **chains** (chains.py): paths whose ends meet within `join_nm` joined into as
    few strokes as the ends allow (Euler trails), a short stretch drawn twice where
-   that saves a lift (plan/order/retrace.py);
+   that saves a lift (retrace.py);
 3. **order** (here): a shortest open path from the head's position over the chain ends
    (either end first: a chain may be drawn reversed), exact up to EXACT chains, else
-   the local search of plan/order/tour.py (spatial queries in plan/order/nearby.py). With a goal
-   (where the next pen's work is) the path's end is charged its distance from there.
+   the local search of tour.py (spatial queries in nearby.py). With a goal (where the
+   next pen's work is) the path's end is charged its distance from there.
 
 Everything stays in integer nm; travel is compared as Euclidean distances in float
 only to choose, never to place.
@@ -127,7 +127,7 @@ def optimize(rows: list[tuple[int, Row]], start: Point, join_nm: int,
              moves: int = TWO_OPT_MOVES, goal: list[Point] | None = None,
              whole: frozenset[int] = frozenset()) -> tuple[list[tuple[int, Row]], Point]:
     """Rows of one pen in an order that draws the same ink with less pen-up travel
-    (what the pen would draw twice drawn once: plan/order/repeats.py), ending, with `goal`,
+    (what the pen would draw twice drawn once: repeats.py), ending, with `goal`,
     near where the next pen's work starts (see `order`). A path whose MOVE's op index
     is in `whole` is a stroke already (pieces.WHOLE_PATHS): it is ordered as it is."""
     with collector_paused():
