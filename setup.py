@@ -1,5 +1,6 @@
-"""The compiled parts: plan/tour_search.c, path order's local search (plan/tour.py), and
-plan/ink/edge_index.c, the ink's grid index of edges (plan/ink/edges.py).
+"""The compiled parts: plan/order/tour_search.c, path order's local search
+(plan/order/tour.py), and plan/ink/edge_index.c, the ink's grid index of edges
+(plan/ink/edges.py).
 
 Optional: where no C compiler is found the build goes on without them and the planner
 runs the same searches in Python and numpy, to the same answers (docs/plan.md,
@@ -12,7 +13,7 @@ from setuptools import Extension, setup
 SAME_ARITHMETIC = ["-O2", "-ffp-contract=off", "-fno-fast-math"]
 
 setup(ext_modules=[
-    Extension("galileo_cnc.plan._tour_search", ["galileo_cnc/plan/tour_search.c"],
+    Extension("galileo_cnc.plan.order._tour_search", ["galileo_cnc/plan/order/tour_search.c"],
               optional=True, extra_compile_args=SAME_ARITHMETIC),
     Extension("galileo_cnc.plan.ink._edge_index", ["galileo_cnc/plan/ink/edge_index.c"],
               optional=True, extra_compile_args=SAME_ARITHMETIC),

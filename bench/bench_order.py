@@ -1,4 +1,4 @@
-"""Path order: ours (plan/paths.py) against vpype's linemerge + linesort --two-opt.
+"""Path order: ours (plan/order/paths.py) against vpype's linemerge + linesort --two-opt.
 
 Our chaining and ordering of pen paths and vpype's on the same paths, over the corpus,
 in one run.
@@ -16,12 +16,12 @@ the reason. `--files` matches names as printed ("gerber/...", "dxf/..."). A last
 200 mm square, seed 1), from (0, 0): it is not in the totals (`--synthetic N` changes
 the count, 0 leaves it out; `--quick` uses 1,000, too few for check 2).
 
-The paths, as plan/paths.py sees them: a Gerber file's rows are grouped one pen per
-aperture as the planner does with `optimize=True` (`group_by_aperture`, then one
-group per run of the same aperture, as in `order.optimised_order`; a single-aperture
+The paths, as plan/order/paths.py sees them: a Gerber file's rows are grouped one pen
+per aperture as the planner does with `optimize=True` (`group_by_aperture`, then one
+group per run of the same aperture, as in `apertures.optimized_order`; a single-aperture
 file is one group in file order), a DXF drawing is one group; each group is cut into
-pieces by `paths.cut_pieces`. Flashes are one-point paths for all three methods:
-they are ordered, never joined (a flash ends with the pen up).
+pieces by `paths.cut_pieces`. Flashes are one-point paths for all three methods: they
+are ordered, never joined (a flash ends with the pen up).
 
 Three orders of the same pieces, each starting from the same point, the work origin
 (`load_artwork(path).proposal_nm`, the program point the planner puts at the machine's
@@ -29,24 +29,24 @@ origin), each group starting where the same method's previous group ended:
 
   file   the file's order (one pen per aperture, the file's order within it): what the
          planner draws without `optimize`
-  ours   `paths.optimise(rows, here, join_nm, goal=order.group_goal(next group))` per
+  ours   `paths.optimize(rows, here, join_nm, goal=apertures.group_goal(next group))` per
          group, as `plan_program(..., optimize=True)` calls it through
-         `order.optimise_groups`; its output re-cut with `cut_pieces` (a chain is one
-         piece). Repeats it leaves out (plan/repeats.py) are not drawn, so its pieces
-         can be fewer than the file's
+         `apertures.optimize_groups`; its output re-cut with `cut_pieces` (a chain is one
+         piece). Repeats it leaves out (plan/order/repeats.py) are not drawn, so its
+         pieces can be fewer than the file's
   vpype  vpype (bench/order_peers.py) in its own venv: the same pieces as polylines
-         (arcs flattened with `ink.shapes.arc_points` to 5 um, flashes as zero-length
+         (arcs flattened with `curves.arc_points` to 5 um, flashes as zero-length
          two-point lines), `LineCollection.merge(tolerance=6250, flip=True)` (= linemerge)
          on the paths, then vpype_cli's `linesort` function (two_opt, 250 passes) on the
          merged paths and the flashes, led by an anchor line at the start point (removed
          again: see order_peers.py)
 
 vpype runs twice where the file draws something twice: on the file's pieces (check 1)
-and on the pieces we draw, the repeats `plan/repeats.py` leaves out left out (check
-1b; the same pieces as check 1 where there are none). Leaving out a repeat of 5 mm or
-more can cost a stroke (its ends turn odd) and still save time, so on the file's pieces
-ours can lift more than vpype while drawing less; 1b compares the two optimisers on the
-same drawing.
+and on the pieces we draw, the repeats `plan/order/repeats.py` leaves out left out
+(check 1b; the same pieces as check 1 where there are none). Leaving out a repeat of 5
+mm or more can cost a stroke (its ends turn odd) and still save time, so on the file's
+pieces ours can lift more than vpype while drawing less; 1b compares the two optimizers
+on the same drawing.
 
 Columns (one function, `measure`, computes travel and lifts for all three orders):
   paths     pieces in the file (paths and flashes), before any joining
@@ -55,7 +55,7 @@ Columns (one function, `measure`, computes travel and lifts for all three orders
   lifts     pen-downs: pieces after merging minus joins, where a join is a path that
             starts within join_nm = one motor step (6250 nm) of the end of the path
             before it in the same group (the pen stays down); each flash is one
-  opt s     time to optimise: ours = `optimise` over every group; vpype = merge +
+  opt s     time to optimize: ours = `optimize` over every group; vpype = merge +
             linesort only (not its interpreter's start, not reading or writing .npz)
   plot s    Gerber copper layers: the reference machine's plot time
             (`machine.planner.estimate_seconds`) of `plan_program(program, config,
@@ -74,13 +74,13 @@ says so and runs our side only; `--no-vpype` skips it. Each file's vpype merge+s
 cut off after `--vpype-timeout` s (reported; the file is then not compared).
 
 Time limits: `--timeout` s (default 120) per file on our side (reading, cutting and
-`optimise`), and within it 10 s + 5 ms a path for `optimise` on one group (several
+`optimize`), and within it 10 s + 5 ms a path for `optimize` on one group (several
 times what the corpus's groups need); twice `--timeout` for a layer's two plans; `--vpype-timeout` for vpype's merge +
 sort. A file past its limit is reported (which group, how many paths, where the head
-was) and not compared; a copper layer whose `optimise` ran out of time is not planned
-(plan_program(optimize=True) calls the same optimiser) and counts against check 3.
+was) and not compared; a copper layer whose `optimize` ran out of time is not planned
+(plan_program(optimize=True) calls the same optimizer) and counts against check 3.
 
-Process layout (2 CPUs here): the ordering child (reading, cutting, our optimiser) runs
+Process layout (2 CPUs here): the ordering child (reading, cutting, our optimizer) runs
 first, alone; then the vpype child and the plot-time child (planning and timing the
 copper layers) run side by side. Numbers are printed, never asserted; the closing
 check lines say PASS or MISS against the targets of the issue.
@@ -116,7 +116,7 @@ QUICK_BYTES = 30_000
 QUICK_FILES = 4                  # per format
 TRAVEL_SLACK_NM = 1000           # "worse than vpype": more than 1 um more travel
 NM_PER_M = 1e9
-#: our optimiser's time limit for one group: this plus this much per path (and within
+#: our optimizer's time limit for one group: this plus this much per path (and within
 #: the file's --timeout); several times what the corpus's groups need on a quiet machine
 GROUP_LIMIT_S = 10.0
 GROUP_LIMIT_PER_PATH_S = 0.005
@@ -170,9 +170,9 @@ def file_path(name: str) -> Path:
 
 
 def pen_groups(program) -> list[list[tuple[int, list[int]]]]:
-    """Each pen's rows, in the planner's order: `optimised_order`'s split (one group per
+    """Each pen's rows, in the planner's order: `optimized_order`'s split (one group per
     run of one aperture after `group_by_aperture`; a single pen is one group)."""
-    from galileo_cnc.plan.order import drawing_apertures, group_by_aperture
+    from galileo_cnc.plan.order.apertures import drawing_apertures, group_by_aperture
     from galileo_cnc.program.ops import KIND, TOOL, OpKind
 
     by_aperture = program.format == "gerber" and len(drawing_apertures(program)) > 1
@@ -222,7 +222,7 @@ def polylines(pieces):
     """The pieces as vpype's polylines: (points, offsets, flash), arcs flattened."""
     import numpy as np
 
-    from galileo_cnc.plan.ink.shapes import arc_points
+    from galileo_cnc.plan.curves import arc_points
     from galileo_cnc.program.ops import I, J, KIND, X, Y, OpKind
 
     arcs = (int(OpKind.ARC_CW), int(OpKind.ARC_CCW))
@@ -270,10 +270,10 @@ def child_order(names: list[str], out: Path, join_nm: int, synthetic: int,
     `limit_s` for the file) and add the ends of ours."""
     import numpy as np
 
-    from galileo_cnc.plan.order import group_goal, pure_geometry
-    from galileo_cnc.plan.paths import cut_pieces, optimise
+    from galileo_cnc.plan.order.apertures import group_goal, pure_geometry
+    from galileo_cnc.plan.order.paths import cut_pieces, optimize
     from galileo_cnc.plan.pipeline import load_artwork
-    from galileo_cnc.plan.repeats import drop_repeats
+    from galileo_cnc.plan.order.repeats import drop_repeats
 
     for k, name in enumerate(names):
         record: dict = {"k": k, "name": name}
@@ -309,7 +309,7 @@ def child_order(names: list[str], out: Path, join_nm: int, synthetic: int,
                 np.savez(out / "vpype-in-drawn" / f"{k}.npz", **drawn_npz)
             record.update(start=list(start), groups=len(groups), paths=sum(sizes), pure=pure,
                           repeats_left=repeats_left)
-            stage, seconds, here = "optimise", 0.0, start
+            stage, seconds, here = "optimize", 0.0, start
             for group, rows in enumerate(groups):
                 left = limit_s - (time.perf_counter() - started)
                 record["limit_s"] = min(left, GROUP_LIMIT_S
@@ -317,7 +317,7 @@ def child_order(names: list[str], out: Path, join_nm: int, synthetic: int,
                 time_limit(max(record["limit_s"], 0.001))
                 t0 = time.perf_counter()
                 goal = group_goal(groups[group + 1]) if group + 1 < len(groups) else None
-                drawn, end = optimise(rows, here, join_nm, goal=goal)
+                drawn, end = optimize(rows, here, join_nm, goal=goal)
                 seconds += time.perf_counter() - t0
                 order_npz[f"ours{group}"] = piece_ends(cut_pieces(drawn, here))
                 here = end
@@ -326,7 +326,7 @@ def child_order(names: list[str], out: Path, join_nm: int, synthetic: int,
         except Timeout:
             record["timeout"] = limit_s
             record["stage"] = stage
-            if stage == "optimise":
+            if stage == "optimize":
                 record["timeout"] = record.pop("limit_s")
                 ends = order_npz[f"file{group}"]
                 record["hung"] = {"group": group, "paths": sizes[group],
@@ -469,7 +469,7 @@ def main() -> None:
                     help="seconds for one file's vpype merge+sort (default 120)")
     ap.add_argument("--timeout", type=float, default=120.0,
                     help="seconds for one file on our side: reading, cutting and our "
-                         "optimiser; twice that for its plot times (default 120)")
+                         "optimizer; twice that for its plot times (default 120)")
     ap.add_argument("--synthetic", type=int, default=None,
                     help=f"paths of the synthetic case (default {SYNTHETIC_PATHS:,}; 0: none)")
     ap.add_argument("--child", help=argparse.SUPPRESS)
@@ -514,7 +514,7 @@ def main() -> None:
         me = [sys.executable, __file__, "--listing", str(listing), "--out", str(out)]
         me += ["--synthetic", str(synthetic), "--timeout", str(args.timeout)]
         order = run_child(me + ["--child", "order"], len(names), "order (ours)")
-        # plot times beside vpype; not for a layer our optimiser could not finish
+        # plot times beside vpype; not for a layer our optimizer could not finish
         # (plan_program(optimize=True) would not finish either)
         todo = [r["k"] for r in order if names[r["k"]].startswith("gerber/")
                 and "opt_s" in r]
@@ -705,7 +705,7 @@ def report(rows, peer, join_nm, synthetic, args) -> None:
         print(f"skipped {name}: {problem}")
     for r in hung:
         h, vp = r["order"].get("hung", {}), r.get("vpype") or {}
-        print(f"OURS TIMED OUT on {r['name']} after {r['order']['timeout']:.0f} s in `optimise`, "
+        print(f"OURS TIMED OUT on {r['name']} after {r['order']['timeout']:.0f} s in `optimize`, "
               f"group {h.get('group')} of {r['order']['groups']} ({h.get('paths')} paths), "
               f"starting at {tuple(h.get('here', ()))} nm, its paths within "
               f"{tuple(h.get('box') or ())} nm; file order {r['file'][0] / NM_PER_M:.3f}"
@@ -729,7 +729,7 @@ def report(rows, peer, join_nm, synthetic, args) -> None:
     for key, label, what in (
             ("vp", "1", "vpype given the file's paths"),
             ("vp_drawn", "1b", "vpype given the paths we draw: the file's, the repeats "
-                               "plan/repeats.py leaves out left out")):
+                               "plan/order/repeats.py leaves out left out")):
         verdicts.append(check_against(compared, key, label, what, peer, timed_out, hung))
     print()
     for line in verdicts:
@@ -744,7 +744,7 @@ def report(rows, peer, join_nm, synthetic, args) -> None:
         n, seconds = synth["order"]["paths"], synth["order"]["opt_s"]
         verdict = ("PASS" if seconds < 2.0 else "MISS") if n >= SYNTHETIC_PATHS else \
             f"SKIP (only {n:,} paths)"
-        print(f"check 2 (optimising 10,000 paths in under 2 s): {verdict}: ours "
+        print(f"check 2 (optimizing 10,000 paths in under 2 s): {verdict}: ours "
               f"{seconds:.2f} s for {n:,} paths{vp_text}")
     stuck = [r for r in rows if r.get("plot") and "timeout" in r["plot"]] + [
         r for r in hung if r["name"].startswith("gerber/")]

@@ -158,9 +158,9 @@ class Job:
     commands: list[Command] = field(default_factory=list)
     op_index: list[int] = field(default_factory=list)
     aperture: list[int] = field(default_factory=list)
-    grouped: bool = False                   # work grouped by aperture (order.py)
+    grouped: bool = False                   # work grouped by aperture (plan/order/apertures.py)
     mode: str = "centre"                    # "ink" or "centre" (plan/pipeline.py)
-    ordered: bool = False                   # paths chained and ordered (plan/paths.py)
+    ordered: bool = False                   # paths chained and ordered (plan/order/paths.py)
     pens_nm: tuple = ()                     # ink mode: the pen set it was inked for
     layers: tuple = ()                      # DXF: the layers read (empty: all)
     units: str | None = None                # DXF: units given instead of $INSUNITS

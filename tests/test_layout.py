@@ -57,6 +57,8 @@ def _imports(source: str, module: str, is_package: bool) -> list[tuple[int, str]
             if target == "galileo_cnc":                 # from galileo_cnc import protocol
                 found += [(node.lineno, f"galileo_cnc.{a.name}") for a in node.names
                           if a.name in STAGES]
+            elif target == "galileo_cnc.plan":          # from galileo_cnc.plan import curves
+                found += [(node.lineno, f"galileo_cnc.plan.{a.name}") for a in node.names]
             elif target.startswith("galileo_cnc."):
                 found.append((node.lineno, target))
     return found
@@ -71,6 +73,38 @@ def backward_imports(source: str, module: str, is_package: bool = False) -> list
         if own and other not in ("", own) and not STAGES[other] < STAGES[own]:
             problems.append(f"{module}:{line}: {own} (stage {STAGES[own]}) imports "
                             f"{target} (stage {STAGES[other]})")
+    return problems
+
+
+#: plan/'s own stages (galileo_cnc/plan/__init__.py): a plan module imports its own
+#: folder and what lies below it. Path order sits below the ink, which starts it on its
+#: walks' ends; the ink and the planner share a stage (the pipeline hands the ink's
+#: Program to the planner), so neither imports the other; what two stages share
+#: (curves, widths, ...) lies below them all.
+PLAN_STAGES = {
+    "offsets": 0, "curves": 0, "widths": 0, "native": 0, "collector": 0, "measure": 0,
+    "order": 1,
+    "ink": 2, "planner": 2,
+    "pipeline": 3,
+    "gcode_writer": 4,
+}
+
+
+def _plan_unit(module: str) -> str:
+    """'galileo_cnc.plan.order.tour' -> 'order'; '' outside plan/ (or plan itself)."""
+    parts = module.split(".")
+    return parts[2] if len(parts) > 2 and parts[1] == "plan" else ""
+
+
+def backward_plan_imports(source: str, module: str, is_package: bool = False) -> list[str]:
+    """Each import of a plan module's source that reaches a later (or sideways) plan stage."""
+    own = _plan_unit(module)
+    problems = []
+    for line, target in _imports(source, module, is_package):
+        other = _plan_unit(target)
+        if own and other not in ("", own) and not PLAN_STAGES[other] < PLAN_STAGES[own]:
+            problems.append(f"{module}:{line}: plan.{own} (plan stage {PLAN_STAGES[own]}) "
+                            f"imports {target} (plan stage {PLAN_STAGES[other]})")
     return problems
 
 
@@ -181,6 +215,41 @@ def test_no_module_imports_a_later_stage(path):
     # galileo_cnc/__init__.py (no stage) only registers the URL schemes
     assert backward_imports(path.read_text(), _module_name(path),
                             path.name == "__init__.py") == []
+
+
+PLAN_SOURCES = [p for p in SOURCES if p.relative_to(PACKAGE).parts[0] == "plan"]
+
+
+def test_every_plan_module_and_folder_has_a_plan_stage():
+    units = {_plan_unit(_module_name(p)) for p in PLAN_SOURCES} - {""}
+    assert units <= set(PLAN_STAGES), f"give these a plan stage: {sorted(units - set(PLAN_STAGES))}"
+
+
+@pytest.mark.parametrize("path", PLAN_SOURCES, ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_no_plan_module_imports_a_later_plan_stage(path):
+    assert backward_plan_imports(path.read_text(), _module_name(path),
+                                 path.name == "__init__.py") == []
+
+
+def test_the_plan_rule_catches_later_and_sideways_stages():
+    # path order never asks the planner, nor the ink
+    assert backward_plan_imports("from galileo_cnc.plan.planner import PlanError\n",
+                                 "galileo_cnc.plan.order.paths") == [
+        "galileo_cnc.plan.order.paths:1: plan.order (plan stage 1) imports "
+        "galileo_cnc.plan.planner (plan stage 2)"]
+    # the planner borrows nothing from the ink (its three helpers moved down)
+    assert len(backward_plan_imports("from galileo_cnc.plan.ink.inking import mm_text\n",
+                                     "galileo_cnc.plan.planner")) == 1
+    assert len(backward_plan_imports("def f():\n    from galileo_cnc.plan import ink\n",
+                                     "galileo_cnc.plan.order.tour")) == 1
+    # shared helpers import no stage, not even each other
+    assert len(backward_plan_imports("from galileo_cnc.plan import native\n",
+                                     "galileo_cnc.plan.curves")) == 1
+    # a stage's own folder, and relative imports, resolve as in the package rule
+    assert backward_plan_imports("from .chains import chain\n",
+                                 "galileo_cnc.plan.order.paths") == []
+    assert backward_plan_imports("from galileo_cnc.plan.order import paths\n",
+                                 "galileo_cnc.plan.planner") == []
 
 
 def test_the_rule_catches_backward_and_sideways_imports():

@@ -71,7 +71,7 @@ def _run_info(args: argparse.Namespace) -> int:
 
 def _check_reorder(program) -> None:
     """info --optimize: the refusal plot and convert would give, without planning."""
-    from galileo_cnc.plan.gcode_order import refusal
+    from galileo_cnc.plan.order.gcode_order import refusal
     from galileo_cnc.plan.planner import PlanError
 
     problem = refusal(program)
@@ -169,7 +169,7 @@ def _plan(args: argparse.Namespace, config):
 
 
 def _run_convert(args: argparse.Namespace) -> int:
-    from galileo_cnc.plan.convert import converted_gcode
+    from galileo_cnc.plan.gcode_writer import converted_gcode
     from galileo_cnc.plan.measure import job_lengths
 
     check_output(args.output, "--output")

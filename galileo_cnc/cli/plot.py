@@ -31,7 +31,7 @@ from galileo_cnc.grbl.stream import GrblStreamError
 from galileo_cnc.machine.timing import duration_text, job_timing
 from galileo_cnc.plan.ink.background import Deferred
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
-from galileo_cnc.plan.ink.inking import mm_text
+from galileo_cnc.plan.widths import mm_text
 from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, PlanOptions, plan_file
 from galileo_cnc.program.ops import NM_PER_MM
 from galileo_cnc.stream.homing import check_homeable
@@ -135,7 +135,7 @@ class PlotOptions:
     mode: str = "auto"
     layers: tuple[str, ...] = ()
     units: str | None = None
-    optimize: bool = False          # reorder pen-drawing G-code too (plan/gcode_order.py)
+    optimize: bool = False          # reorder pen-drawing G-code too (plan/order/gcode_order.py)
     home: bool = False              # home before the job: a reset mid-job is resumable
     check: bool = False             # GRBL's check mode ($C) instead of plotting
     #: the board's port, already open and probed (discovery.open_board), and what

@@ -1,6 +1,6 @@
 """The compiled parts of the planner, where setup.py could build them: path order's
-local search (plan/tour_search.c) and the ink's grid index of edges, its cells and its
-nearest-edge search (plan/ink/edge_index.c).
+local search (plan/order/tour_search.c) and the ink's grid index of edges, its cells and
+its nearest-edge search (plan/ink/edge_index.c).
 
 `tour_search()`, `cell_keys()` and `nearest_edges()` give a function that runs the
 work compiled, or None where the extension is missing (no C compiler at install time),
@@ -22,7 +22,7 @@ import numpy as np
 _DOUBLES = ctypes.POINTER(ctypes.c_double)
 _INTS = ctypes.POINTER(ctypes.c_int64)
 _INT = ctypes.c_int64
-_TOUR, _EDGES = "galileo_cnc.plan._tour_search", "galileo_cnc.plan.ink._edge_index"
+_TOUR, _EDGES = "galileo_cnc.plan.order._tour_search", "galileo_cnc.plan.ink._edge_index"
 #: per extension module: its functions, what each returns and its arguments' types
 _FUNCTIONS = {
     _TOUR: {"tour_search": (_INT, [_INT, _DOUBLES, _DOUBLES, _DOUBLES, _INTS, _INTS, _DOUBLES,
@@ -60,7 +60,7 @@ def _wanted(module: str) -> ctypes.CDLL | None:
 
 
 def tour_search() -> Callable | None:
-    """search(tour, moves, perturbations, kicks) for plan/tour.py's Tour (its tour and
+    """search(tour, moves, perturbations, kicks) for plan/order/tour.py's Tour (its tour and
     pos are changed in place, its travel lengths refreshed; `kicks`: Tour.kicks);
     None where only the Python search is at hand."""
     library = _wanted(_TOUR)

@@ -1,7 +1,7 @@
 """The planner: a Program (ops in nm) becomes a Job (machine commands in steps).
 
 One pass over the op table (docs/plan.md). Gerber artwork with more than one
-aperture is first grouped by aperture (`order.group_by_aperture`), so each pen is
+aperture is first grouped by aperture (`order/apertures.py`), so each pen is
 inserted once; G-code keeps its file order, where feeds and pen moves are modal.
 
 - subtract the offset from every coordinate, then nm -> steps with
@@ -41,14 +41,12 @@ from galileo_cnc.job import (NO_OP, ArcTo, Command, Dwell, EndJob, Flash, Job, L
                              MachineError, PenDown, PenUp, Rapid, SetFeed)
 from galileo_cnc.machine import ReferenceMachine
 from galileo_cnc.machine.arcs import MAX_ARC_COORD, arc_setup
-from galileo_cnc.plan.ink.inking import mm_text
-from galileo_cnc.plan.ink.narrow import aperture_width
-from galileo_cnc.plan.ink.shapes import arc_angles, arc_points
-from galileo_cnc.plan import gcode_order
-from galileo_cnc.plan.order import (DRAWING_KINDS, PATH_KINDS, OrderedRows,
-                                   drawing_apertures, group_by_aperture, optimised_order,
-                                   pure_geometry)
-from galileo_cnc.plan.paths import optimise
+from galileo_cnc.plan.curves import arc_angles, arc_points
+from galileo_cnc.plan.order import gcode_order, paths
+from galileo_cnc.plan.order.apertures import (DRAWING_KINDS, PATH_KINDS, OrderedRows,
+                                              drawing_apertures, group_by_aperture,
+                                              optimized_order, pure_geometry)
+from galileo_cnc.plan.widths import aperture_width, mm_text
 from galileo_cnc.protocol.codec import first_range_problem
 from galileo_cnc.protocol.spec import COORD
 from galileo_cnc.program.ops import (COLUMNS, I, J, KIND, LINE, COL, NO_TOOL, POSITIONED_KINDS,
@@ -268,12 +266,12 @@ def plotting_order(program: Program, config: MachineConfig, offset_nm: tuple[int
                             f"(without --optimize it is drawn in its own order)", problem[0])
         lead, rows = gcode_order.pen_rows(program)
         start = (int(offset_nm[0]), int(offset_nm[1]))
-        return lead + optimise(rows, start, config.nm_per_step)[0], False, True
+        return lead + paths.optimize(rows, start, config.nm_per_step)[0], False, True
     if optimize and group and program.format in ("gerber", "dxf") and pure_geometry(program):
-        # one pen per aperture, each pen's paths chained and ordered (plan/paths.py);
+        # one pen per aperture, each pen's paths chained and ordered (plan/order/paths.py);
         # the program point at the work origin is where the head starts
         start = (int(offset_nm[0]), int(offset_nm[1]))
-        return optimised_order(program, start, config.nm_per_step, several_pens), True, True
+        return optimized_order(program, start, config.nm_per_step, several_pens), True, True
     if group and several_pens and program.format == "gerber":
         return group_by_aperture(program), True, False
     return list(enumerate(program.table.tolist())), False, False
@@ -287,12 +285,12 @@ def plan_program(program: Program, config: MachineConfig | None = None,
     """Plan `program` for the machine `config` with `offset_nm` subtracted (see module
     doc); `group=False` keeps a Gerber file's own order. `on_progress(done, total)`
     hears about every PROGRESS_OPS ops, so a front end can show a long plan moving.
-    `optimize` chains and orders each pen's paths (plan/paths.py; Gerber and DXF of
-    pure geometry; G-code only if it draws with a pen and nothing else, else PlanError:
-    plan/gcode_order.py; plan_file asks for it for Gerber and DXF unless the user wants
-    file order, for G-code when the user gives --optimize). `ordered`: the rows in the
-    order `optimize` gives them, worked out already, as (op index, row) pairs or
-    OrderedRows (the ink's: plan/ink/walk_order.py)."""
+    `optimize` chains and orders each pen's paths (plan/order/paths.py; Gerber and DXF
+    of pure geometry; G-code only if it draws with a pen and nothing else, else
+    PlanError: plan/order/gcode_order.py; plan_file asks for it for Gerber and DXF
+    unless the user wants file order, for G-code when the user gives --optimize).
+    `ordered`: the rows in the order `optimize` gives them, worked out already, as (op
+    index, row) pairs or OrderedRows (the ink's: plan/ink/walk_order.py)."""
     config = config or MachineConfig()
     steps = config.nm_to_steps_function()
     ox, oy = offset_nm

@@ -1,5 +1,5 @@
 """G-code keeps its order unless --optimize, and only a pen drawing is reordered
-(plan/gcode_order.py): less travel, the same ink; anything else refused by line."""
+(plan/order/gcode_order.py): less travel, the same ink; anything else refused by line."""
 
 from __future__ import annotations
 

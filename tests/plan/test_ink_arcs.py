@@ -16,9 +16,9 @@ import pyclipper
 import pytest
 
 from galileo_cnc.plan.ink.arcs import fit_arcs, fit_paths
+from galileo_cnc.plan.curves import chord_step
 from galileo_cnc.plan.ink.shapes import (
     capsules,
-    chord_step,
     circle_segments,
     circle_template,
 )

@@ -41,7 +41,7 @@ def ink(tmp_path, body: str, tolerance_nm: int = TOL, name: str = "t.gbr"):
 def within_curve_bound(area: float, exact: float, curve_length_mm: float,
                        tolerance_nm: int = TOL, hole_length_mm: float = 0.0) -> bool:
     """Inscribed chords lose at most length x tolerance; holes lose it on the other side.
-    One nm of vertex rounding is inside the tolerance (shapes.chord_budget)."""
+    One nm of vertex rounding is inside the tolerance (curves.chord_budget)."""
     lost = curve_length_mm * MM * tolerance_nm
     gained = hole_length_mm * MM * tolerance_nm
     return exact - lost <= area <= exact + gained

@@ -13,8 +13,8 @@ from corpus import corpus_file
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.plan.ink import clip, inking, walk_order
 from galileo_cnc.plan.ink import fill as fill_module
-from galileo_cnc.plan.paths import touching
-from galileo_cnc.plan.pieces import Piece, WHOLE_PATHS
+from galileo_cnc.plan.order.paths import touching
+from galileo_cnc.plan.order.pieces import Piece, WHOLE_PATHS
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 from galileo_cnc.plan.planner import plan_program
 from galileo_cnc.program.ops import OpKind

@@ -1,4 +1,4 @@
-"""Path order (galileo_cnc/plan/paths.py): chaining with reversal, ordering, and the
+"""Path order (galileo_cnc/plan/order/paths.py): chaining with reversal, ordering, and the
 promise that a reordered job draws exactly the same segments."""
 
 from __future__ import annotations
@@ -12,9 +12,9 @@ import pytest
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.job import ArcTo, Rapid
 from galileo_cnc.machine import simulate
-from galileo_cnc.plan import paths
+from galileo_cnc.plan.order import paths
 from galileo_cnc.plan.offsets import proposed_offset
-from galileo_cnc.plan.order import group_by_aperture, optimised_order
+from galileo_cnc.plan.order.apertures import group_by_aperture, optimized_order
 from galileo_cnc.plan.pipeline import plan_file
 from galileo_cnc.plan.planner import plan_program
 from galileo_cnc.program.ops import I, J, KIND, NO_TOOL, X, Y, OpKind, ProgramBuilder
@@ -63,7 +63,7 @@ def assert_same_drawing(original, reordered, join_nm: int = STEP):
     join_nm (a chain joined across a gap under a step; before an arc the gap is a
     line of its own), arcs round the same centre;
     an original left out only where the same segment is drawn (a repeat, drawn once:
-    plan/repeats.py) or, for a dot, where a drawn segment ends."""
+    plan/order/repeats.py) or, for a dot, where a drawn segment ends."""
     originals = segments(original)
     by_end: dict = {}
     for k, (a, b, centre) in enumerate(originals):
@@ -72,7 +72,7 @@ def assert_same_drawing(original, reordered, join_nm: int = STEP):
     left = set(range(len(originals)))
     for a, b, centre in segments(reordered):
         # an original not drawn yet; else one drawn before (drawn again instead of a
-        # lift: plan/retrace.py): no new ink either way
+        # lift: plan/order/retrace.py): no new ink either way
         for fresh in (True, False):
             match = next((k for exact, other in ((a, b), (b, a))
                           for k in by_end.get(exact, ()) if (k in left or not fresh)
@@ -181,25 +181,25 @@ def _sample_rows():
 def test_the_sample_board_reordered_draws_the_same_segments_with_less_travel():
     program, offset = _sample_rows()
     grouped = group_by_aperture(program)
-    reordered = optimised_order(program, offset, STEP, by_aperture=True)
+    reordered = optimized_order(program, offset, STEP, by_aperture=True)
     assert_same_drawing(grouped, reordered)
     filed = plan_program(program, None, offset)
-    optimised = plan_program(program, None, offset, optimize=True)
-    assert list(optimised.pen_changes.values()) == list(filed.pen_changes.values())
-    assert _travel(optimised) < _travel(filed)
-    assert _lifts(optimised) <= _lifts(filed)
+    optimized = plan_program(program, None, offset, optimize=True)
+    assert list(optimized.pen_changes.values()) == list(filed.pen_changes.values())
+    assert _travel(optimized) < _travel(filed)
+    assert _lifts(optimized) <= _lifts(filed)
     again = plan_program(program, None, offset, optimize=True)
-    assert again.commands == optimised.commands     # deterministic: resume replans it
+    assert again.commands == optimized.commands     # deterministic: resume replans it
 
 
 def test_a_real_copper_layer_loses_most_of_its_travel():
     program = read_file(COPPER)
     offset = proposed_offset(program)
     filed = plan_program(program, None, offset)
-    optimised = plan_program(program, None, offset, optimize=True)
-    assert_same_drawing(group_by_aperture(program), optimised_order(program, offset, STEP, True))
-    assert _travel(optimised) < 0.5 * _travel(filed)
-    assert _lifts(optimised) < 0.7 * _lifts(filed)
+    optimized = plan_program(program, None, offset, optimize=True)
+    assert_same_drawing(group_by_aperture(program), optimized_order(program, offset, STEP, True))
+    assert _travel(optimized) < 0.5 * _travel(filed)
+    assert _lifts(optimized) < 0.7 * _lifts(filed)
 
 
 def test_programs_with_feeds_or_pen_moves_keep_their_order():
@@ -284,7 +284,7 @@ def test_chaining_random_grid_drawings_needs_no_more_strokes_than_the_ends_force
     assert len(chains) == _strokes_needed(pieces)
     assert_same_drawing([r for p in pieces for r in p.rows],
                         [r for c in chains for r in c.rows], 0)
-    # drawing short stretches again (plan/retrace.py) only ever saves strokes
+    # drawing short stretches again (plan/order/retrace.py) only ever saves strokes
     chains = paths.chain(pieces, STEP)
     assert len(chains) <= _strokes_needed(pieces)
     assert_same_drawing([r for p in pieces for r in p.rows],
@@ -380,8 +380,8 @@ def _random_paths(seed: int, count: int):
 
 def test_ordering_is_deterministic_and_draws_the_same():
     rows = _random_paths(11, 600)
-    first, end = paths.optimise(rows, (0, 0), STEP)
-    again, end_again = paths.optimise([(i, list(r)) for i, r in rows], (0, 0), STEP)
+    first, end = paths.optimize(rows, (0, 0), STEP)
+    again, end_again = paths.optimize([(i, list(r)) for i, r in rows], (0, 0), STEP)
     assert first == again and end == end_again
     assert_same_drawing(rows, first)
     ours = paths.travel_nm(paths.cut_pieces(first, (0, 0)), (0, 0))
@@ -390,7 +390,7 @@ def test_ordering_is_deterministic_and_draws_the_same():
 
 def test_a_move_budget_of_zero_still_orders_every_chain():
     rows = _random_paths(5, 200)
-    drawn, _end = paths.optimise(rows, (0, 0), STEP, moves=0)
+    drawn, _end = paths.optimize(rows, (0, 0), STEP, moves=0)
     assert_same_drawing(rows, drawn)
 
 
@@ -423,14 +423,14 @@ def test_a_whole_path_is_ordered_as_it_is_unless_another_path_touches_it():
     there_and_back = [row(MOVE, 0, 0), row(LINE, 10 * MM, 0), row(LINE, 10 * MM, 10 * MM),
                       row(LINE, 10 * MM, 0), row(LINE, 0, 0)]
     rows = list(enumerate(there_and_back))
-    kept, _end = paths.optimise(rows, (0, 0), STEP, whole=frozenset({0}))
+    kept, _end = paths.optimize(rows, (0, 0), STEP, whole=frozenset({0}))
     assert kept in (rows, paths.Piece(rows).reversed().rows)      # either way round
-    cut, _end = paths.optimise(rows, (0, 0), STEP)
+    cut, _end = paths.optimize(rows, (0, 0), STEP)
     assert len(cut) < len(rows)                   # the repeat is left out
     # a second path apart from a whole one: the whole one is drawn as it is
     other = [row(MOVE, 30 * MM, 10 * MM), row(LINE, 40 * MM, 10 * MM)]
     rows = list(enumerate(there_and_back + other))
-    drawn, _end = paths.optimise(rows, (0, 0), STEP, whole=frozenset({0}))
+    drawn, _end = paths.optimize(rows, (0, 0), STEP, whole=frozenset({0}))
     block = [k for k, (index, _row) in enumerate(drawn) if index <= 4]
     assert block == list(range(block[0], block[0] + 5))       # its five rows, together
     assert len(drawn) == 7
@@ -438,7 +438,7 @@ def test_a_whole_path_is_ordered_as_it_is_unless_another_path_touches_it():
     # it as any path is, one stroke for both
     touching = [row(MOVE, 20 * MM, 10 * MM), row(LINE, 10 * MM, 10 * MM)]
     rows = list(enumerate(there_and_back + touching))
-    drawn, _end = paths.optimise(rows, (0, 0), STEP, whole=frozenset({0}))
+    drawn, _end = paths.optimize(rows, (0, 0), STEP, whole=frozenset({0}))
     assert sum(r[KIND] == MOVE for _index, r in drawn) == 1
     assert paths.touching([paths.Piece(list(enumerate(there_and_back)))],
                           [paths.Piece(list(enumerate(touching)))], STEP) == [True]

@@ -1,13 +1,13 @@
-"""What one pen would draw twice, drawn once (plan/repeats.py), and a pen's order
+"""What one pen would draw twice, drawn once (plan/order/repeats.py), and a pen's order
 ending near the next pen's work (paths.order's goal): the ink stays the same."""
 
 from __future__ import annotations
 
 import math
 
-from galileo_cnc.plan import paths
-from galileo_cnc.plan.order import group_by_aperture, optimise_groups
-from galileo_cnc.plan.repeats import LIFT_NM, segment_length_nm, drop_repeats
+from galileo_cnc.plan.order import paths
+from galileo_cnc.plan.order.apertures import group_by_aperture, optimize_groups
+from galileo_cnc.plan.order.repeats import LIFT_NM, segment_length_nm, drop_repeats
 from galileo_cnc.program.ops import I, J, KIND, X, Y, OpKind
 from galileo_cnc.readers import read_file
 
@@ -113,7 +113,7 @@ def test_a_real_copper_layer_keeps_its_ink_and_draws_less_in_no_more_strokes():
         else:
             current.append((index, r))
     before = after = 0
-    for group, drawn in zip(groups, optimise_groups(groups, (0, 0), 0)):
+    for group, drawn in zip(groups, optimize_groups(groups, (0, 0), 0)):
         covered, count = ink(group)
         covered_after, count_after = ink(drawn)
         assert covered_after == covered                 # same pen, same points

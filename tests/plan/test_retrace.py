@@ -1,4 +1,4 @@
-"""Retracing (galileo_cnc/plan/retrace.py): a short stretch of a pen's own ink drawn
+"""Retracing (galileo_cnc/plan/order/retrace.py): a short stretch of a pen's own ink drawn
 again instead of a lift, only where that saves a stroke and costs less than one."""
 
 from __future__ import annotations
@@ -8,9 +8,9 @@ import math
 import pytest
 
 from galileo_cnc.machine.planner import estimate_seconds
-from galileo_cnc.plan import paths, retrace
+from galileo_cnc.plan.order import paths, retrace
 from galileo_cnc.plan.offsets import proposed_offset
-from galileo_cnc.plan.order import group_by_aperture, optimised_order
+from galileo_cnc.plan.order.apertures import group_by_aperture, optimized_order
 from galileo_cnc.plan.planner import plan_program
 from galileo_cnc.readers import read_file
 
@@ -66,7 +66,7 @@ def test_a_real_copper_layer_plots_faster_with_fewer_strokes_and_the_same_ink():
     program = read_file(USBVIL)
     offset = proposed_offset(program)
     plain = plan_program(program, None, offset, optimize=True)
-    rows = optimised_order(program, offset, STEP, True)
+    rows = optimized_order(program, offset, STEP, True)
     assert_same_drawing(group_by_aperture(program), rows)
     original = paths.chain
     try:

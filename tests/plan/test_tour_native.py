@@ -1,4 +1,4 @@
-"""The compiled local search of path order (plan/tour_search.c through plan/native.py)
+"""The compiled local search of path order (plan/order/tour_search.c through plan/native.py)
 gives the tour the Python search gives: the same moves in the same order, node for
 node, on random instances with and without a goal, with budgets that run out, and on
 real layers planned whole."""
@@ -13,7 +13,7 @@ import pytest
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.plan import native
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
-from galileo_cnc.plan.tour import Tour
+from galileo_cnc.plan.order.tour import Tour
 
 from compiled import require
 from corpus import CORPUS

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from galileo_cnc.errors import GalileoError
+from galileo_cnc.plan import curves
 from galileo_cnc.plan.ink import shapes
 from galileo_cnc.plan.ink.backends import make_backend
 from galileo_cnc.program.extents import dark_mask, region_mask, start_points
@@ -95,7 +96,7 @@ def dark_geometry(program: Program, tolerance_nm: int = shapes.DEFAULT_TOLERANCE
         raise InkError(f"{program.source}: only Gerber artwork has copper to ink "
                        f"(this is {program.format})")
     engine = make_backend(backend) if isinstance(backend, str) else backend
-    shapes.chord_budget(tolerance_nm)  # rejects a tolerance <= 0
+    curves.chord_budget(tolerance_nm)  # rejects a tolerance <= 0
     return _Inker(program, tolerance_nm, engine).run()
 
 
@@ -319,7 +320,7 @@ class _Inker:
         if i == 0 and j == 0:
             points = np.array([[sx, sy], [ex, ey]], dtype=np.int64)
         else:
-            points = shapes.arc_points(sx, sy, ex, ey, i, j, clockwise, self.tolerance)
+            points = curves.arc_points(sx, sy, ex, ey, i, j, clockwise, self.tolerance)
         for start, end in itertools.pairwise(points):
             self._segment(batch, template, start, end)
 
@@ -357,7 +358,7 @@ class _Inker:
                     parts.append(np.array([[t[X], t[Y]]], dtype=np.int64))
                     continue
                 sx, sy = self.starts[row].tolist()
-                parts.append(shapes.arc_points(sx, sy, t[X], t[Y], t[I], t[J],
+                parts.append(curves.arc_points(sx, sy, t[X], t[Y], t[I], t[J],
                                                t[KIND] == _ARC_CW, self.tolerance)[1:])
             points = np.concatenate(parts)
         # Closed by its last point (the spec) or implicitly (lenient): one copy only.

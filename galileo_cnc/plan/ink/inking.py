@@ -34,7 +34,8 @@ from galileo_cnc.plan.ink.islands import (CLEARANCE_NM, ClosePlaces, Islands, cl
 from galileo_cnc.plan.ink.narrow import (Bridge, NarrowFeature, find_narrow,
                                         keep_islands_apart)
 from galileo_cnc.plan.ink.walk_order import Skeleton, WalkOrder, touching_walks
-from galileo_cnc.plan.pieces import WHOLE_PATHS
+from galileo_cnc.plan.order.pieces import WHOLE_PATHS
+from galileo_cnc.plan.widths import mm_text
 from galileo_cnc.program.extents import extents
 from galileo_cnc.program.ops import (COL, COLUMNS, I, J, KIND, LINE, NM_PER_MM, NO_TOOL, TOOL, X,
                                      Y, Aperture, OpKind, Program, ProgramBuilder)
@@ -112,10 +113,6 @@ class InkPlan:
 
     def pen_label(self, key: int) -> str:
         return f"{mm_text(self.pens_nm[key - 1])} mm pen"
-
-
-def mm_text(nm: int) -> str:
-    return f"{nm / NM_PER_MM:.3f}".rstrip("0").rstrip(".")
 
 
 def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
@@ -237,7 +234,7 @@ class InkPaths:
     def start_order(self, start: tuple[int, int], join_nm: int) -> WalkOrder:
         """Path order from `start` (program nm) worked out on the walks' ends, in a
         second process on a large board, while `finish` fits the arcs; its `rows`
-        are what optimised_order gives on finish's program."""
+        are what optimized_order gives on finish's program."""
         last = len(self.fills) - 1
         touched = touching_walks(self.fills[last].paths if self.fills else [],
                                  self._narrow_rows()[:, [X, Y]], join_nm)

@@ -34,10 +34,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from galileo_cnc.errors import SourcePos
-from galileo_cnc.plan.ink import shapes
+from galileo_cnc.plan import curves
 from galileo_cnc.plan.ink.edges import (EdgeIndex, point_to_edges, points_to_edges,
                                        segment_gaps, segments_near)
 from galileo_cnc.plan.ink.islands import CLEARANCE_NM, Islands
+from galileo_cnc.plan.widths import aperture_width, macro_axis
 from galileo_cnc.program.extents import dark_mask, region_mask, start_points
 from galileo_cnc.program.ops import (COL, I, J, KIND, LINE, NO_TOOL, TOOL, X, Y,
                                      Aperture, OpKind, Program)
@@ -87,77 +88,6 @@ class Bridge:
     other: NarrowFeature | None = None   # the other island's centre line, when it was that
 
 
-def aperture_width(aperture: Aperture) -> int:
-    """The width of the narrowest stroke the aperture makes (nm); 0 when it makes none."""
-    p = aperture.params_nm
-    if aperture.shape == "circle":
-        return p[0] if p else 0
-    if aperture.shape in ("rectangle", "obround"):
-        return min(p[0], p[1]) if len(p) >= 2 else 0
-    if aperture.shape == "polygon":
-        return int(p[0] * math.cos(math.pi / max(aperture.vertices, 3))) if p else 0
-    axis = _macro_axis(aperture)
-    if axis is not None:
-        return axis[0]
-    x0, y0, x1, y1 = aperture.extent_nm
-    return min(x1 - x0, y1 - y0)
-
-
-def _macro_axis(aperture: Aperture) -> tuple[int, np.ndarray, np.ndarray, float] | None:
-    """(width, unit direction of the long axis, centre, length along it) of a macro's dark primitives'
-    convex hull: its narrowest width over every edge direction (a bar turned by %LR30
-    is as narrow as before it was turned), None without primitives."""
-    points = []
-    for primitive in aperture.primitives:
-        if not primitive[1]:
-            continue
-        if primitive[0] == "circle":
-            _, _, x, y, diameter = primitive
-            angles = np.linspace(0, 2 * np.pi, 32, endpoint=False)
-            points.append(np.stack([x + diameter / 2 * np.cos(angles),
-                                    y + diameter / 2 * np.sin(angles)], axis=1))
-        elif primitive[0] == "polygon":
-            points.append(np.asarray(primitive[2], dtype=np.float64).reshape(-1, 2))
-    if not points:
-        return None
-    hull = _convex_hull(np.concatenate(points))
-    if len(hull) < 3:
-        return None
-    edges = np.roll(hull, -1, axis=0) - hull
-    lengths = np.hypot(edges[:, 0], edges[:, 1])
-    keep = lengths > 0
-    along = edges[keep] / lengths[keep, None]
-    normal = np.stack([-along[:, 1], along[:, 0]], axis=1)
-    # width across each edge: the spread of the hull's points along its normal
-    spread = hull @ normal.T
-    widths = spread.max(axis=0) - spread.min(axis=0)
-    best = int(np.argmin(widths))
-    direction = along[best]
-    lengthwise = hull @ direction
-    across = hull @ normal[best]
-    centre = direction * (lengthwise.max() + lengthwise.min()) / 2 + \
-        normal[best] * (across.max() + across.min()) / 2
-    return (int(round(widths[best])), direction, centre,
-            float(lengthwise.max() - lengthwise.min()))
-
-
-def _convex_hull(points: np.ndarray) -> np.ndarray:
-    """The hull's vertices, counter-clockwise (Andrew's monotone chain)."""
-    pts = sorted(set(map(tuple, points.tolist())))
-    if len(pts) < 3:
-        return np.array(pts, dtype=np.float64)
-
-    def half(sequence):
-        chain = []
-        for q in sequence:
-            while len(chain) >= 2 and ((chain[-1][0] - chain[-2][0]) * (q[1] - chain[-2][1])
-                                       - (chain[-1][1] - chain[-2][1]) * (q[0] - chain[-2][0])) <= 0:
-                chain.pop()
-            chain.append(q)
-        return chain
-    return np.array(half(pts)[:-1] + half(reversed(pts))[:-1], dtype=np.float64)
-
-
 def find_narrow(program: Program, limit_nm: int, pen_nm: int,
                 tolerance_nm: int) -> tuple[list[NarrowFeature], int]:
     """Dark draws, arcs and flashes narrower than `limit_nm`, as centre lines for the pen
@@ -195,7 +125,7 @@ def find_narrow(program: Program, limit_nm: int, pen_nm: int,
                                           inside_nm=inside))
             continue
         if aperture.shape == "macro" and code not in axes:
-            axes[code] = _macro_axis(aperture)
+            axes[code] = macro_axis(aperture)
         path = _centre_line(row, start, aperture, pen_nm, tolerance_nm, axes.get(code))
         features.append(NarrowFeature(op, pos, width, pen_nm, row, start, [path]))
     return features, zero
@@ -225,7 +155,7 @@ def _wall_loop(x: int, y: int, aperture: Aperture, pen_nm: int, tolerance_nm: in
         loop = outer - radius
         if loop <= tolerance_nm:
             return np.array([(x, y)], dtype=np.int64), inside
-        return shapes.arc_points(x + loop, y, x + loop, y, -loop, 0, False, tolerance_nm), inside
+        return curves.arc_points(x + loop, y, x + loop, y, -loop, 0, False, tolerance_nm), inside
     half_w, half_h = p[0] // 2 - radius, p[1] // 2 - radius
     inside = (x + (p[0] // 2 + hole) // 2, y)
     if min(half_w, half_h) <= 0:
@@ -251,14 +181,14 @@ def _wall_loop(x: int, y: int, aperture: Aperture, pen_nm: int, tolerance_nm: in
 def _centre_line(row: list[int], start: tuple[int, int], aperture: Aperture, pen_nm: int,
                  tolerance_nm: int, axis: tuple | None = None) -> np.ndarray:
     """The centre line of a draw or arc, or a flash's dot or stroke; `axis`: a macro's
-    _macro_axis."""
+    macro_axis."""
     kind, x, y = row[KIND], row[X], row[Y]
     if kind == _LINE:
         return np.array([start, (x, y)], dtype=np.int64)
     if kind in (_CW, _CCW):
         if row[I] == 0 and row[J] == 0:
             return np.array([start, (x, y)], dtype=np.int64)
-        return shapes.arc_points(start[0], start[1], x, y, row[I], row[J], kind == _CW,
+        return curves.arc_points(start[0], start[1], x, y, row[I], row[J], kind == _CW,
                                  tolerance_nm)
     # a flash: a dot, or a stroke along the long side of the aperture's box
     x0, y0, x1, y1 = aperture.extent_nm

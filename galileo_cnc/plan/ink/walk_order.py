@@ -1,13 +1,13 @@
 """Path order for the ink, worked out from the walks' ends while their arcs are fitted.
 
-Path order (plan/paths.py) moves and reverses each fill walk whole (pieces.WHOLE_PATHS):
-what it decides depends on a walk's two ends, its place in the rows and, for the last
-pen, whether a vertex of it lies near a centre line (paths.touching). It never looks
-inside a walk that touches nothing. So the order can be worked out on a *skeleton*
-of the ink, each such walk two rows (a MOVE to its start, a LINE to its end), in a
-forked process while this one fits the walks' arcs (arcs.py: a second of CPU on the
-largest layers), and then be spelled out with the walks' real rows. The answer is
-the order `optimised_order` gives on the real rows, row for row:
+Path order (plan/order/paths.py) moves and reverses each fill walk whole
+(pieces.WHOLE_PATHS): what it decides depends on a walk's two ends, its place in the
+rows and, for the last pen, whether a vertex of it lies near a centre line
+(paths.touching). It never looks inside a walk that touches nothing. So the order can be
+worked out on a *skeleton* of the ink, each such walk two rows (a MOVE to its start, a
+LINE to its end), in a forked process while this one fits the walks' arcs (arcs.py: a
+second of CPU on the largest layers), and then be spelled out with the walks' real rows.
+The answer is the order `optimized_order` gives on the real rows, row for row:
 
 - a walk keeps its rows in the skeleton (arcs fitted first) where any of its polyline
   vertices is near a centre line: its rows' ends are some of those vertices, so a walk
@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from galileo_cnc.plan.ink.background import Deferred
-from galileo_cnc.plan.order import OrderedRows, drawing_apertures, optimised_order
-from galileo_cnc.plan.pieces import WHOLE_PATHS
+from galileo_cnc.plan.order.apertures import OrderedRows, drawing_apertures, optimized_order
+from galileo_cnc.plan.order.pieces import WHOLE_PATHS
 from galileo_cnc.program.ops import I, J, KIND, X, Y, OpKind, Program
 
 _MOVE, _CW, _CCW = int(OpKind.MOVE), int(OpKind.ARC_CW), int(OpKind.ARC_CCW)
@@ -85,21 +85,21 @@ class Skeleton:
 
 
 class WalkOrder:
-    """optimised_order on a skeleton, in a forked process when `fork` (background.py);
+    """optimized_order on a skeleton, in a forked process when `fork` (background.py);
     `rows(program)` spells it out on the ink's real rows."""
 
     def __init__(self, skeleton: Skeleton, start: tuple[int, int], join_nm: int,
                  fork: bool):
         self.skeleton = skeleton
         several = len(drawing_apertures(skeleton.program)) > 1
-        self._order = Deferred(optimised_order, skeleton.program, start, join_nm, several,
+        self._order = Deferred(optimized_order, skeleton.program, start, join_nm, several,
                                fork=fork)
 
     def cancel(self) -> None:
         self._order.cancel()
 
     def rows(self, program: Program) -> OrderedRows:
-        """The rows, with their op indices, in the order `optimised_order` gives on
+        """The rows, with their op indices, in the order `optimized_order` gives on
         `program`, the ink whose skeleton this is."""
         ordered = self._order.result()
         walks = program.metadata[WHOLE_PATHS]

@@ -23,7 +23,7 @@ from __future__ import annotations
 from typing import Iterator
 
 from galileo_cnc.config.machine import MachineConfig
-from galileo_cnc.plan.order import DRAWING_KINDS
+from galileo_cnc.plan.order.apertures import DRAWING_KINDS
 from galileo_cnc.plan.pipeline import PlannedFile
 from galileo_cnc.plan.planner import plotting_order
 from galileo_cnc.program.ops import I, J, KIND, NM_PER_MM, NO_TOOL, TOOL, VALUE, X, Y, OpKind

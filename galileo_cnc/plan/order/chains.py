@@ -10,7 +10,7 @@ paths with 2k nodes of odd degree cannot be drawn in fewer than max(1, k) stroke
 and Hierholzer's walk (with a virtual node tied to every odd node) draws it in
 exactly that many: at a junction every arriving path leaves by another, not only the
 first one found. Where a set has more than two odd nodes, a short stretch between
-two of them may be drawn twice instead (plan/retrace.py): one stroke fewer, the same
+two of them may be drawn twice instead (retrace.py): one stroke fewer, the same
 ink. A joined path starts from the previous end (the gap is under `join_nm`); an arc
 keeps its own ends, after a line across the gap. A trail is drawn the way its first
 piece in the file is drawn.
@@ -20,14 +20,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from galileo_cnc.plan.pieces import CCW, CW, LINE, MOVE, Piece, Point, with_kind
-from galileo_cnc.plan.retrace import retrace_cost, retraced_edges
+from galileo_cnc.plan.order.pieces import CCW, CW, LINE, MOVE, Piece, Point, with_kind
+from galileo_cnc.plan.order.retrace import retrace_cost, retraced_edges
 from galileo_cnc.program.ops import KIND, X, Y
 
 def chain(pieces: list[Piece], join_nm: int, retrace: bool = True) -> list[Piece]:
     """Join paths whose ends meet within `join_nm` into as few chains as the ends
     allow (Euler trails), with `retrace` drawing short stretches twice where that
-    saves a stroke (plan/retrace.py); flashes stay alone. Chains come in the order
+    saves a stroke (retrace.py); flashes stay alone. Chains come in the order
     of their first piece."""
     pieces = _split_at_junctions(pieces, join_nm)
     path_ids = [k for k, p in enumerate(pieces) if p.is_path]

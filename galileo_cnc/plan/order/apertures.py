@@ -12,6 +12,10 @@ of a draw changes without a move. A piece whose path does not start with a MOVE
 it starts (a synthetic row carrying the first op's index), so it draws exactly
 what it drew in file order. Pieces that draw nothing (a lone MOVE,
 markers) are dropped: they would only add travel.
+
+`optimized_order` is path order's entry for a whole Program (the planner's, and the
+ink's on its walks' ends): one pen per aperture, each pen's paths chained and ordered
+(paths.optimize), each pen's work ending near where the next pen's starts.
 """
 
 from __future__ import annotations
@@ -20,8 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from galileo_cnc.plan.paths import cut_pieces, optimise
-from galileo_cnc.plan.pieces import WHOLE_PATHS
+from galileo_cnc.plan.order.paths import cut_pieces, optimize
+from galileo_cnc.plan.order.pieces import WHOLE_PATHS
 from galileo_cnc.program.ops import KIND, NO_TOOL, TOOL, X, Y, OpKind, Program
 
 DRAWING_KINDS = (int(OpKind.LINE), int(OpKind.ARC_CW), int(OpKind.ARC_CCW), int(OpKind.FLASH))
@@ -118,10 +122,10 @@ def pure_geometry(program: Program) -> bool:
     return not np.isin(program.table[:, KIND], stateful).any()
 
 
-def optimised_order(program: Program, start: tuple[int, int], join_nm: int,
+def optimized_order(program: Program, start: tuple[int, int], join_nm: int,
                     by_aperture: bool) -> list[tuple[int, list[int]]]:
     """(op index, row) pairs: the pieces of each pen chained and ordered to cut pen-up
-    travel (plan/paths.py), from `start` (program coordinates); with `by_aperture`
+    travel (paths.py), from `start` (program coordinates); with `by_aperture`
     one pen per aperture in first-use order, else everything as one pen."""
     rows = group_by_aperture(program) if by_aperture else list(enumerate(program.table.tolist()))
     groups: list[tuple[list[int] | None, list[tuple[int, list[int]]]]] = []
@@ -138,7 +142,7 @@ def optimised_order(program: Program, start: tuple[int, int], join_nm: int,
         selects = [(i, r) for i, r in rows if r[KIND] == OpKind.SELECT]
         ordered.extend(selects[:1])
     whole = frozenset(first for first, _end in program.metadata.get(WHOLE_PATHS, ()))
-    drawn_groups = optimise_groups([group_rows for _select, group_rows in groups], start,
+    drawn_groups = optimize_groups([group_rows for _select, group_rows in groups], start,
                                    join_nm, whole)
     for (select, group_rows), drawn in zip(groups, drawn_groups):
         if select is not None:
@@ -147,17 +151,17 @@ def optimised_order(program: Program, start: tuple[int, int], join_nm: int,
     return ordered
 
 
-def optimise_groups(groups: list[list[tuple[int, list[int]]]], start: tuple[int, int],
+def optimize_groups(groups: list[list[tuple[int, list[int]]]], start: tuple[int, int],
                     join_nm: int, whole: frozenset[int] = frozenset()
                     ) -> list[list[tuple[int, list[int]]]]:
-    """Each pen's rows chained and ordered (paths.optimise; `whole`: the op indices
+    """Each pen's rows chained and ordered (paths.optimize; `whole`: the op indices
     that start paths kept whole), pen after pen from `start`, each pen's work ending
     near the ends of the next pen's pieces (where that pen may start) rather than
     wherever its own travel was shortest."""
     out, here = [], start
     for g, rows in enumerate(groups):
         goal = group_goal(groups[g + 1]) if g + 1 < len(groups) else None
-        drawn, here = optimise(rows, here, join_nm, goal=goal, whole=whole)
+        drawn, here = optimize(rows, here, join_nm, goal=goal, whole=whole)
         out.append(drawn)
     return out
 

@@ -22,7 +22,7 @@ Point = tuple[int, int]
 
 #: Program metadata key: [first, end) op ranges, each one path that is a whole stroke
 #: already (the ink's fill walks): path order moves and reverses it, but does not cut
-#: it at repeats or junctions to chain it again (plan/paths.py).
+#: it at repeats or junctions to chain it again (paths.py).
 WHOLE_PATHS = "whole_paths"
 
 

@@ -9,7 +9,7 @@ ramps, about 0.85 s) plus the travel to the next stroke, about what drawing 5 mm
 (LIFT_NM) takes; every segment drawn again costs its length and a stop and start
 (about 80 ms: SEGMENT_NM of drawing). So a pair of odd nodes is joined when the
 cheapest path between them along the pen's paths costs under LIFT_NM: the
-repeats that plan/repeats.py leaves out are the other side of the same rule.
+repeats that repeats.py leaves out are the other side of the same rule.
 
 Pairs are taken cheapest first (a greedy matching, each node at most once), and
 only while their connected set still has more than two odd nodes (two odd nodes
@@ -21,8 +21,8 @@ from __future__ import annotations
 import heapq
 import math
 
-from galileo_cnc.plan.pieces import Piece
-from galileo_cnc.plan.repeats import LIFT_NM, segment_length_nm
+from galileo_cnc.plan.order.pieces import Piece
+from galileo_cnc.plan.order.repeats import LIFT_NM, segment_length_nm
 from galileo_cnc.program.ops import X, Y
 
 #: what one segment drawn again costs beyond its length: a stop and a start of the

@@ -1,9 +1,9 @@
 /*
- * The local search of plan/tour.py (Tour.improve and Tour.perturb), compiled: the same
+ * The local search of tour.py (Tour.improve and Tour.perturb), compiled: the same
  * moves in the same order with the same double arithmetic, so the same tour comes out
  * (tests/plan/test_tour_native.py holds the two to that on random and corpus
  * instances). Python draws the perturbation's random numbers (they never depend on the
- * tour) and passes them in. Built by setup.py as an optional extension; plan/tour.py
+ * tour) and passes them in. Built by setup.py as an optional extension; tour.py
  * runs its own Python where it is missing.
  *
  * Build with -ffp-contract=off and never -ffast-math: a fused multiply-add or a

@@ -5,7 +5,7 @@ to an island and back along the same line, two objects share a track or a pad an
 each draws it, a path closes with a zero-length draw onto a corner it has just
 drawn. Drawing a segment the pen has already drawn (or a dot where the pen already
 passes) puts ink on no new point and costs drawing time; a second flash at a point
-costs a lift. So, within one pen's pieces (plan/pieces.py):
+costs a lift. So, within one pen's pieces (pieces.py):
 
 - a segment equal to one drawn before (a line between the same two points either
   way; an arc round the same centre between the same points the same way round,
@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 
-from galileo_cnc.plan.pieces import CW, LINE, MOVE, Piece, Point, Row, with_kind
+from galileo_cnc.plan.order.pieces import CW, LINE, MOVE, Piece, Point, Row, with_kind
 from galileo_cnc.program.ops import I, J, KIND, X, Y
 
 #: a repeat at least this long is left out even where that adds a stroke: on the

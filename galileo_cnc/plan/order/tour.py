@@ -31,7 +31,7 @@ from collections import deque
 import numpy as np
 
 from galileo_cnc.plan import native
-from galileo_cnc.plan.nearby import EndFinder, nearest
+from galileo_cnc.plan.order.nearby import EndFinder, nearest
 
 #: nearest ends each end's moves look at
 NEIGHBOURS = 8
@@ -39,7 +39,7 @@ NEIGHBOURS = 8
 QUADRANT = 2
 #: perturbations (two neighbouring runs of chains swapped, then local search) per
 #: chain, and at most; the runs are 1 to KICK_PAIRS chains long. The cap bounds the
-#: time on big pens: 10,000 random paths optimise in about 1.7 s on the 2-core test
+#: time on big pens: 10,000 random paths optimize in about 1.7 s on the 2-core test
 #: machine (1.9 s with 1,500, for 0.5 % less travel there; on the corpus 1,000
 #: instead of 1,500 adds 0.85 m of travel over the 39 layers it touches, of 20 km)
 PERTURB_PER_CHAIN = 5

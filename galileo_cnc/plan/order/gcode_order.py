@@ -7,7 +7,7 @@ paths, depth passes at several Z heights, dwells, tool changes, pauses, homing, 
 coordinate frame set mid-file, several feeds), and moving its paths about would
 break it. `refusal` finds the first such thing (line and column, from the rows and
 from the file's words, since the reader folds Z, S and G92 into the rows); when
-there is none, `pen_rows` gives the drawing as pure geometry for plan/paths.py:
+there is none, `pen_rows` gives the drawing as pure geometry for paths.py:
 MOVE and segments, and a pen-down with nothing drawn before the pen lifts (a dot) as
 a zero-length LINE, which the planner draws as a dot.
 """

@@ -2,18 +2,18 @@
 pen-up travel.
 
 The seed's CAM aligned DXF entities so each started where the last one ended
-(reversing where needed); `optimise` does that for every format's pieces of one pen:
+(reversing where needed); `optimize` does that for every format's pieces of one pen:
 
-1. **pieces** (plan/pieces.py): pen paths and flashes, each drawable backwards with
+1. **pieces** (pieces.py): pen paths and flashes, each drawable backwards with
    the same geometry; what the pen would draw twice (a segment, a dot where the pen
-   passes anyway, a flash) is drawn once (plan/repeats.py);
-2. **chains** (plan/chains.py): paths whose ends meet within `join_nm` joined into as
+   passes anyway, a flash) is drawn once (repeats.py);
+2. **chains** (chains.py): paths whose ends meet within `join_nm` joined into as
    few strokes as the ends allow (Euler trails), a short stretch drawn twice where
-   that saves a lift (plan/retrace.py);
+   that saves a lift (retrace.py);
 3. **order** (here): a shortest open path from the head's position over the chain ends
    (either end first: a chain may be drawn reversed), exact up to EXACT chains, else
-   the local search of plan/tour.py (spatial queries in plan/nearby.py). With a goal
-   (where the next pen's work is) the path's end is charged its distance from there.
+   the local search of tour.py (spatial queries in nearby.py). With a goal (where the
+   next pen's work is) the path's end is charged its distance from there.
 
 Everything stays in integer nm; travel is compared as Euclidean distances in float
 only to choose, never to place.
@@ -23,15 +23,15 @@ from __future__ import annotations
 
 import math
 
-from galileo_cnc.plan.chains import chain
+from galileo_cnc.plan.order.chains import chain
 from galileo_cnc.plan.collector import collector_paused
-from galileo_cnc.plan.nearby import distances_to
-from galileo_cnc.plan.pieces import Piece, Point, Row, cut_pieces
-from galileo_cnc.plan.repeats import drop_repeats
-from galileo_cnc.plan.tour import PERTURB_MAX, PERTURB_PER_CHAIN, Tour
+from galileo_cnc.plan.order.nearby import distances_to
+from galileo_cnc.plan.order.pieces import Piece, Point, Row, cut_pieces
+from galileo_cnc.plan.order.repeats import drop_repeats
+from galileo_cnc.plan.order.tour import PERTURB_MAX, PERTURB_PER_CHAIN, Tour
 from galileo_cnc.program.ops import X, Y
 
-__all__ = ["EXACT", "TWO_OPT_MOVES", "Piece", "chain", "cut_pieces", "optimise", "order",
+__all__ = ["EXACT", "TWO_OPT_MOVES", "Piece", "chain", "cut_pieces", "optimize", "order",
            "travel_nm"]
 
 #: moves tried per group at most (one candidate end examined by the local search or
@@ -123,11 +123,11 @@ def travel_nm(tour: list[Piece], start: Point) -> float:
     return total
 
 
-def optimise(rows: list[tuple[int, Row]], start: Point, join_nm: int,
+def optimize(rows: list[tuple[int, Row]], start: Point, join_nm: int,
              moves: int = TWO_OPT_MOVES, goal: list[Point] | None = None,
              whole: frozenset[int] = frozenset()) -> tuple[list[tuple[int, Row]], Point]:
     """Rows of one pen in an order that draws the same ink with less pen-up travel
-    (what the pen would draw twice drawn once: plan/repeats.py), ending, with `goal`,
+    (what the pen would draw twice drawn once: repeats.py), ending, with `goal`,
     near where the next pen's work starts (see `order`). A path whose MOVE's op index
     is in `whole` is a stroke already (pieces.WHOLE_PATHS): it is ordered as it is."""
     with collector_paused():
