@@ -273,3 +273,22 @@ def test_pyproject_ships_every_package_and_the_help_file():
                for p in PACKAGE.rglob("__init__.py")}
     assert on_disk | {"galileo_cnc.helpfiles"} == listed
     assert (PACKAGE.parent / "helpfiles" / "helpfile.f").is_file()
+
+
+def test_the_architecture_doc_names_every_folder_and_its_stage():
+    # docs/architecture.md is the map a newcomer reads: every package folder appears in
+    # its tree (a line starting "name/"), and every stage of STAGES in its table with
+    # that number
+    doc = (PACKAGE.parent / "docs" / "architecture.md").read_text()
+    tree = doc.split("## The tree", 1)[1].split("## The rule", 1)[0]
+    entries = {line.split()[0] for line in tree.splitlines() if line.strip()}
+    folders = {p.parent.name for p in PACKAGE.rglob("__init__.py")} - {PACKAGE.name}
+    missing = sorted(f for f in folders if f"{f}/" not in entries)
+    assert missing == [], f"docs/architecture.md's tree leaves out {missing}"
+    rows = {}
+    for line in doc.split("## The rule", 1)[1].splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) == 2 and cells[0].isdigit():
+            for name in cells[1].split("(")[0].replace("`", "").split(","):
+                rows[name.strip()] = int(cells[0])
+    assert rows == STAGES
