@@ -14,6 +14,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +22,7 @@ import pytest
 
 from galileo_cnc import protocol as P
 from galileo_cnc.config.machine import MachineConfig
+from galileo_cnc.job import NO_OP, ArcTo, EndJob, Job, PenDown, PenUp, Rapid
 from galileo_cnc.machine import simulate
 from galileo_cnc.plan.offsets import proposed_offset
 from galileo_cnc.plan.planner import plan_program
@@ -67,6 +69,28 @@ def assert_same_trace_in_pieces(fw, ref, cuts):
             spread = int(delay.max() - delay.min())
             assert spread <= LATENCY_JITTER_TICKS, (
                 f"steps {lo}..{hi}: edges spread over {spread} ticks (a gap in the stream?)")
+
+
+def paths_right_of(job: Job, x_steps: int) -> Job:
+    """`job` cut to a region: its paths (a Rapid and what follows, up to the next Rapid)
+    that begin right of `x_steps`, in the job's order, each pen's change before its
+    first one there, then the job's ending."""
+    starts = [k for k, c in enumerate(job.commands) if isinstance(c, Rapid)]
+    kept = replace(job, commands=[], op_index=[], aperture=[], pen_changes={})
+    pen = None
+    for start, end in zip(starts, starts[1:] + [len(job)]):
+        pen = next((job.pen_changes[k] for k in range(start, end) if k in job.pen_changes),
+                   pen)
+        if job.commands[start].x_steps < x_steps:
+            continue
+        for k in range(start, end):
+            if pen not in kept.pen_changes.values() and job.commands[k] == PenDown():
+                kept.pen_changes[len(kept)] = pen
+            kept.add(job.commands[k], job.op_index[k], job.aperture[k])
+    if not isinstance(kept.commands[-1], EndJob):       # the job's own ending was left out
+        kept.add(PenUp(), NO_OP, kept.aperture[-1])
+        kept.add(EndJob(), NO_OP, kept.aperture[-1])
+    return kept
 
 
 def stream_to_sim(job, program):
@@ -181,13 +205,16 @@ def test_the_firmware_reports_the_config_it_was_built_with(firmware):
 
 def test_a_real_copper_layer_inked_with_two_pens_steps_as_the_reference(firmware):
     # a real Altium copper layer: pads and pours filled with the 0.8 mm pen, what it
-    # cannot reach with the 0.3 mm pen, traces too narrow for either as centre lines
+    # cannot reach with the 0.3 mm pen, traces too narrow for either as centre lines;
+    # the paths at its right edge (both pens, fills, lines and arcs: 10 of the layer's
+    # 55 paths) step as the reference in a sixth of the layer's 113 s of machine time
     from galileo_cnc.plan.pipeline import PlanOptions, plan_file
     from corpus import CORPUS
 
     layer = plan_file(CORPUS / "altium" / "pcb1-x2" / "PCB1_Copper_Signal_Top.gbr",
                       options=PlanOptions(mode="ink", pens_nm=(800_000, 300_000)))
-    job, program = layer.job, layer.plotted
+    job, program = paths_right_of(layer.job, 3400), layer.plotted
+    assert sum(isinstance(c, ArcTo) for c in job.commands) >= 5
     assert [job.pen_labels[k] for k in job.pen_changes.values()] == \
         ["the 0.8 mm pen", "the 0.3 mm pen"]
     sim_trace = stream_to_sim(job, program)
