@@ -7,11 +7,12 @@ then the rest from where the head stood with the pen turned back to its Z origin
 (Z has no end-stop: the docs ask the user to). The whole job on sim://, whose
 reference machine has its switches where the harness has them, is what it must be.
 
-The job is a meander of short lines in one pen-down path, written by the test: more
-commands than the firmware queues (protocol QUEUE_BLOCKS = 8: the resume draws up to
-nine confirmed commands again) so the reset lands well inside it, in a few seconds of
-machine time near the switches instead of the LED board's 86 s and long homings. The reset, the homed resume and the drawing put
-back together do not depend on the artwork.
+The job is a meander of short lines in one pen-down path, written by the test: far
+more commands than the firmware queues (protocol QUEUE_BLOCKS = 8: the resume draws up
+to nine confirmed commands again), so the reset lands well inside it with seconds of
+machine time to spare, and it stays near the switches, so both homings are short: 40 s
+of machine time in all, where the LED board took 86 s to draw and long homings. The
+reset, the homed resume and the drawing put back together do not depend on the artwork.
 """
 
 from __future__ import annotations
@@ -43,7 +44,7 @@ def built(monkeypatch, tmp_path):
     monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path))
 
 
-def meander(folder: Path, lines: int = 40) -> str:
+def meander(folder: Path, lines: int = 60) -> str:
     """A G-code drawing: `lines` lines in one pen-down path, rows of 2 mm 0.125 mm apart
     (no point drawn twice), at 10 mm/s; it stays within 3 mm of its origin, so the
     homing after the reset (1 mm/s) is short too."""
