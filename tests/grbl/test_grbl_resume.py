@@ -28,20 +28,19 @@ from galileo_cnc.grbl.resume import PREAMBLE_TEXT, lead_in, rewind
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
 from galileo_cnc.stream.journal import ABORTED, FINISHED, INTERRUPTED
 
-from grbl_support import (HOMING, LIMITS, PROFILE, SAMPLE, SCALE, SETTINGS, RecordingPort,
-                          check_resumed, grbl_machine, motion_lines, motions, planned_gcode,
+from grbl_support import (HOMING, LIMITS, PROFILE, QUICK_ACCEL, SAMPLE, SCALE, SETTINGS,
+                          RecordingPort, check_resumed, grbl_machine, motion_lines, motions,
+                          planned_gcode,
                           positions_and_ticks, sent_job_lines, set_work_zero, settled_trace,
                           wait_until_still)
 
 
-# GRBL as HOMING and SETTINGS set it, but accelerating at 8000 mm/s^2 (not 2000) and
-# locating its switches at 1000 mm/min (not 200): each test's two sessions and two
-# homings take 11 s of machine time, not 14. What is checked holds at any rate: the
-# pins against the G-code, the switches closing on their trip step, the queue's 20
-# blocks.
-QUICK = {120: "8000", 121: "8000", 122: "8000"}
-RESUME_HOMING = {**HOMING, **QUICK, 24: "1000"}
-RESUME_NO_SWITCHES = {**SETTINGS, **QUICK, 10: "3"}
+# GRBL as HOMING and SETTINGS set it, but with QUICK_ACCEL and locating its switches at
+# 1000 mm/min (not 200): each test's two sessions and two homings take 10.4 s of machine
+# time, not 14.2. What is checked holds at any rate: the pins against the G-code, the
+# switches closing on their trip step, the queue's 20 blocks.
+RESUME_HOMING = {**HOMING, **QUICK_ACCEL, 24: "1000"}
+RESUME_NO_SWITCHES = {**SETTINGS, **QUICK_ACCEL, 10: "3"}
 
 
 @pytest.fixture

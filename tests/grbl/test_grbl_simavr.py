@@ -22,8 +22,8 @@ from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 from galileo_cnc.simavr.board import SimulatedBoard
 
 from corpus import CORPUS
-from grbl_support import (CONFIG, ESTIMATE_TOLERANCE, SCALE, SETTINGS, check_trace,
-                          estimate_and_pins, grbl_elf, grbl_machine, positions)
+from grbl_support import (CONFIG, ESTIMATE_TOLERANCE, QUICK_ACCEL, SCALE, SETTINGS,
+                          check_trace, estimate_and_pins, grbl_elf, grbl_machine, positions)
 
 REPO = Path(__file__).resolve().parents[2]
 CORPUS_BOARD = "kicad/flashpads-nox2noap/Flashpads-B_Cu.gbr"   # traces, pads, 32 arcs
@@ -153,7 +153,7 @@ def test_error_named_with_grbl_text_and_file_line():
     place = source_of(planned.plotted, planned.job, lines[bad].command)
     assert place.startswith(str(REPO / "samples" / "led-blinker.gbr") + ":")
     where = lambda c: source_of(planned.plotted, planned.job, c)   # noqa: E731
-    with grbl_machine() as (board, link):
+    with grbl_machine({**SETTINGS, **QUICK_ACCEL}) as (board, link):
         with pytest.raises(GrblStreamError) as raised:
             stream(link, lines, where=where)
         # the lines already in GRBL's buffer were answered; then it stopped sending
