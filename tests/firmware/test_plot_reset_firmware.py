@@ -10,7 +10,7 @@ reference machine has its switches where the harness has them, is what it must b
 The job is a meander of short lines in one pen-down path, written by the test: far
 more commands than the firmware queues (protocol QUEUE_BLOCKS = 8: the resume draws up
 to nine confirmed commands again), so the reset lands well inside it with seconds of
-machine time to spare, and it stays near the switches, so both homings are short: 40 s
+machine time to spare, and it stays near the switches, so both homings are short: 48 s
 of machine time in all, where the LED board took 86 s to draw and long homings. The
 reset, the homed resume and the drawing put back together do not depend on the artwork.
 """

@@ -107,7 +107,7 @@ def stream_to_sim(job, program):
 
 def test_the_sample_board_streamed_to_the_firmware_steps_as_on_sim(firmware):
     # the first path of each of its six pens (flashes, lines and an arc, every pen
-    # change): 30 s of machine time where the whole board takes 86 s
+    # change): 28 s of machine time where the whole board takes 86 s
     program, whole = planned("led-blinker.gbr")
     job = cut_to_paths(whole, lambda rapid, nth: nth == 0)
     assert list(job.pen_changes.values()) == list(whole.pen_changes.values())
