@@ -14,6 +14,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +22,7 @@ import pytest
 
 from galileo_cnc import protocol as P
 from galileo_cnc.config.machine import MachineConfig
+from galileo_cnc.job import NO_OP, ArcTo, EndJob, Flash, Job, PenUp, Rapid
 from galileo_cnc.machine import simulate
 from galileo_cnc.plan.offsets import proposed_offset
 from galileo_cnc.plan.planner import plan_program
@@ -69,6 +71,31 @@ def assert_same_trace_in_pieces(fw, ref, cuts):
                 f"steps {lo}..{hi}: edges spread over {spread} ticks (a gap in the stream?)")
 
 
+def cut_to_paths(job: Job, keep) -> Job:
+    """`job` with the paths (a Rapid and what follows, up to the next Rapid) for which
+    `keep(rapid, nth)` holds, `nth` counting the paths of that path's pen from 0, in
+    the job's order: what comes before the first path, each pen's change before its
+    first path kept, then the job's ending."""
+    starts = [k for k, c in enumerate(job.commands) if isinstance(c, Rapid)]
+    kept = replace(job, commands=job.commands[:starts[0]], op_index=job.op_index[:starts[0]],
+                   aperture=job.aperture[:starts[0]], pen_changes={})
+    pen, nth = None, 0
+    for start, end in zip(starts, starts[1:] + [len(job)]):
+        change = next((k for k in range(start, end) if k in job.pen_changes), None)
+        pen, nth = (job.pen_changes[change], 0) if change is not None else (pen, nth + 1)
+        if not keep(job.commands[start], nth):
+            continue
+        for k in range(start, end):
+            if pen not in kept.pen_changes.values() and (k == change or change is None
+                                                         and k == start + 1):
+                kept.pen_changes[len(kept)] = pen
+            kept.add(job.commands[k], job.op_index[k], job.aperture[k])
+    if not isinstance(kept.commands[-1], EndJob):       # the job's own ending was left out
+        kept.add(PenUp(), NO_OP, kept.aperture[-1])
+        kept.add(EndJob(), NO_OP, kept.aperture[-1])
+    return kept
+
+
 def stream_to_sim(job, program):
     link = MachineLink.open("sim://?speed=0")
     result = JobStreamer(link, job, program).run()
@@ -79,7 +106,12 @@ def stream_to_sim(job, program):
 
 
 def test_the_sample_board_streamed_to_the_firmware_steps_as_on_sim(firmware):
-    program, job = planned("led-blinker.gbr")
+    # the first path of each of its six pens (flashes, lines and an arc, every pen
+    # change): 28 s of machine time where the whole board takes 86 s
+    program, whole = planned("led-blinker.gbr")
+    job = cut_to_paths(whole, lambda rapid, nth: nth == 0)
+    assert list(job.pen_changes.values()) == list(whole.pen_changes.values())
+    assert all(any(isinstance(c, kind) for c in job.commands) for kind in (Flash, ArcTo))
     sim_trace = stream_to_sim(job, program)
     assert sim_trace.same_steps(simulate(job.commands))
     changes = []
@@ -181,13 +213,17 @@ def test_the_firmware_reports_the_config_it_was_built_with(firmware):
 
 def test_a_real_copper_layer_inked_with_two_pens_steps_as_the_reference(firmware):
     # a real Altium copper layer: pads and pours filled with the 0.8 mm pen, what it
-    # cannot reach with the 0.3 mm pen, traces too narrow for either as centre lines
+    # cannot reach with the 0.3 mm pen, traces too narrow for either as centre lines;
+    # the paths at its right edge (both pens, fills, lines and arcs: 10 of the layer's
+    # 55 paths) step as the reference in a sixth of the layer's 113 s of machine time
     from galileo_cnc.plan.pipeline import PlanOptions, plan_file
     from corpus import CORPUS
 
     layer = plan_file(CORPUS / "altium" / "pcb1-x2" / "PCB1_Copper_Signal_Top.gbr",
                       options=PlanOptions(mode="ink", pens_nm=(800_000, 300_000)))
-    job, program = layer.job, layer.plotted
+    job = cut_to_paths(layer.job, lambda rapid, nth: rapid.x_steps >= 3400)
+    program = layer.plotted
+    assert sum(isinstance(c, ArcTo) for c in job.commands) >= 5
     assert [job.pen_labels[k] for k in job.pen_changes.values()] == \
         ["the 0.8 mm pen", "the 0.3 mm pen"]
     sim_trace = stream_to_sim(job, program)

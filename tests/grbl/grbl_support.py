@@ -18,6 +18,7 @@ import serial
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.config.profile import load_profile
 from galileo_cnc.grbl import firmware
+from galileo_cnc.grbl.estimate import Machine, estimate
 from galileo_cnc.grbl.gcode import AxisScale, GcodeLine, job_to_gcode, pen_from_config
 from galileo_cnc.grbl.link import GrblLink
 from galileo_cnc.grbl.numbers import grbl_steps, read_float
@@ -38,6 +39,11 @@ SETTINGS = {12: "0.0005",
             100: STEPS_PER_MM, 101: STEPS_PER_MM, 102: STEPS_PER_MM,
             110: "8000", 111: "8000", 112: "4000",       # mm/min
             120: "2000", 121: "2000", 122: "2000"}       # mm/s^2
+#: SETTINGS' machine accelerating at 8000 mm/s^2, not 2000: a quarter less machine time
+#: on the sample, for the tests whose checks hold at any acceleration (the pins
+#: against the G-code, GRBL's replies, its queue of 20 blocks); the estimate's tests
+#: keep SETTINGS, which their measured ratios are for
+QUICK_ACCEL = {120: "8000", 121: "8000", 122: "8000"}
 CONFIG = MachineConfig(feed_mm_s=100, rapid_feed_mm_s=100, z_feed_mm_s=50,
                        feed_warn_mm_s=100, flash_dwell_ms=20)
 #: CONFIG as a profile file: the default mechanics (160 steps/mm), run fast so a
@@ -52,6 +58,12 @@ flash_dwell_ms = 20
 SCALE = AxisScale.from_texts([STEPS_PER_MM] * 3)
 #: the board the whole-plot tests draw
 SAMPLE = str(Path(__file__).resolve().parents[2] / "samples" / "led-blinker.gbr")
+
+#: the estimate's target against GRBL in simavr (the issue's); measured 0.977 (small
+#: job) and 0.973 (corpus, its run asked `?` every 50 ms; 0.979 without): the model is
+#: short by what it leaves out (a few ms per stop, the slowdown of a starved buffer)
+ESTIMATE_TOLERANCE = 0.05
+F_CPU = 16_000_000
 
 _elf: list[Path] = []
 
@@ -223,6 +235,13 @@ def _circle_distance(path: np.ndarray, centre, start) -> tuple[float, float]:
     gap = np.maximum(np.abs(cx + r * np.cos(angles) - path[:, :1]),
                      np.abs(cy + r * np.sin(angles) - path[:, 1:2]))
     return float(gap.min(axis=1).max()), float(euclid.max())
+
+
+def estimate_and_pins(lines, model: Machine, edges) -> tuple[float, float]:
+    """(estimate, GRBL's pins) seconds from the first step to the last of a run."""
+    cycle, pin, level = edges
+    steps = cycle[(level == 1) & (pin <= 4)]               # step pins D2-D4
+    return estimate(lines, model).motion_span_s, (int(steps[-1]) - int(steps[0])) / F_CPU
 
 
 def planned_gcode(profile_path: str) -> list[GcodeLine]:

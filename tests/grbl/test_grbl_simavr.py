@@ -5,6 +5,7 @@ pin trace), every step within one step of the path, errors named by file line.""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -12,13 +13,17 @@ import pytest
 
 from galileo_cnc import job as J
 from galileo_cnc.grbl import firmware
+from galileo_cnc.grbl.estimate import Machine
 from galileo_cnc.grbl.gcode import GcodeLine, job_to_gcode, pen_from_config, source_of
-from galileo_cnc.grbl.stream import GrblStreamError, stream
+from galileo_cnc.grbl.link import GrblLink
+from galileo_cnc.grbl.reports import Status
+from galileo_cnc.grbl.stream import GrblStreamError, StreamResult, stream
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 from galileo_cnc.simavr.board import SimulatedBoard
 
 from corpus import CORPUS
-from grbl_support import CONFIG, SCALE, SETTINGS, check_trace, grbl_elf, grbl_machine, positions
+from grbl_support import (CONFIG, ESTIMATE_TOLERANCE, QUICK_ACCEL, SCALE, SETTINGS,
+                          check_trace, estimate_and_pins, grbl_elf, grbl_machine, positions)
 
 REPO = Path(__file__).resolve().parents[2]
 CORPUS_BOARD = "kicad/flashpads-nox2noap/Flashpads-B_Cu.gbr"   # traces, pads, 32 arcs
@@ -30,11 +35,11 @@ def gcode_for(planned):
                         flash_dwell_ms=CONFIG.flash_dwell_ms)
 
 
-def run_and_check(lines, where=lambda command: ""):
-    with grbl_machine() as (board, link):
-        result = stream(link, lines, where=where, status_every_s=0.05)
-        final = link.tracker.last
-        board.stop()
+def run_and_check(lines, where=lambda command: "", run=None):
+    """Streams `lines` to a fresh GRBL (or takes `run`, a GrblRun of them) and checks
+    the pins: every end point exact, every step within one step of its path."""
+    run = run or stream_to_grbl(lines, where)
+    board, link, result, final = run.board, run.link, run.result, run.final
     assert result.errors == [] and link.alarms == []
     assert result.acked == len(lines)
     assert result.max_in_flight_bytes <= link.rx_buffer_bytes - 1
@@ -45,6 +50,25 @@ def run_and_check(lines, where=lambda command: ""):
     # GRBL reports mm with 3 decimals: the pins' position, rounded to a micrometre
     assert all(abs(m - int(v) * 6250) <= 500 for m, v in zip(final.mpos_nm, pos[-1]))
     return result, checked
+
+
+@dataclass
+class GrblRun:
+    """One job streamed to GRBL in simavr, for the tests that look at the same run."""
+    board: SimulatedBoard
+    link: GrblLink
+    result: StreamResult
+    final: Status           # GRBL's last status report, at rest after the job
+    model: Machine          # the estimate's machine, from GRBL's $$ and $I
+
+
+def stream_to_grbl(lines, where=lambda command: "") -> GrblRun:
+    with grbl_machine() as (board, link):
+        model = Machine.from_settings(link.settings, link.build.planner_blocks)
+        result = stream(link, lines, where=where, status_every_s=0.05)
+        final = link.tracker.last
+        board.stop()
+    return GrblRun(board, link, result, final, model)
 
 
 def test_grbl_builds_boots_and_is_detected():
@@ -91,16 +115,33 @@ def test_small_job_lands_on_every_step():
     assert checked["worst_axis_steps"] <= 1.0
 
 
-def test_corpus_board_streamed_exactly():
-    path = CORPUS / CORPUS_BOARD
-    planned = plan_file(path, CONFIG, options=PlanOptions(mode="centre"))
+@pytest.fixture(scope="module")
+def corpus_board():
+    """(lines, GrblRun): the corpus board streamed once (27 s of machine time) for the
+    two tests that look at that run: its pins exact, and the time estimate."""
+    planned = plan_file(CORPUS / CORPUS_BOARD, CONFIG, options=PlanOptions(mode="centre"))
     lines = gcode_for(planned)
+    return lines, stream_to_grbl(lines, lambda c: source_of(planned.plotted, planned.job, c))
+
+
+def test_corpus_board_streamed_exactly(corpus_board):
+    lines, run = corpus_board
     assert sum(line.text.startswith(("G2 ", "G3 ")) for line in lines) >= 30
-    result, checked = run_and_check(
-        lines, where=lambda c: source_of(planned.plotted, planned.job, c))
+    result, checked = run_and_check(lines, run=run)
     assert checked["motions"] > 400
     # character counting kept the ring nearly full: GRBL was never starved by us
     assert result.max_in_flight_bytes >= 100
+
+
+def test_estimate_matches_grbl_in_simavr_corpus_board(corpus_board):
+    """The estimate within ESTIMATE_TOLERANCE of the corpus board's run, first step to last
+    (test_grbl_estimate.py's small job is the other measure)."""
+    lines, run = corpus_board
+    assert run.result.errors == [] and run.link.alarms == []
+    model, sim = estimate_and_pins(lines, run.model, run.board.trace())
+    print(f"{CORPUS_BOARD}: estimate {model:.4f} s, simavr {sim:.4f} s, "
+          f"ratio {model / sim:.4f}")
+    assert abs(model / sim - 1) <= ESTIMATE_TOLERANCE
 
 
 def test_error_named_with_grbl_text_and_file_line():
@@ -112,7 +153,7 @@ def test_error_named_with_grbl_text_and_file_line():
     place = source_of(planned.plotted, planned.job, lines[bad].command)
     assert place.startswith(str(REPO / "samples" / "led-blinker.gbr") + ":")
     where = lambda c: source_of(planned.plotted, planned.job, c)   # noqa: E731
-    with grbl_machine() as (board, link):
+    with grbl_machine({**SETTINGS, **QUICK_ACCEL}) as (board, link):
         with pytest.raises(GrblStreamError) as raised:
             stream(link, lines, where=where)
         # the lines already in GRBL's buffer were answered; then it stopped sending
