@@ -169,8 +169,8 @@ def cut_short(link, entry: JournalEntry) -> str | None:
     if link.state_before_reset in NOT_RUN_OUT:
         return f"GRBL stood in {link.state_before_reset} with lines still queued"
     if entry.state in (ABORTED, FAILED):
-        return f"the job was {entry.state} ({entry.reason})" if entry.reason else \
-            f"the job was {entry.state}"
+        ended = "the job was aborted" if entry.state == ABORTED else "the job failed"
+        return f"{ended} ({entry.reason})" if entry.reason else ended
     return None
 
 

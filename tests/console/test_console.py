@@ -696,7 +696,7 @@ def test_a_whole_evening_on_sim(home, monkeypatch, stop):
     job, whole = _uninterrupted(BOARD, TWO_PENS)
     assert list(job.pen_labels[k] for k in job.pen_changes.values()) == \
         ["the 0.8 mm pen", "the 0.3 mm pen"]
-    port = "sim://evening?speed=20"        # a board that keeps power when its port dies
+    port = "sim://evening?speed=40"        # a board that keeps power when its port dies
     opened = []
 
     def open_faulty(*args, **kwargs):      # every port the console opens can be pulled
