@@ -171,6 +171,15 @@ class Machine:
         """Stop jogging (the head decelerates); the status after it."""
         raise NotImplementedError
 
+    def wait_still(self):
+        """Wait until the head stands still (jogs run out); the status then."""
+        raise NotImplementedError
+
+    def set_origin(self) -> str:
+        """Once the head stands still, make where it stands the work origin (X, Y and
+        Z 0; Z 0 draws); a note for the user. GalileoError when the machine refuses it."""
+        raise NotImplementedError
+
     def feed_refusal(self, config: MachineConfig, mm_s: float) -> str | None:
         """Why the machine cannot run at `mm_s`, or None."""
         raise NotImplementedError

@@ -13,7 +13,7 @@ from pathlib import Path
 from galileo_cnc.backends.base import JobResult, Machine, MachineJob, MachineView, Resumption
 from galileo_cnc.config.machine import MIN_FEED_STEPS_PER_S, MachineConfig
 from galileo_cnc.errors import GalileoError
-from galileo_cnc.job import Home, Jog, SetFeed
+from galileo_cnc.job import Home, Jog, SetFeed, SetOrigin
 from galileo_cnc.plan.pipeline import plan_file
 from galileo_cnc.protocol import Status, Unlock
 from galileo_cnc.machine.trace import Trace
@@ -137,6 +137,14 @@ class GalileoMachine(Machine):
     def cancel_jog(self) -> None:
         """Ramps the machine down (the host's abort); the planner drops what was queued."""
         self.link.abort()
+
+    def wait_still(self) -> Status:
+        return self.link.wait_idle()
+
+    def set_origin(self) -> str:
+        self.wait_still()
+        self.link.send(SetOrigin())
+        return "origin set here: X, Y and Z are 0 now (Z 0 draws)"
 
     def feed_refusal(self, config: MachineConfig, mm_s: float) -> str | None:
         steps_per_s = config.feed_steps_per_s_of(mm_s)

@@ -272,6 +272,16 @@ class GrblMachine(Machine):
     def wait_still(self) -> Status:
         return wait_jog(self.link)
 
+    def set_origin(self) -> str:
+        """G10 L20 P0: the current coordinate system's zero is here (GRBL keeps G54-G59
+        in its EEPROM)."""
+        self.wait_still()
+        reply = self.link.command("G10 L20 P0 X0 Y0 Z0")
+        if not reply.ok:
+            raise GrblError(f"GRBL refused the origin: {reply.text}")
+        return ("origin set here: X, Y and Z are 0 now (Z 0 draws; G10 L20 P0, kept in "
+                "GRBL's EEPROM)")
+
     def max_feed_mm_s(self) -> float:
         """GRBL's $110/$111 (mm/min): the fastest X and Y may go."""
         return min(float(read_float(self.link.settings.max_rate_mm_min(a))) for a in (0, 1)) / 60

@@ -40,12 +40,14 @@ class GrblKeypadJog:
     def __init__(self, console, machine, units: int):
         self.console = console
         self.machine = machine
-        self.link = machine.link
         self.units = units
         self.step_mm = units * NM_PER_JOG_UNIT / NM_PER_MM
         self.feed_mm_min = console.config.feed_mm_s * 60
         self.note = ""
-        self.status = self.link.status()
+        view = machine.view()
+        if view is None:
+            raise GrblError("GRBL did not answer its status query")
+        self.status = view.raw
         self.target_nm = list(self.status.mpos_nm)     # where the queued jogs end
         self.held = False
         self._last_key: str | None = None
@@ -60,10 +62,10 @@ class GrblKeypadJog:
                 f"{position_text(self.status.wpos_nm)} ({self.status.state}){note}\n{HINT}")
 
     def _refresh(self) -> None:
-        try:
-            self.status = self.link.status(timeout_s=1.0)
-        except GrblError:
+        view = self.machine.view(timeout_s=1.0)
+        if view is None:
             return                          # the next redraw asks again
+        self.status = view.raw
         if self.status.state == "Idle":
             self.target_nm = list(self.status.mpos_nm)
 
@@ -120,13 +122,10 @@ class GrblKeypadJog:
         in its EEPROM)."""
         self.held = False
         try:
-            self.machine.wait_still()
-            reply = self.link.command("G10 L20 P0 X0 Y0 Z0")
+            self.note = self.machine.set_origin()
         except GrblError as problem:
             self.note = str(problem)
             return
-        self.note = ("origin set here: X, Y and Z are 0 now (Z 0 draws; G10 L20 P0, kept "
-                     "in GRBL's EEPROM)" if reply.ok else f"GRBL refused the origin: {reply.text}")
         self._refresh()
 
     def leave(self, app: Application) -> None:

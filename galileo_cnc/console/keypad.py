@@ -16,7 +16,6 @@ from prompt_toolkit.layout.controls import FormattedTextControl
 from galileo_cnc.backends.galileo import GalileoMachine, position_mm_text
 from galileo_cnc.console.units import NM_PER_JOG_UNIT, jog_units_to_steps, refusal_text
 from galileo_cnc.errors import GalileoError
-from galileo_cnc.job import SetOrigin
 from galileo_cnc.transport.link import LinkError, PortGone
 
 #: key -> direction (x, y, z); each key has a NumLock-off twin.
@@ -40,11 +39,13 @@ class KeypadJog:
         """`machine`: the console's (a GalileoMachine over `console.link` by default)."""
         self.console = console
         self.machine = machine if machine is not None else GalileoMachine(console.link)
-        self.link = self.machine.link
         self.step = jog_units_to_steps(units, console.config)
         self.units = units
         self.note = ""
-        self.status = self.link.status()
+        view = self.machine.view()
+        if view is None:
+            raise LinkError("the machine did not answer its status request")
+        self.status = view.raw
 
     def line(self) -> str:
         if self.status.state != "idle" or self.status.queue_blocks:
@@ -60,14 +61,13 @@ class KeypadJog:
                  "")
 
     def set_origin(self) -> None:
-        self.link.wait_idle()
-        self._do(lambda: self.link.send(SetOrigin()),
-                 "origin set here: X, Y and Z are 0 now (Z 0 draws)")
+        self._do(self.machine.set_origin, None)
 
-    def _do(self, action, note: str) -> None:
+    def _do(self, action, note: str | None) -> None:
+        """`note`: what to show when `action` worked; None: what `action` returns."""
         try:
-            action()
-            self.note = note
+            said = action()
+            self.note = said if note is None else note
         except PortGone:
             raise
         except GalileoError as refused:          # e.g. the jog would leave the travel
@@ -75,10 +75,9 @@ class KeypadJog:
         self._refresh()
 
     def _refresh(self) -> None:
-        try:
-            self.status = self.link.status(timeout_s=1.0)
-        except LinkError:
-            pass                                 # the next redraw asks again
+        view = self.machine.view(timeout_s=1.0)
+        if view is not None:                     # else the next redraw asks again
+            self.status = view.raw
 
     def stop(self) -> None:
         self.machine.cancel_jog()
@@ -108,5 +107,5 @@ class KeypadJog:
 def jog_with_keypad(console, units: int) -> None:
     keypad = KeypadJog(console, units, console.machine)
     keypad.run()
-    status = console.machine.link.wait_idle()
+    status = console.machine.wait_still()
     console.say(f"position {position_mm_text(status, console.config)}")
