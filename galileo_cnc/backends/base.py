@@ -53,7 +53,8 @@ class Operator(Protocol):
         """A line for the user."""
 
     def progress(self, p: Progress) -> None:
-        """How far the job is."""
+        """How far the job is, in units of the whole job (a resumed run starts at the
+        units done before it)."""
 
     def pen_change(self, c: PenChange) -> None:
         """Returns when the pen is in; raise stream.streamer.StreamAborted to stop."""

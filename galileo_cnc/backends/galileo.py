@@ -8,6 +8,7 @@ reset of a job whose frame was the homed one (stream/resume.py).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from galileo_cnc.backends.base import JobResult, Machine, MachineJob, MachineView, Resumption
@@ -20,7 +21,7 @@ from galileo_cnc.machine.trace import Trace
 from galileo_cnc.stream.homing import home, home_after_reset, z_has_end_stop
 from galileo_cnc.stream.journal import Journal
 from galileo_cnc.stream.resume import plan_resume
-from galileo_cnc.stream.streamer import JobStreamer, StreamResult
+from galileo_cnc.stream.streamer import JobStreamer, Progress, StreamResult
 from galileo_cnc.transport.link import LinkError, MachineLink
 
 #: States in which the head may be moving: a command interrupted there must stop it.
@@ -179,9 +180,17 @@ class GalileoMachine(Machine):
         """Raises PortGone (a lost port), MachineReset (the board was reset), LinkError
         (a refusal); the journal says how it ended."""
         streamer: JobStreamer = job.engine
+
+        def progress(p: Progress) -> None:
+            # the streamer counts from where this run started; a front end shows the
+            # whole job's commands, as GRBL's job shows its lines (a resume goes on
+            # from "334/539", not from "1/206")
+            operator.progress(replace(p, confirmed=p.confirmed + streamer.start,
+                                      total=p.total + streamer.start))
+
         self._streamer = streamer
         try:
-            result: StreamResult = streamer.run(on_progress=operator.progress,
+            result: StreamResult = streamer.run(on_progress=progress,
                                                 on_pen_change=operator.pen_change)
         finally:
             self._streamer = None
