@@ -18,7 +18,7 @@ from prompt_toolkit.shortcuts.progress_bar import formatters
 
 from galileo_cnc.backends import JobResult
 from galileo_cnc.machine.timing import duration_text
-from galileo_cnc.stream.streamer import PenChange, Progress, StreamAborted
+from galileo_cnc.stream.streamer import PenChange, Progress, StreamAborted, position_text
 
 BELL = "\a"
 #: How often a pen-change wait looks for a stop request.
@@ -61,6 +61,20 @@ class _MachineEta(formatters.Formatter):
         return 12
 
 
+class _HeadPosition(formatters.Formatter):
+    """Where the machine reports the head while it streams (GRBL answers `?` during a
+    job); nothing from a machine that reports no position meanwhile."""
+
+    def __init__(self, screen: "JobScreen"):
+        self.screen = screen
+
+    def format(self, progress_bar, progress, width):
+        return position_text(self.screen.position_nm)
+
+    def get_width(self, progress_bar):
+        return len(position_text(self.screen.position_nm))
+
+
 class JobScreen(ConsoleOperator):
     def __init__(self, console, title: str, total: int, start: int = 0):
         super().__init__(console)
@@ -68,6 +82,7 @@ class JobScreen(ConsoleOperator):
         self.total = total
         self.start = start
         self.eta_s: float | None = None
+        self.position_nm: tuple[int, int, int] | None = None
         self.stop_requested = threading.Event()
         self._continue = threading.Event()
         self._abort_stream: Callable[[], None] | None = None
@@ -101,6 +116,7 @@ class JobScreen(ConsoleOperator):
     # ---- the Operator, called by the job in the streaming thread ---------------------------
     def progress(self, progress: Progress) -> None:
         self.eta_s = progress.eta_s
+        self.position_nm = progress.position_nm
         self._counter.total = progress.total
         self._counter.items_completed = progress.confirmed
         self._counter.progress_bar.invalidate()
@@ -120,7 +136,7 @@ class JobScreen(ConsoleOperator):
         return [formatters.Label(), formatters.Text(" "), formatters.Percentage(),
                 formatters.Text(" "), formatters.Bar(sym_a="#", sym_b=">", sym_c="."),
                 formatters.Text(" "), formatters.Progress(), formatters.Text("  "),
-                _MachineEta(self)]
+                _MachineEta(self), _HeadPosition(self)]
 
     def _key_bindings(self) -> KeyBindings:
         keys = KeyBindings()

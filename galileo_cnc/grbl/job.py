@@ -279,14 +279,27 @@ class GrblJob:
         began = time.monotonic()
         done = self.start
 
+        position: tuple[int, int, int] | None = None
+
+        def report() -> None:
+            if on_progress is not None:
+                elapsed = time.monotonic() - began
+                line = source_line(self.planned, lines[done - 1].command) if done else 0
+                on_progress(Progress(done, total, elapsed,
+                                     max(0.0, self.estimate_s - elapsed), line, position))
+
         def show(count: int) -> None:
             nonlocal done
             done = count
-            if on_progress is not None:
-                elapsed = time.monotonic() - began
-                on_progress(Progress(count, total, elapsed,
-                                     max(0.0, self.estimate_s - elapsed),
-                                     source_line(self.planned, lines[count - 1].command)))
+            report()
+
+        def seen(status) -> None:
+            # GRBL answers `?` a few times a second while it streams: the ETA counts
+            # down and the position follows the head through a long move, whose line
+            # GRBL confirmed long before it ends
+            nonlocal position
+            position = status.wpos_nm
+            report()
 
         def ask_pen(first: int, aperture: int, resuming: bool) -> None:
             label = job.pen_labels.get(aperture) or \
@@ -302,7 +315,7 @@ class GrblJob:
             self.port.arm()
         try:
             stream_job(self.link, lines, job.pen_changes, self.where, show, ask_pen,
-                       start=self.start, lead=self.lead, on_reply=on_reply)
+                       start=self.start, lead=self.lead, on_reply=on_reply, on_status=seen)
         except (JobInterrupted, StreamAborted):
             self._disarm()
             hold_and_reset(self.link)      # decelerate, then drop GRBL's queue

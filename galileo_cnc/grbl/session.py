@@ -72,7 +72,7 @@ def refuse_other_scale(link: GrblLink, steps_per_mm: float, profile_path,
 
 
 def stream_piece(link: GrblLink, chunk: list[GcodeLine], numbers: list[int | None], where,
-                  show, on_reply=None) -> None:
+                  show, on_reply=None, on_status=None) -> None:
     """`chunk` to a stop; numbers[i] is chunk[i]'s index in the whole job (None for a
     resume's lead-in), so a refusal or an alarm is named by its number in the job
     (stream() counts from the chunk's first line)."""
@@ -91,7 +91,8 @@ def stream_piece(link: GrblLink, chunk: list[GcodeLine], numbers: list[int | Non
                 f"line {index + 1} of the resume's lead-in")
 
     try:
-        stream(link, chunk, where=where, travel_check=False, on_ack=acked)
+        stream(link, chunk, where=where, travel_check=False, on_ack=acked,
+               on_status=on_status)
     except GrblStreamError as stopped:
         if not stopped.alarm and not stopped.errors:
             raise                   # GRBL fell silent: no line to name
@@ -146,12 +147,13 @@ def hold_and_reset(link: GrblLink) -> None:
 
 def stream_job(link: GrblLink, lines: list[GcodeLine], pen_changes: dict[int, int], where,
                show, ask_pen, *, start: int = 0, lead: list[GcodeLine] = (),
-               on_reply=None) -> None:
+               on_reply=None, on_status=None) -> None:
     """Streams lines[start:] (after the `lead` lines, a resume's lead-in) in pieces that
     end at the job's pen changes: each piece runs to a stop (GRBL's buffer drained)
     before `ask_pen(first line, aperture, resuming)` asks for the pen. Resuming past a
     pen change, the pen in use at `start` is asked for first (resuming=True) unless a
-    change comes right there. `show(lines done)`, `on_reply(line in the job, reply)`."""
+    change comes right there. `show(lines done)`, `on_reply(line in the job, reply)`,
+    `on_status(status)` for each status answer while the lines stream."""
     total = len(lines)
     pieces = pen_pieces(lines, pen_changes)
     before = [piece for piece in pieces if piece[0] < start]
@@ -164,11 +166,12 @@ def stream_job(link: GrblLink, lines: list[GcodeLine], pen_changes: dict[int, in
             continue
         if first > position or chunk:
             stream_piece(link, chunk + lines[position:first],
-                         numbers + list(range(position, first)), where, show, on_reply)
+                         numbers + list(range(position, first)), where, show, on_reply,
+                         on_status)
             position, chunk, numbers = first, [], []
         ask_pen(first, aperture, False)
     stream_piece(link, chunk + lines[position:total], numbers + list(range(position, total)),
-                 where, show, on_reply)
+                 where, show, on_reply, on_status)
 
 
 def find_position(link: GrblLink, scale: AxisScale, pen: GrblPen, say, at_work_zero) -> bool:

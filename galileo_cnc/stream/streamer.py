@@ -48,7 +48,7 @@ from galileo_cnc import protocol as P
 from galileo_cnc.errors import GalileoError, SourcePos
 from galileo_cnc.job import NO_OP, Command, Job
 from galileo_cnc.machine.timing import JobTiming, job_timing
-from galileo_cnc.program.ops import COL, LINE, Program
+from galileo_cnc.program.ops import COL, LINE, NM_PER_MM, Program
 from galileo_cnc.stream.journal import (ABORTED, FAILED, FINISHED, INTERRUPTED, RESET,
                                         Journal, JournalEntry, file_digest)
 from galileo_cnc.transport.link import (LinkError, MachineLink, MachineStopped, PortGone,
@@ -92,6 +92,18 @@ class Progress:
     elapsed_s: float
     eta_s: float | None     # time left: the reference's machine time (at sim:// speed)
     source_line: int        # line of the file the last confirmed command came from
+    #: where the machine reports the head (work coordinates, nm), for machines that
+    #: report it while they stream (GRBL's status answers); None elsewhere
+    position_nm: tuple[int, int, int] | None = None
+
+
+def position_text(position_nm: tuple[int, int, int] | None) -> str:
+    """`  at X 12.300 Y 4.000 mm`: a Progress's head position for a progress line; ""
+    when the machine reported none."""
+    if position_nm is None:
+        return ""
+    x, y = (position_nm[axis] / NM_PER_MM for axis in (0, 1))
+    return f"  at X {x:.3f} Y {y:.3f} mm"
 
 
 @dataclass

@@ -26,6 +26,7 @@ import pytest
 import serial
 
 from galileo_cnc.cli import main as cli
+from galileo_cnc.cli.plot import TextProgress
 from galileo_cnc.config.profile import load_profile
 from galileo_cnc.config.userdirs import data_dir
 from galileo_cnc.grbl.gcode import GcodeLine, expected_end_steps, job_to_gcode, pen_from_config
@@ -185,10 +186,20 @@ def test_a_lost_line_is_named_once_grbl_stands_idle_but_a_dwell_is_not():
     assert re.match(r"GRBL stood Idle for \d+ s without answering a line sent to it \(a "
                     r"byte lost on the line\?\), at X 3\.000 Y 0\.000", str(stopped)), stopped
 
-def test_a_move_longer_than_any_timeout_plots_to_its_last_line(profile, tmp_path, capsys):
+def test_a_move_longer_than_any_timeout_plots_to_its_last_line(profile, tmp_path, capsys,
+                                                               monkeypatch):
     """180 mm at 5 mm/s (36 s: GRBL holds back the next lines' `ok` all that time),
-    then 40 lines of 0.05 mm, plotted in real time over the simavr:// URL."""
+    then 40 lines of 0.05 mm, plotted in real time over the simavr:// URL; meanwhile
+    the progress shows the head moving along the line, from GRBL's status answers."""
     grbl_elf()                      # built (or skipped with the missing package) first
+    shown = []                      # what plot's progress line was given
+    original = TextProgress.__call__
+
+    def recorded(self, progress):
+        shown.append(progress)
+        original(self, progress)
+
+    monkeypatch.setattr(TextProgress, "__call__", recorded)
     texts = ["G21 G90", "G0 X0 Y0", "G1 X180 Y0 F300"]
     texts += [f"G1 X{180 - 0.05 * (i + 1):.2f} Y{0.05 * ((i + 1) % 2):.2f}" for i in range(40)]
     path = gcode_file(tmp_path, texts)
@@ -215,6 +226,15 @@ def test_a_move_longer_than_any_timeout_plots_to_its_last_line(profile, tmp_path
     last_of_tick = np.r_[trace.tick[1:] != trace.tick[:-1], True]
     checked = check_trace(np.vstack([np.zeros((1, 3), np.int64), pos[last_of_tick]]), lines)
     assert checked["motions"] == sum(1 for line in lines if line.text.startswith(("G0", "G1")))
+    # while the long line ran, its `ok` long given, the status answers moved the head
+    # along it (X rising, Y 1 mm) and counted the ETA down with no new line confirmed
+    along = [p for p in shown if p.position_nm is not None and p.position_nm[1] == 1 * MM
+             and 2 * MM < p.position_nm[0] < 178 * MM]
+    assert len({p.confirmed for p in along}) <= 3 and len(along) >= 50, len(along)
+    xs = [p.position_nm[0] for p in along]
+    assert xs == sorted(xs) and xs[-1] - xs[0] > 100 * MM
+    assert along[-1].eta_s < along[0].eta_s
+    assert shown[-1].position_nm[:2] == (179 * MM, 1 * MM)
 
 
 def test_a_board_that_stops_answering_is_reported_and_the_job_resumes(profile, tmp_path,
