@@ -29,7 +29,7 @@ from galileo_cnc.transport.port import open_port
 
 # the GRBL tests' helpers (build, settings, pin trace) live beside them
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "grbl"))
-from grbl_support import (PROFILE, SAMPLE, SCALE, SETTINGS, check_trace,  # noqa: E402
+from grbl_support import (PROFILE, QUICK_ACCEL, SAMPLE, SCALE, SETTINGS, check_trace,  # noqa: E402
                           grbl_elf, planned_gcode, positions)
 
 
@@ -40,6 +40,11 @@ def profile(tmp_path, monkeypatch):
     path = tmp_path / "fast.toml"
     path.write_text(PROFILE)
     return str(path)
+
+
+#: the test machine accelerating at 8000 mm/s^2: these tests check the pins, GRBL's
+#: replies and the messages, which hold at any acceleration (grbl_support.QUICK_ACCEL)
+QUICK = {**SETTINGS, **QUICK_ACCEL}
 
 
 @contextmanager
@@ -56,7 +61,7 @@ def grbl(settings: dict[int, str], **board_kwargs):
 def test_plot_on_grbl_draws_the_sample_exactly(profile, tmp_path, capsys, monkeypatch):
     preview = tmp_path / "plotted.png"
     trace_file = tmp_path / "plan.npz"
-    with grbl(SETTINGS) as board:
+    with grbl(QUICK) as board:
         # probed (GRBL or ours?) and plotted over one open: an Uno resets at each open
         opened = []
         real_open = serial.serial_for_url
@@ -92,7 +97,7 @@ def test_a_servo_pen_chosen_in_the_profile_lifts_with_the_spindle_output(tmp_pat
     servo = tmp_path / "servo.toml"
     servo.write_text(PROFILE + '[grbl]\npen = "servo"\nservo_down_s = 500\n'
                      'servo_dwell_ms = 40\n')
-    with grbl(SETTINGS, extra_pins=(grbl_firmware.SPINDLE_PWM_PIN,)) as board:
+    with grbl(QUICK, extra_pins=(grbl_firmware.SPINDLE_PWM_PIN,)) as board:
         code = cli.main(["plot", SAMPLE, "--port", board.port, "--mode", "centre", "--yes",
                          "--profile", str(servo)])
         board.stop()
@@ -126,7 +131,7 @@ def test_other_steps_per_mm_refused_before_anything_moves(profile, capsys):
 
 def test_check_mode_reports_rejected_lines_and_moves_nothing(profile, capsys, monkeypatch,
                                                               tmp_path):
-    with grbl(SETTINGS) as board:
+    with grbl(QUICK) as board:
         args = ["plot", SAMPLE, "--port", board.port, "--mode", "centre", "--check",
                 "--profile", profile]
         assert cli.main(args + ["--trace", str(tmp_path / "none.npz")]) == 1
@@ -168,7 +173,7 @@ def test_a_line_grbl_refuses_stops_the_plot_naming_it(profile, capsys, monkeypat
         lines[9] = GcodeLine("G5 " + lines[9].text[3:], lines[9].command)
         return lines
     monkeypatch.setattr(grbl_job, "job_to_gcode", spoiled)
-    with grbl(SETTINGS) as board:
+    with grbl(QUICK) as board:
         code = cli.main(["plot", SAMPLE, "--port", board.port, "--mode", "centre", "--yes",
                          "--profile", profile])
         board.stop()
@@ -184,9 +189,9 @@ def test_a_line_grbl_refuses_stops_the_plot_naming_it(profile, capsys, monkeypat
 # ---- simavr://?firmware=grbl: GRBL in simavr as a port, no hardware ------------------------
 
 #: GRBL's settings in the URL (its simulated EEPROM starts empty each time): the test
-#: machine's, as SETTINGS; realtime=0 lets simavr run as fast as it can.
+#: machine's, as QUICK; realtime=0 lets simavr run as fast as it can.
 GRBL_URL = "simavr://?firmware=grbl&realtime=0&" + "&".join(
-    f"${number}={value}" for number, value in SETTINGS.items())
+    f"${number}={value}" for number, value in QUICK.items())
 STEP_NM = 6250      # 160 steps/mm
 
 

@@ -37,8 +37,8 @@ from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 from galileo_cnc.stream.journal import FAILED, FINISHED, Journal
 
 from faults import FaultyPort
-from grbl_support import (PROFILE, SCALE, SETTINGS, check_trace, grbl_elf, grbl_machine,
-                          wait_until_still)
+from grbl_support import (PROFILE, QUICK_ACCEL, SCALE, SETTINGS, check_trace, grbl_elf,
+                          grbl_machine, wait_until_still)
 
 MM = 1_000_000          # nm
 STEP_NM = 6250          # 160 steps/mm
@@ -242,12 +242,14 @@ def test_a_board_that_stops_answering_is_reported_and_the_job_resumes(profile, t
     """The board freezes mid-job (SIGSTOP to the simulator, the pty open): the plot
     stops within 5 s of GRBL's last status answer, saying so, with the journal on the
     last confirmed line; thawed and at rest, `plot --resume` finishes the job."""
-    texts = ["G21 G90", "G0 X0 Y0", "G1 X2.5 Y0 F600"]
-    texts += [f"G1 X{2.5 * (i % 2):.1f} Y{0.5 * (i + 1):.1f}" for i in range(50)]  # 13 s
+    # 50 mm/s and QUICK_ACCEL: about 0.07 s a line, some 4 s of moves in all; the half
+    # left when the board freezes still outlasts the watcher's look at the journal
+    texts = ["G21 G90", "G0 X0 Y0", "G1 X2.5 Y0 F3000"]
+    texts += [f"G1 X{2.5 * (i % 2):.1f} Y{0.5 * (i + 1):.1f}" for i in range(50)]
     path = gcode_file(tmp_path, texts)
     lines = planned(path, profile)
     pen = pen_from_config(load_profile(profile).config)
-    with grbl_machine({**SETTINGS, 10: "3"}, realtime=True) as (board, link):
+    with grbl_machine({**SETTINGS, **QUICK_ACCEL, 10: "3"}, realtime=True) as (board, link):
         link.port.close()
         frozen: list[float] = []
         done = threading.Event()
@@ -297,7 +299,7 @@ def test_a_board_that_stops_answering_is_reported_and_the_job_resumes(profile, t
         with serial.Serial(board.port, 115200, timeout=0.2) as user_port:
             user = GrblLink.connect(user_port)
             user.command_checked("G90 G0 X0 Y0")
-            user.command_checked(f"G1 Z{SCALE.mm(2, pen.down_z_steps)} F600")
+            user.command_checked(f"G1 Z{SCALE.mm(2, pen.down_z_steps)} F3000")
             user.wait_idle()
         code = cli.main(["plot", path, "--resume", "--yes", "--port", board.port,
                          "--profile", profile])
