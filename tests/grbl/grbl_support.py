@@ -22,6 +22,7 @@ from galileo_cnc.grbl.estimate import Machine, estimate
 from galileo_cnc.grbl.gcode import AxisScale, GcodeLine, job_to_gcode, pen_from_config
 from galileo_cnc.grbl.link import GrblLink
 from galileo_cnc.grbl.numbers import grbl_steps, read_float
+from galileo_cnc.grbl.reports import GrblError
 from galileo_cnc.grbl.resume import lead_in, state_before
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 from galileo_cnc.simavr import board as simavr
@@ -301,8 +302,17 @@ def wait_until_still(port_path: str) -> None:
         link = GrblLink(port)
         while link.read_line(0.5) is not None:     # replies nobody read after the cut
             pass
+        status, unanswered = None, 0
         for _ in range(20000):
-            status = link.status()
+            try:
+                status = link.status()
+            except GrblError:
+                # a simulator just thawed (SIGCONT) runs flat out to catch up with the
+                # wall clock, and a query can go unanswered meanwhile: ask again
+                unanswered += 1
+                if unanswered > 3:
+                    raise
+                continue
             if status.state == "Idle" and (status.planner_free, status.rx_free) == (15, 128):
                 return
     raise AssertionError(f"GRBL never came to rest (last {status})")
