@@ -64,16 +64,25 @@ def _imports(source: str, module: str, is_package: bool) -> list[tuple[int, str]
     return found
 
 
-def backward_imports(source: str, module: str, is_package: bool = False) -> list[str]:
-    """Each import of `module`'s source that reaches a later (or sideways) stage."""
-    own = _unit(module)
+def _later_imports(source: str, module: str, is_package: bool, unit, stages: dict,
+                   kind: str = "") -> list[str]:
+    """Each import of `module`'s source that reaches a later (or sideways) unit of
+    `stages`; `unit` names a module's unit ('' outside them), `kind` the stages'."""
+    own = unit(module)
     problems = []
     for line, target in _imports(source, module, is_package):
-        other = _unit(target)
-        if own and other not in ("", own) and not STAGES[other] < STAGES[own]:
-            problems.append(f"{module}:{line}: {own} (stage {STAGES[own]}) imports "
-                            f"{target} (stage {STAGES[other]})")
+        other = unit(target)
+        if own and other not in ("", own) and not stages[other] < stages[own]:
+            name = f"{kind}.{own}" if kind else own
+            stage = f"{kind} stage" if kind else "stage"
+            problems.append(f"{module}:{line}: {name} ({stage} {stages[own]}) imports "
+                            f"{target} ({stage} {stages[other]})")
     return problems
+
+
+def backward_imports(source: str, module: str, is_package: bool = False) -> list[str]:
+    """Each import of `module`'s source that reaches a later (or sideways) stage."""
+    return _later_imports(source, module, is_package, _unit, STAGES)
 
 
 #: plan/'s own stages (galileo_cnc/plan/__init__.py): a plan module imports its own
@@ -98,14 +107,7 @@ def _plan_unit(module: str) -> str:
 
 def backward_plan_imports(source: str, module: str, is_package: bool = False) -> list[str]:
     """Each import of a plan module's source that reaches a later (or sideways) plan stage."""
-    own = _plan_unit(module)
-    problems = []
-    for line, target in _imports(source, module, is_package):
-        other = _plan_unit(target)
-        if own and other not in ("", own) and not PLAN_STAGES[other] < PLAN_STAGES[own]:
-            problems.append(f"{module}:{line}: plan.{own} (plan stage {PLAN_STAGES[own]}) "
-                            f"imports {target} (plan stage {PLAN_STAGES[other]})")
-    return problems
+    return _later_imports(source, module, is_package, _plan_unit, PLAN_STAGES, "plan")
 
 
 SOURCES = sorted(p for p in PACKAGE.rglob("*.py") if p.parent.name != "__pycache__")

@@ -29,17 +29,11 @@ from galileo_cnc.transport.port import open_port
 
 # the GRBL tests' helpers (build, settings, pin trace) live beside them
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "grbl"))
+from grbl_support import profile  # noqa: F401,E402  (the fixture)
 from grbl_support import (PROFILE, QUICK_ACCEL, SAMPLE, SCALE, SETTINGS, check_trace,  # noqa: E402
                           grbl_elf, planned_gcode, positions)
 
 
-
-@pytest.fixture
-def profile(tmp_path, monkeypatch):
-    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path))
-    path = tmp_path / "fast.toml"
-    path.write_text(PROFILE)
-    return str(path)
 
 
 #: the test machine accelerating at 8000 mm/s^2: these tests check the pins, GRBL's

@@ -13,6 +13,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
+import pytest
 import serial
 
 from galileo_cnc.config.machine import MachineConfig
@@ -57,6 +58,18 @@ feed_warn_mm_s = 100
 flash_dwell_ms = 20
 """
 SCALE = AxisScale.from_texts([STEPS_PER_MM] * 3)
+
+
+@pytest.fixture
+def profile(tmp_path, monkeypatch):
+    """PROFILE written for a test whose user's folders (journal) are its own; a test
+    module takes it by importing it."""
+    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path))
+    path = tmp_path / "fast.toml"
+    path.write_text(PROFILE)
+    return str(path)
+
+
 #: the board the whole-plot tests draw
 SAMPLE = str(Path(__file__).resolve().parents[2] / "samples" / "led-blinker.gbr")
 

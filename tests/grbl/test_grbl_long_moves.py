@@ -22,7 +22,6 @@ import threading
 import time
 
 import numpy as np
-import pytest
 import serial
 
 from galileo_cnc.cli import main as cli
@@ -37,7 +36,8 @@ from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 from galileo_cnc.stream.journal import FAILED, FINISHED, Journal
 
 from faults import FaultyPort
-from grbl_support import (PROFILE, QUICK_ACCEL, SCALE, SETTINGS, check_trace, grbl_elf,
+from grbl_support import profile  # noqa: F401  (the fixture)
+from grbl_support import (QUICK_ACCEL, SCALE, SETTINGS, check_trace, grbl_elf,
                           grbl_machine, wait_until_still)
 
 MM = 1_000_000          # nm
@@ -50,13 +50,6 @@ REPORTED_WITHIN_S = 5.0
 REALTIME_URL = "simavr://?firmware=grbl&$100=160&$101=160&$102=160"
 EXIT_OK, EXIT_FAILED = 0, 1             # plot's exit codes (docs/grbl.md)
 
-
-@pytest.fixture
-def profile(tmp_path, monkeypatch):
-    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path))
-    path = tmp_path / "fast.toml"
-    path.write_text(PROFILE)
-    return str(path)
 
 
 def gcode_file(folder, texts: list[str]) -> str:

@@ -14,7 +14,6 @@ import re
 from contextlib import contextmanager
 
 import numpy as np
-import pytest
 import serial
 
 from galileo_cnc.cli import main as cli
@@ -28,7 +27,8 @@ from galileo_cnc.grbl.resume import PREAMBLE_TEXT, lead_in, rewind
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
 from galileo_cnc.stream.journal import ABORTED, FINISHED, INTERRUPTED
 
-from grbl_support import (HOMING, LIMITS, PROFILE, QUICK_ACCEL, SAMPLE, SCALE, SETTINGS,
+from grbl_support import profile  # noqa: F401  (the fixture)
+from grbl_support import (HOMING, LIMITS, QUICK_ACCEL, SAMPLE, SCALE, SETTINGS,
                           RecordingPort, check_resumed, grbl_machine, motion_lines, motions,
                           planned_gcode,
                           positions_and_ticks, sent_job_lines, set_work_zero, settled_trace,
@@ -42,13 +42,6 @@ from grbl_support import (HOMING, LIMITS, PROFILE, QUICK_ACCEL, SAMPLE, SCALE, S
 RESUME_HOMING = {**HOMING, **QUICK_ACCEL, 24: "1000"}
 RESUME_NO_SWITCHES = {**SETTINGS, **QUICK_ACCEL, 10: "3"}
 
-
-@pytest.fixture
-def profile(tmp_path, monkeypatch):
-    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path))
-    path = tmp_path / "fast.toml"
-    path.write_text(PROFILE)
-    return str(path)
 
 
 @contextmanager
