@@ -248,3 +248,19 @@ def test_dxf_layers_and_units_on_the_command_line(tmp_path):
     result = galileo("info", "samples/led-blinker.gbr", "--layers", "TOP")
     assert result.returncode == 1
     assert "--layers and --units are for DXF drawings; this is a Gerber file" in result.stderr
+
+
+def test_a_bare_d02_before_the_first_coordinate_moves_nowhere(tmp_path):
+    # issue 31, item 2: a P-CAD board far from the origin starts with `D10*` `D02*`; that
+    # D02 names no point, so it adds nothing to the job's box and no travel to (0, 0)
+    board = tmp_path / "far.gbr"
+    board.write_text("%FSLAX46Y46*%\n%MOMM*%\n%ADD10C,0.5*%\nD10*\nD02*\n"
+                     "X300000000Y300000000D02*\nX310000000Y300000000D01*\nD02*\nM02*\n")
+    info = json.loads(galileo("info", str(board), "--json", home=tmp_path).stdout)
+    assert info["bbox_mm"] == {"min_x": 300.0, "min_y": 300.0, "max_x": 310.0, "max_y": 300.0}
+    assert info["proposed_offset_mm"] == {"x": 299.0, "y": 299.0}
+    assert info["misfit"] is None
+    result = galileo("plot", str(board), "--yes", "--mode", "centre", "--port", "sim://?speed=0",
+                     home=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert "process has finished" in result.stdout

@@ -340,7 +340,11 @@ class GerberReader:
                                              i if abs(i) > MAX_COORD_NM else j, match.string.strip())
                 self._interpolate(x, y, i, j)
         elif d == "2":
-            self.rows.extend((MOVE, x, y, 0, 0, NO_TOOL, 0, self.offset, 0))
+            # a D02 that names no coordinate goes nowhere: the pen lifts, and no move is
+            # made (before the first coordinate there is no current point to go to);
+            # in a region it still ends one contour and starts the next
+            if xs is not None or ys is not None or self.in_region:
+                self.rows.extend((MOVE, x, y, 0, 0, NO_TOOL, 0, self.offset, 0))
             self.pen_down = False
         else:
             self._flash(x, y)

@@ -173,6 +173,8 @@ def read_run(reader, words: Words, first: int, stop: int, starts: np.ndarray) ->
     # Coordinates without a D code repeat the last one (deprecated, counted).
     last_d = np.maximum.accumulate(np.where(present[:, D], np.arange(len(value)), -1))
     operations = np.where(last_d >= 0, value[np.maximum(last_d, 0), D], int(reader.dcode or 0))
+    if not reader.in_region and ((operations == 2) & ~present[:, X] & ~present[:, Y]).any():
+        return False  # a D02 naming no coordinate makes no row: the one-by-one path
     draws = operations == 1
     arcs = draws & (mode != 1)
     if arcs.any() and reader.quadrant is None:
