@@ -278,6 +278,9 @@ def test_content_sniffing():
     ("%FSLAX46Y46*%\n%MOMM*%\n%XY12*%\n", 3, 1, "unknown extended command %XY"),
     ("%FSLAX46Y46*%\n%MOMM*%\nG37*\n", 3, 1, "G37 without a G36"),
     ("%FSLAX46Y46*%\n%MOMM*%\nX1Y12175000750000750000D02*\n", 3, 1, "more than 12 digits"),
+    # issue 31, item 16: a vertex count that sizes nothing real (was an IndexError)
+    ("%FSLAX46Y46*%\n%MOMM*%\n%AMBAD*\n4,1,-9999999999999999999,0,0,1,0,1,1,0,0,0*%\n"
+     "%ADD10BAD*%\n", 5, 1, "outline primitive in macro BAD needs 1 or more vertices"),
 ])
 def test_bad_input_names_line_column_and_what_was_expected(text, line, col, message):
     with pytest.raises(GerberError) as caught:
@@ -300,7 +303,8 @@ from hypothesis import given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 _expression = st.one_of(
-    st.sampled_from(["0", "1", "-1", ".5", "12", "999999999999", "1E30", "1E-30", "$1", "$2", "$9",
+    st.sampled_from(["0", "1", "-1", ".5", "12", "999999999999", "-9999999999999999999",
+                     "1E30", "1E-30", "$1", "$2", "$9",
                      "-$1", "$1x2", "($1+1)/2", "1/0", "(", "1+", "x", "3.14.15", "", "90", "360"]),
     st.text(alphabet="0123456789.$+-x/()E", max_size=8))
 _primitive = st.builds(lambda code, args: ",".join([code] + args),

@@ -90,6 +90,10 @@ class MacroTemplate:
             builder, minimum = _PRIMITIVES.get(statement.code, (None, 0))
             if builder is None:
                 raise MacroError(f"unknown primitive code {statement.code} in macro {self.name}")
+            if statement.code == 4 and len(values) >= 2 and int(values[1]) < 1:
+                # the vertex count sizes the coordinate list: never negative or zero
+                raise MacroError(f"outline primitive in macro {self.name} needs 1 or more "
+                                 f"vertices, got {values[1]}")
             if len(values) < minimum or (statement.code == 4 and len(values) < 2 * int(values[1]) + 4):
                 raise MacroError(f"primitive {statement.code} in macro {self.name} has too few "
                                  f"parameters ({len(values)})")
