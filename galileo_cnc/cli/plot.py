@@ -35,7 +35,8 @@ from galileo_cnc.plan.widths import mm_text
 from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, PlanOptions, plan_file
 from galileo_cnc.program.ops import NM_PER_MM
 from galileo_cnc.stream.homing import check_homeable
-from galileo_cnc.stream.streamer import MachineReset, PenChange, Progress, position_text
+from galileo_cnc.stream.streamer import (MachineReset, PenChange, Progress,
+                                         head_position_text)
 from galileo_cnc.transport.link import PortGone
 from galileo_cnc.transport.port import SIM_URL, with_step_trace
 
@@ -58,7 +59,7 @@ class TextProgress:
         where = f"line {p.source_line} of the file" if p.source_line else "filling copper"
         text = f"{percent:3d}% {p.confirmed}/{p.total} lines  {where}  ETA {eta}"
         if self.tty:
-            text += position_text(p.position_nm)    # the head, where the machine says
+            text += head_position_text(p.position_nm)    # the head, where the machine says
             bar = "#" * (percent // 4)
             self.out.write(f"\r[{bar:<25}] {text}\x1b[K")
             self.out.flush()

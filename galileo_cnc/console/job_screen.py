@@ -18,7 +18,8 @@ from prompt_toolkit.shortcuts.progress_bar import formatters
 
 from galileo_cnc.backends import JobResult
 from galileo_cnc.machine.timing import duration_text
-from galileo_cnc.stream.streamer import PenChange, Progress, StreamAborted, position_text
+from galileo_cnc.stream.streamer import (PenChange, Progress, StreamAborted,
+                                         head_position_text)
 
 BELL = "\a"
 #: How often a pen-change wait looks for a stop request.
@@ -69,10 +70,10 @@ class _HeadPosition(formatters.Formatter):
         self.screen = screen
 
     def format(self, progress_bar, progress, width):
-        return position_text(self.screen.position_nm)
+        return head_position_text(self.screen.position_nm)
 
     def get_width(self, progress_bar):
-        return len(position_text(self.screen.position_nm))
+        return len(head_position_text(self.screen.position_nm))
 
 
 class JobScreen(ConsoleOperator):

@@ -97,7 +97,7 @@ class Progress:
     position_nm: tuple[int, int, int] | None = None
 
 
-def position_text(position_nm: tuple[int, int, int] | None) -> str:
+def head_position_text(position_nm: tuple[int, int, int] | None) -> str:
     """`  at X 12.300 Y 4.000 mm`: a Progress's head position for a progress line; ""
     when the machine reported none."""
     if position_nm is None:
