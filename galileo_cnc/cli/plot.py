@@ -138,6 +138,7 @@ class PlotOptions:
     layers: tuple[str, ...] = ()
     units: str | None = None
     optimize: bool = False          # reorder pen-drawing G-code too (plan/order/gcode_order.py)
+    transform: Any = None           # --scale, --rotate, --fit (plan/transform.py)
     home: bool = False              # home before the job: a reset mid-job is resumable
     check: bool = False             # GRBL's check mode ($C) instead of plotting
     #: the board's port, already open and probed (discovery.open_board), and what
@@ -148,7 +149,8 @@ class PlotOptions:
     @property
     def plan(self) -> PlanOptions:
         return PlanOptions(mode=self.mode, file_order=not self.group, layers=self.layers,
-                           units=self.units, optimize=self.optimize)
+                           units=self.units, optimize=self.optimize,
+                           **({"transform": self.transform} if self.transform else {}))
 
 
 class PlotOperator:
@@ -309,9 +311,13 @@ def _say_place(planned, out: TextIO) -> None:
     program, box = planned.artwork.program, planned.artwork.drawn_box_nm
     offset = planned.offset_nm
     if box is not None:
-        out.write(f"{program.source}: minimum X {box[0] / NM_PER_MM:.3f} mm, "
+        done = planned.artwork.transform.describe()
+        out.write(f"{program.source}: {done + '; ' if done else ''}"
+                  f"minimum X {box[0] / NM_PER_MM:.3f} mm, "
                   f"Y {box[1] / NM_PER_MM:.3f} mm; offset {offset[0] / NM_PER_MM:.3f}, "
                   f"{offset[1] / NM_PER_MM:.3f} mm\n")
+    for warning in planned.feed_warnings:
+        out.write(f"{warning}\n")
 
 
 def _say_ink(ink, out: TextIO) -> None:

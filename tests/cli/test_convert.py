@@ -76,4 +76,5 @@ def test_a_dxf_drawing_converts_with_its_arcs(tmp_path):
     config = MachineConfig()
     assert pen_down_runs(back.job, config) == pen_down_runs(planned.job, config)
     assert text.count("\nG2 ") + text.count("\nG3 ") == 9
-    assert "1 pen lift (" in stdout and text.count("\nM3\n") == 1
+    # the profile's pen is on Z (grbl_pen = "z"): lowered once, to Z0
+    assert "1 pen lift (" in stdout and text.count("\nG1 Z0 F300\n") == 1
