@@ -70,10 +70,11 @@ class Artwork:
             if size > round(travel * NM_PER_MM):
                 # where a bigger machine says so: the profile ([machine], docs/streaming.md)
                 done = f", {self.transform.describe()}" if self.transform.describe() else ""
+                turn = "" if self.transform.rotate_deg else ", --rotate 90"
                 return (f"{self.program.source}: the job is {size / NM_PER_MM:.1f} mm {axis} "
                         f"(with its travel moves{done}); the machine's travel is {travel:g} "
                         f"mm ({key} in the profile): --fit scales it to the travel (or "
-                        f"--scale F, --rotate 90)")
+                        f"--scale F{turn})")
         return None
 
 
