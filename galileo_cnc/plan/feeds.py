@@ -32,9 +32,13 @@ _F_WORD = re.compile(r"[Ff]\s*[-+]?[0-9]*\.?[0-9]*")
 
 
 def rate_text(nm_per_s: int | float) -> str:
-    """'10 mm/s (600 mm/min)'."""
+    """'10 mm/s (600 mm/min)', to 5 significant digits (a feed is kept in whole nm/s)."""
     mm_s = nm_per_s / NM_PER_MM
-    return f"{mm_s:.6g} mm/s ({mm_s * 60:.6g} mm/min)"
+    return f"{_digits(mm_s)} mm/s ({_digits(mm_s * 60)} mm/min)"
+
+
+def _digits(value: float) -> str:
+    return f"{float(f'{value:.5g}'):g}"
 
 
 def check_feeds(program: Program, config: MachineConfig) -> list[str]:
