@@ -316,7 +316,7 @@ def _say_place(planned, out: TextIO) -> None:
                   f"minimum X {box[0] / NM_PER_MM:.3f} mm, "
                   f"Y {box[1] / NM_PER_MM:.3f} mm; offset {offset[0] / NM_PER_MM:.3f}, "
                   f"{offset[1] / NM_PER_MM:.3f} mm\n")
-    for warning in planned.feed_warnings:
+    for warning in getattr(planned, "feed_warnings", ()):     # a resumed job said them
         out.write(f"{warning}\n")
 
 

@@ -25,6 +25,7 @@ sys.path[:0] = [str(Path(__file__).resolve().parents[1] / "console")]
 from test_console import console_in_thread, home  # noqa: E402,F401  (home: the fixture)
 
 CONFIG = MachineConfig()
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture
@@ -151,3 +152,33 @@ def test_getg_fits_and_turns_the_drawing_in_the_console(home, wide_dxf):  # noqa
         assert state == "idle"
         # the last corner drawn is inside the travel
         assert 0 <= x <= CONFIG.travel_max_steps[0] and 0 <= y <= CONFIG.travel_max_steps[1]
+
+
+def test_a_scaled_and_turned_job_resumes_as_it_was_planned(tmp_path, monkeypatch):
+    """The journal keeps the scale and the turn: `plot --resume` replans the job with
+    them (without, it would draw the rest of the board unturned). In one process:
+    `sim://NAME` machines keep power only within a process."""
+    from faults import FaultyPort
+
+    from galileo_cnc.cli.main import main
+    from galileo_cnc.machine import simulate
+    from galileo_cnc.sim.simulator import forget_named_machines, named_machine
+    from galileo_cnc.stream.journal import Journal
+    from galileo_cnc.stream.streamer import JobStreamer
+    from galileo_cnc.transport.link import MachineLink, PortGone
+    from galileo_cnc.transport.port import open_port
+
+    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path))
+    forget_named_machines()
+    url, board = "sim://turned?speed=0", str(ROOT / "samples" / "led-blinker.gbr")
+    planned = plan_file(board, CONFIG, options=PlanOptions(
+        mode="centre", transform=Transform.asked(scale="1.5", rotate="180")))
+    link = MachineLink.attach(FaultyPort(open_port(url, timeout=0.1), die_after=20), url)
+    with pytest.raises(PortGone):
+        JobStreamer(link, planned.job, planned.plotted, journal=Journal.default()).run()
+    link.close()
+    journal = json.loads((tmp_path / "journal.json").read_text())
+    assert (journal["scale"], journal["rotate_deg"]) == ("3/2", 180)
+    assert main(["plot", board, "--resume", "--yes", "--port", url]) == 0
+    assert named_machine("turned").trace().same_steps(simulate(planned.job.commands))
+    forget_named_machines()
