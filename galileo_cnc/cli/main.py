@@ -78,11 +78,10 @@ def _run_info(args: argparse.Namespace) -> int:
 
 def _feed_notes(program, config) -> list[str]:
     """info: the feed warnings plot would give, and its refusal as a line (plan/feeds.py)."""
-    from galileo_cnc.plan.feeds import check_feeds
-    from galileo_cnc.plan.planner import PlanError
+    from galileo_cnc.plan.feeds import FeedError, check_feeds
     try:
         return check_feeds(program, config)
-    except PlanError as refused:
+    except FeedError as refused:
         return [f"refused: {refused}"]
 
 

@@ -21,14 +21,22 @@ from itertools import islice
 import numpy as np
 
 from galileo_cnc.config.machine import MIN_FEED_STEPS_PER_S, MachineConfig
-from galileo_cnc.errors import SourcePos
-from galileo_cnc.plan.planner import PlanError
+from galileo_cnc.errors import GalileoError, SourcePos
 from galileo_cnc.program.ops import COL, KIND, LINE, NM_PER_MM, VALUE, OpKind, Program
 
 #: the profile's feeds a job runs at, by their key
 PROFILE_FEEDS = ("feed_mm_s", "rapid_feed_mm_s", "z_feed_mm_s")
 #: the F word at an op's column: how the file wrote the feed
 _F_WORD = re.compile(r"[Ff]\s*[-+]?[0-9]*\.?[0-9]*")
+
+
+class FeedError(GalileoError):
+    """A feed of the file the machine cannot run; names the file line."""
+
+    def __init__(self, message: str, pos: SourcePos):
+        self.pos = pos
+        self.message = message
+        super().__init__(f"{pos}: {message}")
 
 
 def rate_text(nm_per_s: int | float) -> str:
@@ -42,7 +50,7 @@ def _digits(value: float) -> str:
 
 
 def check_feeds(program: Program, config: MachineConfig) -> list[str]:
-    """The warnings for `program` on the machine `config` (one line each); PlanError
+    """The warnings for `program` on the machine `config` (one line each); FeedError
     for a feed of the file the machine cannot run."""
     warn_nm_s = round(config.feed_warn_mm_s * NM_PER_MM)
     warn = (f"the warning feed {config.feed_warn_mm_s:g} mm/s ({config.feed_warn_mm_s * 60:g} "
@@ -75,7 +83,7 @@ def check_feeds(program: Program, config: MachineConfig) -> list[str]:
     return warnings
 
 
-def _refusal(program: Program, config: MachineConfig, row: int, fast: bool) -> PlanError:
+def _refusal(program: Program, config: MachineConfig, row: int, fast: bool) -> FeedError:
     value = int(program.table[row, VALUE])
     word = _written(program, (row,))[row]
     steps = config.nm_to_steps(value)
@@ -88,7 +96,7 @@ def _refusal(program: Program, config: MachineConfig, row: int, fast: bool) -> P
         why = f"slower than the machine's slowest feed of {_steps_rate(bound, config)}"
         bracket = f"[{steps} steps/s, at least {bound}]"
     pos = SourcePos(program.source, int(program.table[row, LINE]), int(program.table[row, COL]))
-    return PlanError(f"{word} is {rate_text(value)}, {why} {bracket}", pos)
+    return FeedError(f"{word} is {rate_text(value)}, {why} {bracket}", pos)
 
 
 def _steps_rate(steps_per_s: int, config: MachineConfig) -> str:

@@ -11,9 +11,8 @@ from pathlib import Path
 import pytest
 
 from galileo_cnc.config.machine import MachineConfig
-from galileo_cnc.plan.feeds import check_feeds
+from galileo_cnc.plan.feeds import FeedError, check_feeds
 from galileo_cnc.plan.pipeline import plan_file
-from galileo_cnc.plan.planner import PlanError
 from galileo_cnc.readers import read_file
 
 TESTS = Path(__file__).resolve().parents[1]
@@ -48,7 +47,7 @@ def test_a_g_code_feed_above_the_warning_feed_is_said_once_with_its_line(fast):
 def test_a_feed_beyond_the_machine_is_refused_in_mm_with_the_file_line(tmp_path):
     path = tmp_path / "racing.nc"
     path.write_text(SQUARE.format(first="600", second="60000"))
-    with pytest.raises(PlanError) as refused:
+    with pytest.raises(FeedError) as refused:
         plan_file(path)
     assert str(refused.value) == (
         f"{path}:6:11: F60000 is 1000 mm/s (60000 mm/min), faster than the machine's limit "
@@ -59,7 +58,7 @@ def test_a_feed_beyond_the_machine_is_refused_in_mm_with_the_file_line(tmp_path)
     # inches as the file wrote them: F0.1 in/min is 0.0423 mm/s, below the slowest 0.0625
     slow = tmp_path / "slow.nc"
     slow.write_text("G20 G90\nM3\nG1 X1 F0.1\nM5\n")
-    with pytest.raises(PlanError, match=r"slow\.nc:3:7: F0\.1 is 0\.042333 mm/s \(2\.54 "
+    with pytest.raises(FeedError, match=r"slow\.nc:3:7: F0\.1 is 0\.042333 mm/s \(2\.54 "
                                         r"mm/min\), slower than the machine's slowest"):
         plan_file(slow)
 
