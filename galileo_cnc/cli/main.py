@@ -69,6 +69,8 @@ def _run_info(args: argparse.Namespace) -> int:
         print(json.dumps(summary, indent=2))
     else:
         print(format_summary(summary))
+        if summary["misfit"]:
+            print(f"            {artwork.way_out()}")
         if summary["transform"]:
             print(f"transform   {summary['transform']}")
         for note in summary["feeds"]:

@@ -31,7 +31,7 @@ def run(console, arguments: list[str]) -> None:
                            units=options.units, transform=options.transform,
                            config=console.config)     # GalileoError: one message, no traceback
     if (problem := artwork.misfit(console.config)) is not None:
-        console.say(problem)                          # before any question or planning
+        console.say(f"{problem}: getg {artwork.way_out()}")   # before any question or planning
         return
     if artwork.transform.describe():
         console.say(f"drawing     {artwork.transform.describe()}")

@@ -70,12 +70,15 @@ class Artwork:
             if size > round(travel * NM_PER_MM):
                 # where a bigger machine says so: the profile ([machine], docs/streaming.md)
                 done = f", {self.transform.describe()}" if self.transform.describe() else ""
-                turn = "" if self.transform.rotate_deg else ", --rotate 90"
                 return (f"{self.program.source}: the job is {size / NM_PER_MM:.1f} mm {axis} "
                         f"(with its travel moves{done}); the machine's travel is {travel:g} "
-                        f"mm ({key} in the profile): --fit scales it to the travel (or "
-                        f"--scale F{turn})")
+                        f"mm ({key} in the profile)")
         return None
+
+    def way_out(self) -> str:
+        """What makes a misfit fit (transform.py), for the front ends to add."""
+        turn = "" if self.transform.rotate_deg else ", --rotate 90"
+        return f"--fit scales it to the travel (or --scale F{turn})"
 
 
 MODES = ("auto", "ink", "centre")
@@ -199,7 +202,7 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
             load_artwork(source, margin_nm, layers=options.layers, units=options.units,
                          transform=options.transform, config=config)
         if (problem := artwork.misfit(config)) is not None:
-            raise PlanError(problem)
+            raise PlanError(f"{problem}: {artwork.way_out()}")
         feed_warnings = check_feeds(artwork.program, config)   # PlanError above the limit
         offset_nm = resolve_offset(artwork, offset)
         mode = options.mode_for(artwork.program)
