@@ -148,7 +148,9 @@ def transformed(program: Program, scale: Fraction = Fraction(1), rotate_deg: int
     except (ValueError, OverflowError) as problem:
         raise TransformError(f"{program.source}: {Transform(scale, rotate_deg).describe()}: "
                              f"{problem}") from None
-    return dataclasses.replace(program, table=table, apertures=apertures)
+    # said where the file's own drawing is compared (a preview's pygerber picture)
+    metadata = {**program.metadata, "transform": Transform(scale, rotate_deg).describe()}
+    return dataclasses.replace(program, table=table, apertures=apertures, metadata=metadata)
 
 
 def _aperture(aperture: Aperture, load: LoadTransform, key: int) -> Aperture:
