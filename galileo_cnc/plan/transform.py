@@ -148,9 +148,7 @@ def transformed(program: Program, scale: Fraction = Fraction(1), rotate_deg: int
     except (ValueError, OverflowError) as problem:
         raise TransformError(f"{program.source}: {Transform(scale, rotate_deg).describe()}: "
                              f"{problem}") from None
-    # said where the file's own drawing is compared (a preview's pygerber picture)
-    metadata = {**program.metadata, "transform": Transform(scale, rotate_deg).describe()}
-    return dataclasses.replace(program, table=table, apertures=apertures, metadata=metadata)
+    return dataclasses.replace(program, table=table, apertures=apertures)
 
 
 def _aperture(aperture: Aperture, load: LoadTransform, key: int) -> Aperture:
@@ -208,4 +206,8 @@ def apply_transform(program: Program, transform: Transform, travel_nm: tuple[int
     turned = transformed(program, Fraction(1), transform.rotate_deg)
     scale = fit_scale(reach_box(turned), travel_nm, margin_nm) if transform.fit \
         else transform.scale
-    return transformed(turned, scale, 0), dataclasses.replace(transform, scale=scale)
+    done = dataclasses.replace(transform, scale=scale)
+    result = transformed(turned, scale, 0)
+    # said where the file's own drawing is compared (a preview's pygerber picture)
+    return dataclasses.replace(result, metadata={**result.metadata,
+                                                 "transform": done.describe()}), done
