@@ -106,7 +106,8 @@ def parse_scale(text: str) -> Fraction:
 
 
 def parse_rotation(text: str) -> int:
-    """--rotate: 90, 180 or 270 (0 and -90 .. -270 are taken too, as turns clockwise)."""
+    """--rotate: 90, 180 or 270 degrees clockwise (0 too; -90, -180, -270 turn
+    counter-clockwise, as 270, 180, 90)."""
     try:
         degrees = int(text)
     except ValueError:
