@@ -161,7 +161,8 @@ def _run_plot(args: argparse.Namespace) -> int:
                               preview=args.preview, trace=args.trace, resume=args.resume,
                               group=not args.file_order, mode=args.mode,
                               layers=_layers(args), units=args.units, optimize=args.optimize,
-                              transform=_transform(args), home=args.home, check=args.check, handle=handle, kind=kind)
+                              transform=_transform(args), home=args.home, check=args.check,
+                              handle=handle, kind=kind)
         return run_plot(options)
     finally:
         if handle is not None:

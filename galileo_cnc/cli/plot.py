@@ -29,6 +29,7 @@ from galileo_cnc.config.profile import Profile
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.grbl.stream import GrblStreamError
 from galileo_cnc.machine.timing import duration_text, job_timing
+from galileo_cnc.plan.feeds import machine_refusal
 from galileo_cnc.plan.ink.background import Deferred
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
 from galileo_cnc.plan.widths import mm_text
@@ -220,6 +221,9 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
         found = " (no board found)" if profile.port is None and machine.simulated else ""
         out.write(machine.describe() + found + "\n")
         machine.check_profile()             # before any plan is shown: no job for it
+        if planned is not None and (refused := machine_refusal(
+                planned.program, profile.config, machine.feed_refusal)) is not None:
+            raise GalileoError(refused)     # GRBL's $110/$111: plan_file knows only ours
         if options.check and not machine.checks_jobs:
             raise GalileoError(f"plot --check runs GRBL's check mode ($C): it needs a GRBL "
                                f"board, and {machine.port_name} runs galileo-cnc firmware "

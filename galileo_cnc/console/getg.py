@@ -15,6 +15,7 @@ from galileo_cnc.config.machine import pen_widths_from_text
 from galileo_cnc.console import jobs
 from galileo_cnc.plan.offsets import offset_from_text
 from galileo_cnc.errors import GalileoError
+from galileo_cnc.plan.feeds import machine_refusal
 from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, Artwork, PlanOptions, load_artwork
 from galileo_cnc.plan.transform import Transform
 from galileo_cnc.program.ops import NM_PER_MM
@@ -31,7 +32,12 @@ def run(console, arguments: list[str]) -> None:
                            units=options.units, transform=options.transform,
                            config=console.config)     # GalileoError: one message, no traceback
     if (problem := artwork.misfit(console.config)) is not None:
-        console.say(f"{problem}: getg {artwork.way_out()}")   # before any question or planning
+        # before any question or planning
+        console.say(f"{problem}: getg {artwork.way_out()}")
+        return
+    if (refused := machine_refusal(artwork.program, config,
+                                   console.machine.feed_refusal)) is not None:
+        console.say(refused)                # GRBL's $110/$111: plan_file knows only ours
         return
     if artwork.transform.describe():
         console.say(f"drawing     {artwork.transform.describe()}")

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import re
 from itertools import islice
+from typing import Callable
 
 import numpy as np
 
@@ -81,6 +82,24 @@ def check_feeds(program: Program, config: MachineConfig) -> list[str]:
                      f"({rate_text(int(program.table[fastest, VALUE]))})")
         warnings.append(text)
     return warnings
+
+
+def machine_refusal(program: Program, config: MachineConfig,
+                    feed_refusal: Callable[[MachineConfig, float], str | None]) -> str | None:
+    """The job's fastest drawing feed (the profile's `feed_mm_s`, or the file's fastest
+    F word) as the connected machine judges it (`Machine.feed_refusal`: a GRBL board
+    by its $110/$111), the refusal naming where that feed comes from; None if it runs."""
+    fastest, where = round(config.feed_mm_s * NM_PER_MM), f"the profile's feed_mm_s = " \
+        f"{config.feed_mm_s:g} mm/s ({config.feed_mm_s * 60:g} mm/min)"
+    rows = np.flatnonzero(program.table[:, KIND] == OpKind.FEED)
+    if len(rows):
+        row = int(rows[np.argmax(program.table[rows, VALUE])])
+        if int(program.table[row, VALUE]) > fastest:
+            fastest = int(program.table[row, VALUE])
+            where = f"{_where(program, row)}: {_written(program, (row,))[row]} is " \
+                f"{rate_text(fastest)}"
+    refusal = feed_refusal(config, fastest / NM_PER_MM)
+    return f"{where}: {refusal}" if refusal is not None else None
 
 
 def _refusal(program: Program, config: MachineConfig, row: int, fast: bool) -> FeedError:

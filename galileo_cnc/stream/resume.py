@@ -159,8 +159,8 @@ def replan(entry: JournalEntry, config: MachineConfig,
            plan: Callable[..., PlannedFile] = plan_file) -> PlannedFile:
     """The journal's job planned again exactly as it was (file, offset, mode, order,
     pens, layers, units, scale and rotation; the planner is deterministic), for our
-    firmware's resume and GRBL's. `on_stage`: see plan_file; `plan`: plan_file, or one that keeps plans
-    (the console's PlanCache)."""
+    firmware's resume and GRBL's. `on_stage`: see plan_file; `plan`: plan_file, or one
+    that keeps plans (the console's PlanCache)."""
     return plan(entry.source, config, tuple(entry.offset_nm),
                 options=PlanOptions(mode=entry.mode, file_order=not entry.group,
                                     pens_nm=tuple(entry.pens_nm),

@@ -95,3 +95,19 @@ def test_getg_in_the_console_says_the_feed_warning(home, fast):  # noqa: F811
         user.expect(r"warning: .*fast\.nc:4: F600 is 10 mm/s \(600 mm/min\), above the "
                     r"warning feed 6\.25 mm/s")
         user.expect(r"process has finished")
+
+
+def test_grbl_refuses_a_feed_above_its_max_rate_before_the_job(tmp_path, fast):
+    """GRBL as it comes ($110/$111 = 500 mm/min, 8.33 mm/s) would run F600 at its own
+    limit without a word: plot refuses the fastest, F900 at line 6, naming the line,
+    before any line is sent."""
+    sys.path[:0] = [str(TESTS / "grbl")]
+    from grbl_support import grbl_elf
+
+    grbl_elf()                      # built (or skipped with the missing package) first
+    url = "simavr://?firmware=grbl&realtime=0&$100=160&$101=160&$102=160"
+    result = galileo("plot", str(fast), "--port", url, "--yes", home=tmp_path)
+    assert result.returncode == 1
+    assert (f"{fast}:6: F900 is 15 mm/s (900 mm/min): refused: GRBL runs 0.0625 .. 8.33333 "
+            "mm/s here (its $110/$111 max rates 500.000/500.000 mm/min)") in result.stderr
+    assert "process has finished" not in result.stdout
