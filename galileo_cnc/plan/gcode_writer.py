@@ -38,6 +38,7 @@ from galileo_cnc.plan.pipeline import PlannedFile
 from galileo_cnc.plan.planner import plotting_order
 from galileo_cnc.program.ops import I, J, KIND, NM_PER_MM, NO_TOOL, TOOL, VALUE, X, Y, OpKind
 from galileo_cnc.readers.gcode.writer import mm
+from galileo_cnc.readers.gerber.numbers import round_div
 
 
 #: how the pen moves (docstring); "z" and "servo" are the profile's [grbl] pen
@@ -91,12 +92,6 @@ def pen_moves(config: MachineConfig, style: str | None = None, target: str = "gr
                for z in (config.pen_down_z_steps, config.pen_up_z_steps)]
     return PenMoves((f"G1 Z{heights[0]} {feed}",), (f"G1 Z{heights[1]} {feed}",), feed,
                     target)
-
-
-def round_div(a: int, b: int) -> int:
-    """a / b rounded half away from zero (b > 0)."""
-    q = (2 * abs(a) + b) // (2 * b)
-    return q if a >= 0 else -q
 
 
 def converted_gcode(planned: PlannedFile, config: MachineConfig,
