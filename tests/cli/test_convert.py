@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 from corpus import DXF_CORPUS, corpus_file
 from test_cli import galileo
+from test_transform import shell  # noqa: F401  (the fixture)
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.machine import simulate
@@ -88,7 +89,7 @@ DOT_AND_DASH = ("G21 G90\nG0 X1 Y1\nM3\nG1 X6 Y1 F3000\nG4 P300\nG1 X6 Y3\nM5\n"
                 "G0 X8 Y1\nM3\nG1 X9 Y1\nM5\n")
 
 
-def test_grbl_with_its_pen_on_z_moves_the_pen_for_a_converted_file(tmp_path):
+def test_grbl_with_its_pen_on_z_moves_the_pen_for_a_converted_file(tmp_path, shell):
     """The user converts for a GRBL plotter whose pen is on Z (the profile's default
     grbl_pen = "z") and streams the file as UGS or CNCjs would: GRBL in simavr lowers
     and lifts Z for each stroke, and dwells the file's 300 ms (G4 P0.3: seconds)."""
@@ -103,8 +104,8 @@ def test_grbl_with_its_pen_on_z_moves_the_pen_for_a_converted_file(tmp_path):
     source.write_text(DOT_AND_DASH)
     profile.write_text(PROFILE)
     out = tmp_path / "dash-grbl.nc"
-    result = galileo("convert", str(source), "--offset", "none", "--profile", str(profile),
-                     "-o", str(out), home=tmp_path)
+    result = shell("convert", str(source), "--offset", "none", "--profile", str(profile),
+                   "-o", str(out))
     assert result.returncode == 0, result.stderr
     text = out.read_text()
     assert "M3" not in text and "G4 P0.3\n" in text
@@ -127,13 +128,13 @@ def test_grbl_with_its_pen_on_z_moves_the_pen_for_a_converted_file(tmp_path):
     assert (ticks[at + 1] - ticks[at]) * CYCLES_PER_TICK >= 0.3 * F_CPU
 
 
-def test_the_pen_can_be_a_servo_or_the_spindle_and_the_dwell_in_ms_for_galileo(tmp_path):
+def test_the_pen_can_be_a_servo_or_the_spindle_and_the_dwell_in_ms_for_galileo(tmp_path, shell):
     source = tmp_path / "dash.nc"
     source.write_text(DOT_AND_DASH)
     texts = {}
     for options in (("--pen", "servo"), ("--pen", "spindle"), ("--target", "galileo")):
         out = tmp_path / f"dash{options[1]}.nc"
-        result = galileo("convert", str(source), "-o", str(out), *options, home=tmp_path)
+        result = shell("convert", str(source), "-o", str(out), *options)
         assert result.returncode == 0, result.stderr
         texts[options[1]] = out.read_text()
     # the profile's servo: M3 S1000 down, M5 up, each followed by its 150 ms

@@ -8,11 +8,11 @@ import json
 import sys
 from fractions import Fraction
 from pathlib import Path
+from types import SimpleNamespace
 
 import ezdxf
 import numpy as np
 import pytest
-from test_cli import galileo
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.machine import Trace
@@ -29,6 +29,24 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture
+def shell(capsys, monkeypatch, tmp_path):
+    """`galileo-cnc ARGS` as test_cli.galileo runs it, in this process (no interpreter to
+    start): returncode, stdout and stderr; the user's folders are the test's own."""
+    from galileo_cnc.cli.main import main
+
+    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path / "home"))
+    monkeypatch.setenv("GALILEO_CNC_NO_PROBE", "1")
+    monkeypatch.chdir(ROOT)
+
+    def run(*args: str) -> SimpleNamespace:
+        capsys.readouterr()
+        code = main(list(args))
+        out, err = capsys.readouterr()
+        return SimpleNamespace(returncode=code, stdout=out, stderr=err)
+    return run
+
+
+@pytest.fixture
 def wide_dxf(tmp_path):
     """A DXF drawing 240 mm wide (the machine's travel is 200 mm), as CAD writes it."""
     drawing = ezdxf.new("R2010")
@@ -41,15 +59,14 @@ def wide_dxf(tmp_path):
     return path
 
 
-def test_a_dxf_240_mm_wide_is_refused_then_plots_inside_the_travel_with_fit(tmp_path, wide_dxf):
-    refused = galileo("plot", str(wide_dxf), "--port", "sim://?speed=0", "--yes",
-                      home=tmp_path)
+def test_a_dxf_240_mm_wide_is_refused_then_plots_inside_the_travel_with_fit(tmp_path, wide_dxf, shell):
+    refused = shell("plot", str(wide_dxf), "--port", "sim://?speed=0", "--yes")
     assert refused.returncode == 1
     assert "the job is 240.0 mm wide" in refused.stderr and "--fit" in refused.stderr
 
     trace_file = tmp_path / "wide.npz"
-    result = galileo("plot", str(wide_dxf), "--fit", "--port", "sim://?speed=0", "--yes",
-                     "--trace", str(trace_file), home=tmp_path)
+    result = shell("plot", str(wide_dxf), "--fit", "--port", "sim://?speed=0", "--yes",
+                   "--trace", str(trace_file))
     assert result.returncode == 0, result.stderr
     # 198 mm of the 200 mm travel for 240 mm: x0.825, a 1 mm margin either side
     assert "scaled x0.825 to fit the travel" in result.stdout
@@ -64,8 +81,8 @@ def test_a_dxf_240_mm_wide_is_refused_then_plots_inside_the_travel_with_fit(tmp_
     assert drawn[:, 1].max() - drawn[:, 1].min() == CONFIG.mm_to_steps(60 * 0.825)
 
 
-def test_info_preview_and_convert_take_the_same_options(tmp_path, wide_dxf):
-    info = galileo("info", str(wide_dxf), "--fit", "--rotate", "90", "--json")
+def test_info_preview_and_convert_take_the_same_options(tmp_path, wide_dxf, shell):
+    info = shell("info", str(wide_dxf), "--fit", "--rotate", "90", "--json")
     assert info.returncode == 0, info.stderr
     summary = json.loads(info.stdout)
     assert summary["misfit"] is None
@@ -75,10 +92,10 @@ def test_info_preview_and_convert_take_the_same_options(tmp_path, wide_dxf):
     assert (box["min_x"], box["max_x"]) == (20 * 0.825, 80 * 0.825)
     assert (box["min_y"], box["max_y"]) == (-250 * 0.825, -10 * 0.825)
     png = tmp_path / "wide.png"
-    preview = galileo("preview", str(wide_dxf), "--scale", "0.5", "-o", str(png))
+    preview = shell("preview", str(wide_dxf), "--scale", "0.5", "-o", str(png))
     assert preview.returncode == 0, preview.stderr and png.exists()
     out = tmp_path / "wide.nc"
-    convert = galileo("convert", str(wide_dxf), "--scale", "0.5", "-o", str(out))
+    convert = shell("convert", str(wide_dxf), "--scale", "0.5", "-o", str(out))
     assert convert.returncode == 0, convert.stderr
     back = read_file(out)
     drawn = back.table[back.table[:, KIND] == OpKind.LINE]
@@ -108,7 +125,7 @@ def test_rotate_90_maps_every_corner_and_arc_centre_exactly(tmp_path):
     assert planned.offset_nm == (19_000_003, -151_123_457)       # then the offset, 1 mm margin
 
 
-def test_scale_is_exact_in_integer_nm_from_the_decimal_typed(tmp_path):
+def test_scale_is_exact_in_integer_nm_from_the_decimal_typed(tmp_path, shell):
     drawing = tmp_path / "tiny.nc"
     # 5 nm x 0.3 = 1.5 nm: 2 nm, half away from zero; the float 0.3 is 0.29999999999999998890
     # and gave 1 nm
@@ -119,13 +136,13 @@ def test_scale_is_exact_in_integer_nm_from_the_decimal_typed(tmp_path):
     drawn = lines[lines[:, KIND] == OpKind.LINE]
     assert drawn[:, [X, Y]].tolist() == [[2, -2], [37_037_037, 100_000]]
     out = tmp_path / "tiny-out.nc"
-    result = galileo("convert", str(drawing), "--scale", "0.3", "--offset", "none",
-                     "--file-order", "-o", str(out))
+    result = shell("convert", str(drawing), "--scale", "0.3", "--offset", "none",
+                   "--file-order", "-o", str(out))
     assert result.returncode == 0, result.stderr
     assert "G1 X0.000002 Y-0.000002" in out.read_text()
 
 
-def test_options_that_cannot_be_used_are_refused_with_their_name():
+def test_options_that_cannot_be_used_are_refused_with_their_name(shell):
     with pytest.raises(TransformError, match="--fit and --scale"):
         Transform.asked(scale="2", fit=True)
     for bad in ("0", "-1", "abc", "1e9"):
@@ -133,7 +150,7 @@ def test_options_that_cannot_be_used_are_refused_with_their_name():
             Transform.asked(scale=bad)
     with pytest.raises(TransformError, match="--rotate: expected 90, 180 or 270"):
         Transform.asked(rotate="45")
-    result = galileo("info", "samples/led-blinker.gbr", "--rotate", "45")
+    result = shell("info", "samples/led-blinker.gbr", "--rotate", "45")
     assert result.returncode == 1 and "--rotate: expected 90, 180 or 270" in result.stderr
 
 

@@ -17,8 +17,8 @@ from galileo_cnc.readers import read_file
 
 TESTS = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(TESTS / "cli"), str(TESTS / "console")]
-from test_cli import galileo  # noqa: E402
 from test_console import console_in_thread, home  # noqa: E402,F401  (home: the fixture)
+from test_transform import shell  # noqa: E402,F401  (the fixture)
 
 SQUARE = "G21 G90\nG0 X1 Y1\nM3\nG1 X11 Y1 F{first}\nG1 X11 Y11\nG1 X1 Y11 F{second}\nM5\n"
 WARNING = (r"warning: {file}:4: F600 is 10 mm/s \(600 mm/min\), above the warning feed "
@@ -44,7 +44,7 @@ def test_a_g_code_feed_above_the_warning_feed_is_said_once_with_its_line(fast):
     assert check_feeds(read_file(fast), MachineConfig(feed_warn_mm_s=20)) == []
 
 
-def test_a_feed_beyond_the_machine_is_refused_in_mm_with_the_file_line(tmp_path):
+def test_a_feed_beyond_the_machine_is_refused_in_mm_with_the_file_line(tmp_path, shell):
     path = tmp_path / "racing.nc"
     path.write_text(SQUARE.format(first="600", second="60000"))
     with pytest.raises(FeedError) as refused:
@@ -52,7 +52,7 @@ def test_a_feed_beyond_the_machine_is_refused_in_mm_with_the_file_line(tmp_path)
     assert str(refused.value) == (
         f"{path}:6:11: F60000 is 1000 mm/s (60000 mm/min), faster than the machine's limit "
         "of 250 mm/s (15000 mm/min) [160000 steps/s, at most 40000]")
-    result = galileo("plot", str(path), "--port", "sim://?speed=0", home=tmp_path)
+    result = shell("plot", str(path), "--port", "sim://?speed=0")
     assert result.returncode == 1 and "F60000 is 1000 mm/s (60000 mm/min)" in result.stderr
     assert "steps/s, at most" in result.stderr and "outside" not in result.stderr
     # inches as the file wrote them: F0.1 in/min is 0.0423 mm/s, below the slowest 0.0625
@@ -63,25 +63,25 @@ def test_a_feed_beyond_the_machine_is_refused_in_mm_with_the_file_line(tmp_path)
         plan_file(slow)
 
 
-def test_every_front_end_warns(tmp_path, fast):
+def test_every_front_end_warns(tmp_path, fast, shell):
     pattern = WARNING.format(file=str(fast).replace(".", r"\."))
-    plot = galileo("plot", str(fast), "--port", "sim://?speed=0", home=tmp_path)
+    plot = shell("plot", str(fast), "--port", "sim://?speed=0")
     assert plot.returncode == 0, plot.stderr
     assert re.search(pattern, plot.stdout)
     for command in (["preview", "-o", str(tmp_path / "fast.png")],
                     ["convert", "-o", str(tmp_path / "out.nc")]):
-        result = galileo(command[0], str(fast), *command[1:], home=tmp_path)
+        result = shell(command[0], str(fast), *command[1:])
         assert result.returncode == 0, result.stderr
         assert re.search(pattern, result.stderr), command
-    info = galileo("info", str(fast))
+    info = shell("info", str(fast))
     assert re.search(pattern, info.stdout)
 
 
-def test_a_profile_feed_of_100_mm_s_is_said_by_plot(tmp_path):
+def test_a_profile_feed_of_100_mm_s_is_said_by_plot(tmp_path, shell):
     profile = tmp_path / "fast.toml"
     profile.write_text("[machine]\nfeed_mm_s = 100\n")
-    result = galileo("plot", "samples/led-blinker.gbr", "--mode", "centre", "--yes",
-                     "--port", "sim://?speed=0", "--profile", str(profile), home=tmp_path)
+    result = shell("plot", "samples/led-blinker.gbr", "--mode", "centre", "--yes",
+                   "--port", "sim://?speed=0", "--profile", str(profile))
     assert result.returncode == 0, result.stderr
     assert ("warning: the profile's feed_mm_s = 100 mm/s (6000 mm/min) is above the warning "
             "feed 6.25 mm/s (375 mm/min, feed_warn_mm_s in the profile)") in result.stdout
@@ -97,7 +97,7 @@ def test_getg_in_the_console_says_the_feed_warning(home, fast):  # noqa: F811
         user.expect(r"process has finished")
 
 
-def test_grbl_refuses_a_feed_above_its_max_rate_before_the_job(tmp_path, fast):
+def test_grbl_refuses_a_feed_above_its_max_rate_before_the_job(tmp_path, fast, shell):
     """GRBL as it comes ($110/$111 = 500 mm/min, 8.33 mm/s) would run F600 at its own
     limit without a word: plot refuses the fastest, F900 at line 6, naming the line,
     before any line is sent."""
@@ -106,7 +106,7 @@ def test_grbl_refuses_a_feed_above_its_max_rate_before_the_job(tmp_path, fast):
 
     grbl_elf()                      # built (or skipped with the missing package) first
     url = "simavr://?firmware=grbl&realtime=0&$100=160&$101=160&$102=160"
-    result = galileo("plot", str(fast), "--port", url, "--yes", home=tmp_path)
+    result = shell("plot", str(fast), "--port", url, "--yes")
     assert result.returncode == 1
     assert (f"{fast}:6: F900 is 15 mm/s (900 mm/min): refused: GRBL runs 0.0625 .. 8.33333 "
             "mm/s here (its $110/$111 max rates 500.000/500.000 mm/min)") in result.stderr
