@@ -88,6 +88,19 @@ unlock
     the machine first: the position is kept. Finished and stopped jobs do not
     need it: the console leaves the machine ready itself.
 
+[send]
+send LINE
+    Send a line to the machine, as UGS, CNCjs or Candle do; a line that
+    starts with $ or a G-code word (`$22=1`, `$$`, `G0 X10`) is sent without
+    typing send. On GRBL the line goes as it is: GRBL's $ commands ($$, $#,
+    $H, $X, $100=160 ...) and G-code; every line GRBL answers is shown, then
+    ok or error:N in GRBL's words, and after G-code where GRBL stands once
+    still. On our firmware a G-code line runs as a job of one line from
+    where the head stands (G91, G20, F and M3/M5 hold for the lines after
+    it; the pen lifts at its end; it is not journalled, so `resume` keeps
+    an interrupted job); $$ lists the profile's settings, $H homes, $X
+    unlocks, other $ commands are GRBL's and are refused.
+
 [resume]
 resume
     Continue the last job if it was stopped (q, Ctrl-C) or lost its port.

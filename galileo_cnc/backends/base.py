@@ -240,3 +240,9 @@ class Machine:
         if not self.find_position(resumption, operator):
             return None
         return self.run_job(resumption.job, operator)
+
+    # ---- a command line -----------------------------------------------------------
+    def send_line(self, text: str, say: Callable[[str], None]) -> bool:
+        """One line typed for the machine (`$$`, `G0 X10`; backends/command_line.py),
+        its reply said; True when the machine took it."""
+        raise NotImplementedError

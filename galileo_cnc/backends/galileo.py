@@ -243,6 +243,13 @@ class GalileoMachine(Machine):
         operator.say(resumption.job.estimate_line())
         return True
 
+    # ---- a command line -----------------------------------------------------------
+    def send_line(self, text: str, say) -> bool:
+        """G-code as a job of one line, not journalled; `$$`, `$H`, `$X` as ours."""
+        from galileo_cnc.backends.command_line import send_to_galileo
+
+        return send_to_galileo(self, text, say)
+
 
 class _Resumed:
     """A resumed job in the shape of a PlannedFile, for what front ends read of it."""

@@ -390,6 +390,26 @@ class GrblMachine(Machine):
             operator.say(resumption.job.estimate_line())
         return found
 
+    # ---- a command line -----------------------------------------------------------
+    def send_line(self, text: str, say) -> bool:
+        """The line as it is, GRBL's reply shown; `$N=` settings read again after."""
+        from galileo_cnc.backends.command_line import changes_grbl_settings, send_to_grbl
+
+        try:
+            taken = send_to_grbl(self.link, text, say)
+        except GrblError as problem:
+            self._alarm_settled(problem)
+        if taken and changes_grbl_settings(text):
+            self.link.read_info()           # steps/mm, max rates: what jobs are checked by
+            try:
+                refuse_other_scale(self.link, self.profile_config.steps_per_mm,
+                                   self.config_path, self.port_name)
+                self.scale_problem = None
+            except GalileoError as problem:
+                self.scale_problem = str(problem)
+                say(f"warning: {problem}; jobs are refused until they agree")
+        return taken
+
 
 class GrblSteps:
     """The steps GRBL's pins made on simavr:// (recorded from the board's power-on),

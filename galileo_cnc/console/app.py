@@ -21,6 +21,7 @@ from prompt_toolkit.shortcuts import print_formatted_text, prompt
 from galileo_cnc import __version__
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.backends import Machine, MachineView, open_machine
+from galileo_cnc.backends.command_line import is_machine_line
 from galileo_cnc.config.profile import Profile
 from galileo_cnc.console.commands import build_registry
 from galileo_cnc.console.plans import PlanCache
@@ -28,6 +29,8 @@ from galileo_cnc.errors import GalileoError
 from galileo_cnc.transport.link import LinkError, MachineAlarm, PortGone
 
 PROMPT = ">> "
+#: the command a line for the machine goes to (`$22=1`, `G0 X10`: backends/command_line.py)
+SEND = "send"
 #: While the prompt waits, the toolbar's state and position are refreshed this often.
 TOOLBAR_REFRESH_S = 0.5
 
@@ -214,6 +217,11 @@ class Console:
             return
         name, arguments = words[0], words[1:]
         command = self.registry.get(name)
+        if command is None and is_machine_line(line):
+            command, arguments = self.registry.get(SEND), [line.strip()]
+        elif command is not None and command.raw_arguments:
+            rest = line.strip()[len(name):].strip()
+            arguments = [rest] if rest else []
         if command is None:
             self.unknown(name)
             return

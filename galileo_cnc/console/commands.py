@@ -12,6 +12,12 @@ def _leave(console, arguments: list[str]) -> None:
     console.leaving = True
 
 
+def _send(console, arguments: list[str]) -> None:
+    line = arguments[0] if arguments else console.ask("line for the machine: ")
+    if line:
+        console.machine.send_line(line, console.say)
+
+
 def build_registry() -> Registry:
     return Registry([
         ConsoleCommand("help", "help [COMMAND]", "print the help, or one command's",
@@ -30,6 +36,9 @@ def build_registry() -> Registry:
                        machine_commands.home, needs_machine=True),
         ConsoleCommand("unlock", "unlock", "leave the alarm state (after a homing error)",
                        machine_commands.unlock, needs_machine=True),
+        ConsoleCommand("send", "send LINE", "send a line to the machine: GRBL's $ commands, "
+                       "G-code (a bare $22=1 or G0 X10 is sent too)",
+                       _send, needs_machine=True, raw_arguments=True),
         ConsoleCommand("resume", "resume", "continue an interrupted job",
                        resume.run, needs_machine=True),
         ConsoleCommand("exit", "exit", "leave the console", _leave),

@@ -318,6 +318,32 @@ def test_an_unknown_command_says_so_and_hints(home):
         user.expect(r"state idle")
 
 
+# ---- a command line for the machine ----------------------------------------------------------
+def test_gcode_lines_typed_at_the_prompt_run_as_jobs_of_one_line(home):
+    """What UGS or CNCjs users type first, on our firmware: G-code lines are planned and
+    streamed as jobs of one line (their modes kept from line to line), `$` lines get
+    our firmware's answer, never "Unknown command!"."""
+    with console_in_thread(home) as user:
+        user.line("G0 X10")
+        user.expect(r"ok: the head stands at X 10\.000  Y 0\.000  Z \S+ mm \(work\)")
+        assert user.status()[1:3] == (1600, 0)              # 160 steps/mm
+        user.line("g1 y5 f600")                              # lower case, a feed of 10 mm/s
+        user.expect(r"ok: the head stands at X 10\.000  Y 5\.000")
+        user.line("G91")                                     # relative from now on
+        user.expect(r"ok \(nothing moves: what the line set holds for the next lines\)")
+        user.line("send G0 X-2.5 Y1")
+        user.expect(r"ok: the head stands at X 7\.500  Y 6\.000")
+        user.line("G0 X-900")                                # leaves the travel: nothing sent
+        user.expect(r"typed line:1:\d+: .*X would reach -892\.500 mm, below the travel")
+        assert user.status()[1:3] == (1200, 960)
+        user.line("$$")
+        user.expect(r"steps/mm 160 \(GRBL's \$100-\$102\)")
+        user.line("$22=1")
+        user.expect(r"\$22=1: `\$` commands are GRBL's, and this machine runs the "
+                    r"galileo-cnc firmware")
+    assert "Unknown command" not in user.screen.text
+
+
 # ---- getg ------------------------------------------------------------------------------------
 def test_getg_plots_the_sample_board_with_pen_changes(home):
     program = read_file(BOARD)
