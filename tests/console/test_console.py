@@ -290,8 +290,8 @@ def test_tab_completes_command_names_and_file_names(home, monkeypatch):
         user.expect(r"tus")                         # wait until it has filled the word in
         user.type("\r")
         user.expect(r"state idle")
-        user.type("help se\t")
-        user.expect(r"tup")
+        user.type("help set\t")                  # "se" is setup or send
+        user.expect(r"up")
         user.type("\r")
         user.expect(r"7 / 1   Z up / down")
         user.type("getg samples/led-b")
@@ -398,6 +398,49 @@ def test_getg_takes_a_path_under_the_home_folder(home, tmp_path, monkeypatch):
         user.expect(r"use these offsets\? \[Y/n\]")
         user.line("")
         user.expect(r"process has finished")
+
+
+#: two 2 mm pads joined by a thin trace: the pads' fills reach 0.8 mm below and left of
+#: the flash points the centre-line proposal is made from
+PADS = """%FSLAX46Y46*%
+%MOMM*%
+%ADD10C,2.0*%
+%ADD11C,0.2*%
+D10*
+X10000000Y10000000D03*
+X20000000Y15000000D03*
+D11*
+X10000000Y10000000D02*
+X20000000Y15000000D01*
+M02*
+"""
+
+
+def test_getg_in_ink_mode_asks_about_the_offset_it_then_uses(home, tmp_path):
+    board = tmp_path / "pads.gbr"
+    board.write_text(PADS)
+    config = MachineConfig()
+    inked = plan_file(board, config)
+    asked = inked.offset_nm
+    assert inked.mode == "ink" and asked != proposed_offset(read_file(board))  # it matters
+    typed = plan_file(board, config, (8_000_000, 8_500_000))
+    with console_in_thread(home) as user:
+        user.line(f"getg {board}")
+        offsets = user.expect(r"offsets +X (\S+) mm, Y (\S+) mm \(brings the ink to the "
+                              r"origin plus a 1 mm margin\)")
+        assert offsets.groups() == (f"{asked[0] / 1e6:.4f}", f"{asked[1] / 1e6:.4f}")
+        user.expect(r"use these offsets\?")
+        user.line("y")
+        user.expect(r"process has finished")
+        assert user.status()[1:] == position_after(inked.job, len(inked.job), config)
+        user.line("getg " + str(board))
+        user.expect(r"use these offsets\?")
+        user.line("n")
+        user.expect(r"offsets X,Y in mm")
+        user.line("8, 8.5")
+        user.expect(r"process has finished")
+        assert user.status()[1:] == position_after(typed.job, len(typed.job), config)
+    assert user.screen.text.count("offsets     X") == 2          # asked twice, said twice
 
 
 def test_getg_refuses_a_job_wider_than_the_travel_before_asking(home, tmp_path):
