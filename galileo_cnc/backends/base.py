@@ -246,3 +246,8 @@ class Machine:
         """One line typed for the machine (`$$`, `G0 X10`; backends/command_line.py),
         its reply said; True when the machine took it."""
         raise NotImplementedError
+
+    def origin_after_home(self) -> str:
+        """After a home: where the work origin is now (an origin the user set may be
+        gone), for the user."""
+        return ""

@@ -139,6 +139,7 @@ def send_to_galileo(machine, text: str, say: Callable[[str], None]) -> bool:
         return True
     if word == "$H":
         machine.home(say)
+        say(machine.origin_after_home())
         return True
     if word == "$X":
         machine.unlock(say)

@@ -408,7 +408,19 @@ class GrblMachine(Machine):
             except GalileoError as problem:
                 self.scale_problem = str(problem)
                 say(f"warning: {problem}; jobs are refused until they agree")
+        if taken and text.strip().upper() == "$H":
+            say(self.origin_after_home())
         return taken
+
+    def origin_after_home(self) -> str:
+        """$H sets GRBL's machine frame; the work origin stays G54's offset from it."""
+        status = self.link.status()
+        offset = tuple(m - w for m, w in zip(status.mpos_nm, status.wpos_nm))
+        if not any(offset):
+            return "the work origin is now the home position (GRBL's G54 offset is zero)"
+        return (f"the work origin is GRBL's G54 offset, {position_text(offset)} from the "
+                f"homed machine frame: where it was set only if GRBL was homed then too; "
+                f"else set it again where the paper is (setup, then o)")
 
 
 class GrblSteps:

@@ -230,7 +230,7 @@ def test_help_prints_the_help_file_and_one_command(home):
     with console_in_thread(home) as user:
         user.line("help")
         user.expect(r"galileo-cnc console")
-        user.expect(r"getg \[--mode ink\|centre\] .*\[FILE\]")
+        user.expect(r"(?s)getg \[--mode ink\|centre\] .*?\[FILE\]")
         user.expect(r"setup\n")
         user.expect(r"exit\n")
         user.line("help setup")
@@ -255,6 +255,18 @@ def test_every_command_has_a_section_in_the_shipped_help_file():
 
     sections = load_help(None).sections
     assert sorted(sections) == sorted(build_registry().names)
+
+
+def test_the_help_fits_80_columns_and_homes_z_only_with_a_switch():
+    from galileo_cnc.console.commands import build_registry
+
+    help_text = load_help(None)
+    too_wide = [line for line in help_text.full().splitlines() if len(line) > 80]
+    assert too_wide == []
+    for command in build_registry():        # what `help` says for a section it lacks
+        assert len(command.usage) <= 80 and len(f"    {command.summary}") <= 80, command
+    assert "Z first, then X" not in help_text.sections["home"]
+    assert "Z first only\n    when the profile gives Z an end stop" in help_text.sections["home"]
 
 
 def test_the_console_on_a_terminal_plots_and_keeps_its_history(home):
@@ -566,6 +578,13 @@ def test_setup_jogs_with_the_keypad_and_sets_the_origin(home):
         user.expect(r"choice:")
         user.line("q")
         assert user.status() == ("idle", 0, -160, 0)
+
+        user.line("home")                             # the origin goes to the switches
+        user.expect(r"homed: X 0\.000  Y 0\.000")
+        user.expect(r"the origin is now the home position \(X and Y 0 at the end stops; Z "
+                    r"has no end stop and keeps its origin\): an origin set in setup before "
+                    r"is replaced; set it again where the paper is \(setup, then o\)")
+        assert user.status() == ("idle", 0, 0, 0)
 
 
 def test_the_jog_line_follows_the_head_and_refusals_are_in_mm():

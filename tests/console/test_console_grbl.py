@@ -242,6 +242,8 @@ def test_an_evening_on_grbl(home):  # noqa: F811  (the fixture)
             user.line("home")
             user.expect(r"homed: X -1\.000  Y -1\.000  Z -1\.000 mm work, machine "
                         r"X -1\.000  Y -1\.000  Z -1\.000 mm")
+            user.expect(r"the work origin is now the home position \(GRBL's G54 offset is "
+                        r"zero\)")
             toolbar_shows(console, r"GRBL Idle \| X -1\.000  Y -1\.000  Z -1\.000 mm")
 
             # ---- homed, the travel is -50..0: a job at the work zero = machine
