@@ -185,7 +185,8 @@ class Console:
             try:
                 line = self.session.prompt(PROMPT)
             except KeyboardInterrupt:
-                continue                 # Ctrl-C at the prompt: just a new prompt
+                self.say("(Ctrl-C stops a command or a job; exit or Ctrl-D leaves)")
+                continue                 # Ctrl-C at the prompt: a new prompt
             except EOFError:
                 break                    # Ctrl-D leaves
             finally:
@@ -246,6 +247,7 @@ class Console:
         except (KeyboardInterrupt, EOFError):
             self.say("cancelled")
             self._stop_safely()
+            self.say(self._how_to_go_on(name))
         if self.machine is not None:
             with self.machine.session():
                 view = self.refresh_status()
@@ -260,6 +262,19 @@ class Console:
                     self.stop_if_moving()
         except GalileoError as error:
             self.say(f"could not stop the machine: {error}")
+
+    def _how_to_go_on(self, name: str) -> str:
+        """After a cancelled command: how to start it again, and the job `resume`
+        would continue (a job the command stopped, or one stopped before it)."""
+        again = f"type {name} to start it again"
+        try:
+            entry = self.machine.pending() if self.machine is not None else None
+        except GalileoError:
+            entry = None
+        if entry is None:
+            return again
+        go_on = f"resume to continue the stopped job of {entry.source}"
+        return f"type {go_on}" if name == "resume" else f"{again}, or {go_on}"
 
     def unknown(self, word: str) -> None:
         closest = self.registry.closest(word)

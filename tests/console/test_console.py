@@ -313,7 +313,7 @@ def test_tab_completes_command_names_and_file_names(home, monkeypatch):
         user.type("\r")
         user.expect(r"use these offsets\?")
         user.type("\x03")                         # Ctrl-C cancels the question
-        user.expect(r"cancelled")
+        user.expect(r"cancelled\ntype getg to start it again\n")
         user.line("status")
         user.expect(r"state idle, X 0\.000")
 
@@ -498,7 +498,7 @@ def test_a_job_stopped_while_moving_leaves_the_machine_standing(home, stop_key):
     end = position_after(job, len(job), config)
     with console_in_thread(home, REAL_TIME_SIM) as user:
         user.type("\x03")                        # Ctrl-C at the prompt: a new prompt
-        user.expect(r">>")
+        user.expect(r"\(Ctrl-C stops a command or a job; exit or Ctrl-D leaves\)\n>>")
         user.line(f"getg --mode centre {BOARD}")
         user.expect(r"use these offsets\?")
         user.line("y")
@@ -525,6 +525,16 @@ def test_q_at_a_pen_change_stops_the_job_and_resume_finishes_it(home):
         user.type("q")
         user.expect(r"job stopped after \d+ of \d+ commands.*type resume to continue it")
         assert user.status()[0] == "idle"
+        user.line("resume")
+        user.expect(r"continue the job\? \[Y/n\]")
+        user.type("\x03")                         # not yet: the console says how to go on
+        user.expect(rf"cancelled\ntype resume to continue the stopped job of "
+                    rf"{re.escape(str(BOARD))}\n")
+        user.line(f"getg --mode centre {BOARD}")
+        user.expect(r"use these offsets\?")
+        user.type("\x03")
+        user.expect(r"cancelled\ntype getg to start it again, or resume to continue the "
+                    r"stopped job of ")
         user.line("resume")
         user.expect(r"continue the job\? \[Y/n\]")
         user.line("")
