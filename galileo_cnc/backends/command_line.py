@@ -105,6 +105,9 @@ def run_galileo_line(machine, text: str, say: Callable[[str], None]) -> bool:
 
     link, config = machine.link, machine.config
     status = link.status()
+    if status.state == "alarm":         # a job would find the machine stopped
+        raise GalileoError(f"{text.strip()}: not sent, the machine is locked (alarm): "
+                           f"type unlock (or home), then send it again")
     where = (status.x_steps * config.nm_per_step, status.y_steps * config.nm_per_step)
     lines = getattr(machine, "gcode_lines", None)
     if lines is None:

@@ -709,9 +709,14 @@ def test_a_homing_alarm_locks_the_machine_until_unlock(home, tmp_path):
         user.expect(r"the machine is locked \(alarm\): check it, then type unlock")
         assert user.screen.text.count("end-stop not found") == 1      # said once
         assert user.status()[0] == "alarm"
+        user.line("G0 X10")                           # a line for the machine waits too
+        user.expect(r"G0 X10: not sent, the machine is locked \(alarm\): type unlock \(or "
+                    r"home\), then send it again")
         user.line("unlock")
         user.expect(r"unlocked.*: state idle")
         assert user.status()[0] == "idle"
+        user.line("G0 X10")
+        user.expect(r"ok: the head stands at X 10\.000  Y 0\.000")
 
 
 # ---- a whole evening: jobs back to back, setup, a stop and a resume -------------------------
