@@ -22,7 +22,7 @@ from galileo_cnc.program.ops import NM_PER_MM, ProgramBuilder
 #: `?`, or a G-code word (letter, then a number) first, after an optional N word.
 _MACHINE_LINE = re.compile(r"\s*(\$|\?\s*$|(N\d+\s*)?[GMXYZFTSP]\s*[-+.\d])", re.IGNORECASE)
 #: GRBL's settings command, `$N=value`: GRBL's settings change with it.
-_SETTING = re.compile(r"\s*\$\d+\s*=")
+_SETTING = re.compile(r"\s*\$(\d+\s*=|RST=)", re.IGNORECASE)
 SOURCE = "typed line"
 
 
