@@ -39,6 +39,21 @@ def mm_text(nm: tuple[int, ...]) -> str:
     return "  ".join(f"{axis} {value / NM_PER_MM:.3f}" for axis, value in zip("XYZ", nm)) + " mm"
 
 
+def run_home_or_unlock(machine, text: str, say: Callable[[str], None]) -> bool:
+    """`$H` and `$X` as the console's `home` and `unlock` (homing may take longer than
+    a reply is waited for; an unlock after a limit alarm needs a reset first); True
+    when `text` was one of them."""
+    word = text.strip().upper()
+    if word == "$H":
+        machine.home(say)
+        say(machine.origin_after_home())
+        return True
+    if word == "$X":
+        machine.unlock(say)
+        return True
+    return False
+
+
 # ---- GRBL ------------------------------------------------------------------------------------
 def send_to_grbl(link, text: str, say: Callable[[str], None]) -> bool:
     """Send `text` as it is; GRBL's lines and its ok or error shown. True when GRBL
@@ -140,12 +155,7 @@ def send_to_galileo(machine, text: str, say: Callable[[str], None]) -> bool:
         for line in galileo_settings(machine.config):
             say(line)
         return True
-    if word == "$H":
-        machine.home(say)
-        say(machine.origin_after_home())
-        return True
-    if word == "$X":
-        machine.unlock(say)
+    if run_home_or_unlock(machine, text, say):
         return True
     if word == "?":
         say(machine.status_line(machine.config))

@@ -393,8 +393,11 @@ class GrblMachine(Machine):
     # ---- a command line -----------------------------------------------------------
     def send_line(self, text: str, say) -> bool:
         """The line as it is, GRBL's reply shown; `$N=` settings read again after."""
-        from galileo_cnc.backends.command_line import changes_grbl_settings, send_to_grbl
+        from galileo_cnc.backends.command_line import (changes_grbl_settings,
+                                                       run_home_or_unlock, send_to_grbl)
 
+        if run_home_or_unlock(self, text, say):
+            return True
         try:
             taken = send_to_grbl(self.link, text, say)
         except GrblError as problem:
@@ -408,8 +411,6 @@ class GrblMachine(Machine):
             except GalileoError as problem:
                 self.scale_problem = str(problem)
                 say(f"warning: {problem}; jobs are refused until they agree")
-        if taken and text.strip().upper() == "$H":
-            say(self.origin_after_home())
         return taken
 
     def origin_after_home(self) -> str:
