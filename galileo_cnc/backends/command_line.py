@@ -15,8 +15,9 @@ from __future__ import annotations
 import re
 from typing import Callable
 
+from galileo_cnc.backends.grbl import position_text
 from galileo_cnc.errors import GalileoError
-from galileo_cnc.program.ops import NM_PER_MM, ProgramBuilder
+from galileo_cnc.program.ops import ProgramBuilder
 
 #: A line for the machine rather than a console command: a `$` command, GRBL's real-time
 #: `?`, or a G-code word (letter, then a number) first, after an optional N word.
@@ -33,10 +34,6 @@ def is_machine_line(text: str) -> bool:
 
 def changes_grbl_settings(text: str) -> bool:
     return _SETTING.match(text) is not None
-
-
-def mm_text(nm: tuple[int, ...]) -> str:
-    return "  ".join(f"{axis} {value / NM_PER_MM:.3f}" for axis, value in zip("XYZ", nm)) + " mm"
 
 
 def run_home_or_unlock(machine, text: str, say: Callable[[str], None]) -> bool:
@@ -61,8 +58,8 @@ def send_to_grbl(link, text: str, say: Callable[[str], None]) -> bool:
     Raises GrblError on an alarm (the caller settles it)."""
     if text.strip() == "?":
         status = link.status()
-        say(f"<{status.state}> work {mm_text(status.wpos_nm)}, machine "
-            f"{mm_text(status.mpos_nm)}")
+        say(f"<{status.state}> work {position_text(status.wpos_nm)}, machine "
+            f"{position_text(status.mpos_nm)}")
         return True
     reply = link.command(text)
     for line in reply.lines:
@@ -73,7 +70,7 @@ def send_to_grbl(link, text: str, say: Callable[[str], None]) -> bool:
     say("ok")
     if not text.lstrip().startswith("$"):
         status = link.wait_idle()
-        say(f"GRBL stands at {mm_text(status.wpos_nm)} (work)")
+        say(f"GRBL stands at {position_text(status.wpos_nm)} (work)")
     return True
 
 
@@ -141,9 +138,9 @@ def run_galileo_line(machine, text: str, say: Callable[[str], None]) -> bool:
     here = tuple(steps * config.nm_per_step
                  for steps in (status.x_steps, status.y_steps, status.z_steps))
     if not result.completed:
-        say(f"stopped ({result.reason}); the head stands at {mm_text(here)} (work)")
+        say(f"stopped ({result.reason}); the head stands at {position_text(here)} (work)")
         return False
-    say(f"ok: the head stands at {mm_text(here)} (work)")
+    say(f"ok: the head stands at {position_text(here)} (work)")
     return True
 
 
