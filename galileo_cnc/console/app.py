@@ -221,8 +221,7 @@ class Console:
         if command is None and is_machine_line(line):
             command, arguments = self.registry.get(SEND), [line.strip()]
         elif command is not None and command.raw_arguments:
-            rest = line.strip()[len(name):].strip()
-            arguments = [rest] if rest else []
+            arguments = line.split(None, 1)[1:]      # the rest as typed, quotes and all
         if command is None:
             self.unknown(name)
             return
@@ -247,7 +246,7 @@ class Console:
         except (KeyboardInterrupt, EOFError):
             self.say("cancelled")
             self._stop_safely()
-            self.say(self._how_to_go_on(name))
+            self.say(self._how_to_go_on(line.strip() if command.raw_arguments else name))
         if self.machine is not None:
             with self.machine.session():
                 view = self.refresh_status()
@@ -264,8 +263,9 @@ class Console:
             self.say(f"could not stop the machine: {error}")
 
     def _how_to_go_on(self, name: str) -> str:
-        """After a cancelled command: how to start it again, and the job `resume`
-        would continue (a job the command stopped, or one stopped before it)."""
+        """After a cancelled command (`name`, or a line for the machine as typed): how
+        to start it again, and the job `resume` would continue (a job the command
+        stopped, or one stopped before it)."""
         again = f"type {name} to start it again"
         try:
             entry = self.machine.pending() if self.machine is not None else None
