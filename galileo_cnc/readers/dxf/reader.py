@@ -68,7 +68,10 @@ def read_dxf(path: str | os.PathLike, *, units: str | None = None,
     for line, message in load_warnings:
         out.warn(line, 1 if line else 0, message)
 
-    insunits = _insunits(doc, scan.insunits)
+    # What the file says, from our scan: ezdxf gives a file without a HEADER (an OpenSCAD
+    # export, a trimmed or binary R12 file) its own default header, whose $INSUNITS is 6
+    # (metres), and that would read a 40 mm part 40 m wide.
+    insunits = scan.insunits
     code = override if override is not None else insunits
     if code is None or code == 0 or code not in INSUNITS:
         if override is None:
@@ -123,16 +126,6 @@ def read_dxf(path: str | os.PathLike, *, units: str | None = None,
     }
     return out.build("dxf", "in" if unit in _IMPERIAL else "mm", metadata=metadata,
                      line_count=scan.line_count)
-
-
-def _insunits(doc, scanned: int | None) -> int | None:
-    value = doc.header.get("$INSUNITS")
-    if value is None:
-        return scanned
-    try:
-        return int(value)
-    except (TypeError, ValueError):
-        return scanned
 
 
 def _layer_names(doc, attribute) -> list[str]:
