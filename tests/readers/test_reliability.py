@@ -132,12 +132,11 @@ def test_step_and_repeat_within_the_limit_gives_the_same_rows_as_before():
     program = read_gerber("t.gbr", text)
     cells = [(ix, iy) for ix in range(3) for iy in range(2)]
     moves = program.table[program.table[:, 0] == 0][:, [X, Y]].tolist()
-    # Each copy but the first starts with a move to its first point (the flash), then
-    # the block's own move; the first copy has only the block's move.
-    expected = [[1_000_000, 0]] + [p for ix, iy in cells[1:] for p in
-                                   ([ix * 5_000_000, iy * 10_000_000],
-                                    [1_000_000 + ix * 5_000_000, iy * 10_000_000])]
-    assert moves == expected
+    # The block starts with a flash, which goes to its point itself: each copy has only
+    # the block's own move, moved (issue 31, item 3: no lead-in move of its own).
+    assert moves == [[1_000_000 + ix * 5_000_000, iy * 10_000_000] for ix, iy in cells]
+    flashes = program.table[program.table[:, 0] == 4][:, [X, Y]].tolist()
+    assert flashes == [[ix * 5_000_000, iy * 10_000_000] for ix, iy in cells]
 
 
 def test_nested_aperture_blocks_are_refused_before_memory_runs_out(monkeypatch):
