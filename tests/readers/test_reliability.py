@@ -271,6 +271,34 @@ def test_an_include_file_is_read_in_place(tmp_path):
         read_file(tmp_path / "self.gbr")
 
 
+def test_include_files_are_read_from_the_including_files_folder_only(tmp_path):
+    # issue 31, item 18: relative to the including file (a subfolder is inside it; a
+    # nested include is relative to its own file), never outside that folder
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "parts" / "outline.gbr").write_text("X1000000Y0D02*\n%IFedge.gbr*%\n")
+    (tmp_path / "parts" / "edge.gbr").write_text("X2000000Y0D01*\n")
+    main = tmp_path / "main.gbr"
+    main.write_text(HEADER + "%IFparts/outline.gbr*%\nM02*\n")
+    lines = read_file(main).table
+    assert lines[lines[:, 0] == 1][:, X].tolist() == [2_000_000]
+    outside = tmp_path / "secret.gbr"
+    outside.write_text("X9000000Y0D01*\n")
+    board = tmp_path / "board"
+    board.mkdir()
+    (board / "link.gbr").symlink_to(outside)
+    for target, why in [("../secret.gbr", "is not inside the folder of top.gbr"),
+                        ("sub\\..\\..\\secret.gbr", "is not inside the folder of top.gbr"),
+                        (str(outside), "is not inside the folder of top.gbr"),
+                        ("C:\\boards\\secret.gbr", "is not inside the folder of top.gbr"),
+                        ("link.gbr", "leads out of the folder of top.gbr")]:
+        top = board / "top.gbr"
+        top.write_text(HEADER + f"X0Y0D02*\n%IF{target}*%\nM02*\n")
+        with pytest.raises(GerberError) as caught:
+            read_file(top)
+        assert (caught.value.pos.file, caught.value.pos.line) == (str(top), 6), target
+        assert f"include file {target!r} (%IF) {why}" in caught.value.message
+
+
 def test_a_region_left_open_at_m02_is_a_positioned_error():
     text = HEADER + "G36*\nX0Y0D02*\nX1000000Y0D01*\nX0Y1000000D01*\nM02*\n"
     error = both_ways(text)

@@ -826,8 +826,7 @@ class GerberReader:
         if len(self.includes) >= limits.MAX_INCLUDE_DEPTH:
             raise self.error(f"include files (%IF) nested more than {limits.MAX_INCLUDE_DEPTH} "
                              "deep: does a file include itself?", block)
-        path = target if os.path.isabs(target) else \
-            os.path.join(os.path.dirname(self.name) or ".", target)
+        path = self._include_path(target, block)
         try:
             text = read_text(path, GerberError)
         except FileAccessError as problem:
@@ -852,6 +851,25 @@ class GerberReader:
             view[first // NCOL:, LINE_COL] = where  # the included rows sit at the %IF
             view[first // NCOL:, COL_COL] = 0
             del view  # a buffer exported by the array would stop it from growing
+
+    def _include_path(self, target: str, block: str) -> str:
+        """The path of an %IF file: relative to the including file and inside its folder
+        (subfolders allowed). An absolute path, a drive, a `..` or a link that leads out
+        is refused: a board file must not make the reader open files elsewhere."""
+        folder = os.path.dirname(self.name) or "."
+        parts = re.split(r"[\\/]", target)
+        if os.path.isabs(target) or target[:1] in "\\/" or re.match(r"[A-Za-z]:", target) \
+                or ".." in parts:
+            raise self.error(f"include file {target!r} (%IF) is not inside the folder of "
+                             f"{os.path.basename(self.name)}: only a relative path without "
+                             "'..' is read (copy the file beside it)", block)
+        path = os.path.join(folder, *[part for part in parts if part not in ("", ".")])
+        real_folder = os.path.realpath(folder)
+        if os.path.commonpath([real_folder, os.path.realpath(path)]) != real_folder:
+            raise self.error(f"include file {target!r} (%IF) leads out of the folder of "
+                             f"{os.path.basename(self.name)} (a link to "
+                             f"{os.path.realpath(path)}): only files inside it are read", block)
+        return path
 
     def _load_transform(self, block: str) -> None:
         self.metadata.setdefault("load_transforms", []).append(block)

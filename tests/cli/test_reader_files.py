@@ -1,5 +1,6 @@
-"""Where a drawing lands, as a user meets it: `info` and `plot` on files whose readers
-once put the job in the wrong place or the wrong size (issue 31, items 1 and 3)."""
+"""What the readers make of a user's files, as the user meets it through `info` and
+`plot`: where the drawing lands and how large it is (issue 31, items 1 and 3), and the
+files a Gerber file includes (item 18)."""
 
 import json
 
@@ -112,3 +113,19 @@ def test_a_headerless_dxf_is_millimetres_with_a_warning(tmp_path, galileo):
     assert info["bbox_mm"] == {"min_x": 0.0, "min_y": 0.0, "max_x": 40.0, "max_y": 25.0}
     assert info["misfit"] is None  # it was 40 m wide and refused
     assert any("no $INSUNITS: read as millimetres" in w for w in info["warnings"])
+
+
+def test_an_included_file_is_read_beside_its_board_and_nothing_outside(tmp_path, galileo):
+    board = tmp_path / "board"
+    board.mkdir()
+    (board / "outline.gbr").write_text("X0Y0D02*\nX40000000Y0D01*\nX40000000Y25000000D01*\n")
+    top = board / "top.gbr"
+    top.write_text("%FSLAX46Y46*%\n%MOMM*%\n%ADD10C,0.2*%\nD10*\n%IFoutline.gbr*%\nM02*\n")
+    info = _info(galileo, top)
+    assert info["bbox_mm"] == {"min_x": 0.0, "min_y": 0.0, "max_x": 40.0, "max_y": 25.0}
+    (tmp_path / "other.gbr").write_text("X0Y0D02*\nX90000000Y0D01*\n")
+    top.write_text("%FSLAX46Y46*%\n%MOMM*%\n%ADD10C,0.2*%\nD10*\n%IF../other.gbr*%\nM02*\n")
+    code, out, err = galileo("info", str(top))
+    assert code == 1 and out == ""
+    assert err.startswith(f"galileo-cnc: {top}:5:1: include file '../other.gbr' (%IF) is not "
+                          "inside the folder of top.gbr")
