@@ -129,3 +129,17 @@ def test_an_included_file_is_read_beside_its_board_and_nothing_outside(tmp_path,
     assert code == 1 and out == ""
     assert err.startswith(f"galileo-cnc: {top}:5:1: include file '../other.gbr' (%IF) is not "
                           "inside the folder of top.gbr")
+
+
+def test_a_refused_arc_is_told_in_words_and_mm_at_its_line(tmp_path, galileo):
+    # issue 31, item 14: the refusal named `ARC_CCW (op 7)`
+    drawing = tmp_path / "arc.nc"
+    drawing.write_text("G21\nG90\nG0 X10 Y10\nM3\nG1 X20 Y10 F600\nG1 X195 Y10\n"
+                       "G3 X195 Y30 I0 J10\nM5\nM2\n")
+    code, out, err = galileo("plot", str(drawing), "--port", "sim://?speed=0", "--yes",
+                             "--offset", "none")
+    assert code == 1
+    assert err.splitlines()[-1] == (
+        f"galileo-cnc: {drawing}:7:1: the counter-clockwise arc from X 195 Y 10 to X 195 Y 30 "
+        "mm (centre X 195 Y 20, file coordinates): X would reach 205.000 mm, beyond the "
+        "travel's end at 200.000 mm [32800 steps]")
