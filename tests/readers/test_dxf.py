@@ -515,6 +515,7 @@ def test_a_headerless_drawing_is_millimetres_with_a_warning_not_metres(tmp_path,
     assert extents(program) == (0, 0, 40 * MM, 25 * MM)  # 40 mm wide, not 40 m
     assert program.metadata["insunits"] is None and program.metadata["units"] == "mm"
     assert program.metadata["binary"] is (make is headerless_binary_r12)
+    assert program.metadata["layers"] == {"0": 4}  # not ezdxf's default table's Defpoints
     assert [w.message for w in program.warnings] == [
         "the drawing has no $INSUNITS: read as millimetres (--units in reads it as inches)"]
 
