@@ -18,7 +18,17 @@ from typing import Any, Callable, ContextManager, Protocol
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.machine.timing import duration_text
+from galileo_cnc.program.ops import NM_PER_MM
 from galileo_cnc.stream.streamer import PenChange, Progress
+
+
+def mm3(nm: int) -> str:
+    return f"{nm / NM_PER_MM:.3f}"
+
+
+def position_text(nm: tuple[int, ...]) -> str:
+    """A head position (nm) as the front ends print it: X, Y, Z in mm."""
+    return f"X {mm3(nm[0])}  Y {mm3(nm[1])}  Z {mm3(nm[2])} mm"
 
 
 @dataclass(frozen=True, slots=True)

@@ -15,7 +15,7 @@ from __future__ import annotations
 import re
 from typing import Callable
 
-from galileo_cnc.backends.grbl import position_text
+from galileo_cnc.backends.base import position_text
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.program.ops import ProgramBuilder
 

@@ -17,7 +17,8 @@ from contextlib import contextmanager
 
 import serial
 
-from galileo_cnc.backends.base import JobResult, Machine, MachineJob, MachineView, Resumption
+from galileo_cnc.backends.base import (JobResult, Machine, MachineJob, MachineView, Resumption,
+                                       position_text)
 from galileo_cnc.config.machine import MIN_FEED_STEPS_PER_S, MachineConfig
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.grbl.check import check_job
@@ -45,14 +46,6 @@ MOVING_STATES = ("Run", "Jog", "Hold", "Home")
 CRITICAL_ALARMS = (1, 2)
 #: What a stopped job leaves GRBL in.
 HELD = "GRBL held the feed and was reset (its queue dropped, the position kept)"
-
-
-def mm3(nm: int) -> str:
-    return f"{nm / NM_PER_MM:.3f}"
-
-
-def position_text(nm: tuple[int, ...]) -> str:
-    return f"X {mm3(nm[0])}  Y {mm3(nm[1])}  Z {mm3(nm[2])} mm"
 
 
 class GrblMachine(Machine):
