@@ -18,7 +18,17 @@ from typing import Any, Callable, ContextManager, Protocol
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.machine.timing import duration_text
+from galileo_cnc.program.ops import NM_PER_MM
 from galileo_cnc.stream.streamer import PenChange, Progress
+
+
+def mm3(nm: int) -> str:
+    return f"{nm / NM_PER_MM:.3f}"
+
+
+def position_text(nm: tuple[int, ...]) -> str:
+    """A head position (nm) as the front ends print it: X, Y, Z in mm."""
+    return f"X {mm3(nm[0])}  Y {mm3(nm[1])}  Z {mm3(nm[2])} mm"
 
 
 @dataclass(frozen=True, slots=True)
@@ -240,3 +250,14 @@ class Machine:
         if not self.find_position(resumption, operator):
             return None
         return self.run_job(resumption.job, operator)
+
+    # ---- a command line -----------------------------------------------------------
+    def send_line(self, text: str, say: Callable[[str], None]) -> bool:
+        """One line typed for the machine (`$$`, `G0 X10`; backends/command_line.py),
+        its reply said; True when the machine took it."""
+        raise NotImplementedError
+
+    def origin_after_home(self) -> str:
+        """After a home: where the work origin is now (an origin the user set may be
+        gone), for the user."""
+        return ""

@@ -17,7 +17,8 @@ from contextlib import contextmanager
 
 import serial
 
-from galileo_cnc.backends.base import JobResult, Machine, MachineJob, MachineView, Resumption
+from galileo_cnc.backends.base import (JobResult, Machine, MachineJob, MachineView, Resumption,
+                                       position_text)
 from galileo_cnc.config.machine import MIN_FEED_STEPS_PER_S, MachineConfig
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.grbl.check import check_job
@@ -45,14 +46,6 @@ MOVING_STATES = ("Run", "Jog", "Hold", "Home")
 CRITICAL_ALARMS = (1, 2)
 #: What a stopped job leaves GRBL in.
 HELD = "GRBL held the feed and was reset (its queue dropped, the position kept)"
-
-
-def mm3(nm: int) -> str:
-    return f"{nm / NM_PER_MM:.3f}"
-
-
-def position_text(nm: tuple[int, ...]) -> str:
-    return f"X {mm3(nm[0])}  Y {mm3(nm[1])}  Z {mm3(nm[2])} mm"
 
 
 class GrblMachine(Machine):
@@ -389,6 +382,39 @@ class GrblMachine(Machine):
         if found:
             operator.say(resumption.job.estimate_line())
         return found
+
+    # ---- a command line -----------------------------------------------------------
+    def send_line(self, text: str, say) -> bool:
+        """The line as it is, GRBL's reply shown; `$N=` settings read again after."""
+        from galileo_cnc.backends.command_line import (changes_grbl_settings,
+                                                       run_home_or_unlock, send_to_grbl)
+
+        if run_home_or_unlock(self, text, say):
+            return True
+        try:
+            taken = send_to_grbl(self.link, text, say)
+        except GrblError as problem:
+            self._alarm_settled(problem)
+        if taken and changes_grbl_settings(text):
+            self.link.read_info()           # steps/mm, max rates: what jobs are checked by
+            try:
+                refuse_other_scale(self.link, self.profile_config.steps_per_mm,
+                                   self.config_path, self.port_name)
+                self.scale_problem = None
+            except GalileoError as problem:
+                self.scale_problem = str(problem)
+                say(f"warning: {problem}; jobs are refused until they agree")
+        return taken
+
+    def origin_after_home(self) -> str:
+        """$H sets GRBL's machine frame; the work origin stays G54's offset from it."""
+        status = self.link.status()
+        offset = tuple(m - w for m, w in zip(status.mpos_nm, status.wpos_nm))
+        if not any(offset):
+            return "the work origin is now the home position (GRBL's G54 offset is zero)"
+        return (f"the work origin is GRBL's G54 offset, {position_text(offset)} from the "
+                f"homed machine frame: where it was set only if GRBL was homed then too; "
+                f"else set it again where the paper is (setup, then o)")
 
 
 class GrblSteps:

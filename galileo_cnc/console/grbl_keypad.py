@@ -19,7 +19,7 @@ from prompt_toolkit.key_binding import KeyBindings
 from prompt_toolkit.layout import Layout, Window
 from prompt_toolkit.layout.controls import FormattedTextControl
 
-from galileo_cnc.backends.grbl import position_text
+from galileo_cnc.backends.base import position_text
 from galileo_cnc.console.keypad import HINT, LEAVE_KEYS, ORIGIN_KEYS, REFRESH_S
 from galileo_cnc.console.units import NM_PER_JOG_UNIT
 from galileo_cnc.grbl.jog import keypad_jog

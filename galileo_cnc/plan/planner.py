@@ -49,6 +49,7 @@ from galileo_cnc.plan.order.apertures import (DRAWING_KINDS, PATH_KINDS, Ordered
 from galileo_cnc.plan.widths import aperture_width, mm_text
 from galileo_cnc.protocol.codec import first_range_problem
 from galileo_cnc.protocol.spec import COORD
+from galileo_cnc.program.describe import describe_op
 from galileo_cnc.program.ops import (COLUMNS, I, J, KIND, LINE, COL, NO_TOOL, POSITIONED_KINDS,
                                      TOOL, VALUE, X, Y, OpKind, Program)
 
@@ -461,12 +462,12 @@ def check_job(job: Job, program: Program, config: MachineConfig) -> None:
             row = program.table[op]
             # ink rings come from many objects: they have no line of their own
             pos = SourcePos(program.source, int(row[LINE]), int(row[COL])) if row[LINE] else None
-            what = OpKind(int(row[KIND])).name
+            what = describe_op(program, op)
         else:
-            what = "end of job"
+            what = "the end of the job"
         detail = (config.travel_refusal(problem.axis, problem.value, problem.limit)
                   if problem.value is not None else str(problem).split(": ", 1)[-1])
-        raise PlanError(f"{what} (op {op}): {detail}", pos, problem.axis, op) from None
+        raise PlanError(f"{what}: {detail}", pos, problem.axis, op) from None
 
 
 def _surely_inside(commands: list[Command], config: MachineConfig) -> bool:

@@ -131,7 +131,8 @@ def test_plot_refuses_bad_offsets_and_jobs_past_the_travel(tmp_path):
     result = galileo("plot", "samples/led-blinker.gbr", "--offset", "10,0", "--yes",
                      "--mode", "centre", "--port", "sim://?speed=0", home=tmp_path)
     assert result.returncode == 1
-    assert result.stderr.startswith("galileo-cnc: ") and ":75:1: LINE" in result.stderr
+    assert result.stderr.startswith("galileo-cnc: ") and (
+        ":75:1: the line from X 6 Y 36 to X 6 Y 32 mm (file coordinates): " in result.stderr)
     assert "X would reach" in result.stderr and "Traceback" not in result.stderr
 
 

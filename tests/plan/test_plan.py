@@ -194,7 +194,7 @@ def test_soft_limit_refuses_the_job_and_names_the_op():
              (OpKind.LINE, 5 * MM, -1 * MM), (OpKind.LINE, 1 * MM, 1 * MM))
     err = info.value
     assert (err.axis, err.op_index, err.pos.line) == ("Y", 2, 3)
-    assert str(err).startswith("t.gbr:3:1: LINE")
+    assert str(err).startswith("t.gbr:3:1: the line from X 5 Y 1 to X 5 Y -1 mm (file coordinates): ")
     assert "Y would reach -1.000 mm, below the travel's start at 0.000 mm [-160 steps]" in str(err)
     with pytest.raises(PlanError) as info:
         plan((OpKind.MOVE, 100 * MM, 100 * MM),

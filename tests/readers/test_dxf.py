@@ -478,6 +478,61 @@ def test_a_file_without_insunits_is_read_as_mm_with_a_warning(tmp_path):
         read_dxf(path, units="furlong")
 
 
+# A 40 x 25 mm rectangle as four LINEs, the way OpenSCAD exports a part: no HEADER, so
+# no $INSUNITS. ezdxf gives such a file its default header ($INSUNITS 6, metres).
+PART_LINES = [((0, 0), (40, 0)), ((40, 0), (40, 25)), ((40, 25), (0, 25)), ((0, 25), (0, 0))]
+
+
+def headerless_ascii(path: Path) -> Path:
+    pairs = [(999, "DXF from OpenSCAD"), (0, "SECTION"), (2, "ENTITIES")]
+    for (x0, y0), (x1, y1) in PART_LINES:
+        pairs += [(0, "LINE"), (8, "0"), (10, x0), (20, y0), (11, x1), (21, y1)]
+    pairs += [(0, "ENDSEC"), (0, "EOF")]
+    path.write_text("".join(f"{code}\n{value}\n" for code, value in pairs))
+    return path
+
+
+def headerless_binary_r12(path: Path) -> Path:
+    """The same part as a binary R12 DXF (one-byte group codes) with only ENTITIES."""
+    import struct
+
+    def tag(code, value):
+        if isinstance(value, str):
+            return bytes([code]) + value.encode("ascii") + b"\0"
+        return bytes([code]) + struct.pack("<d", value)
+
+    data = b"AutoCAD Binary DXF\r\n\x1a\x00" + tag(0, "SECTION") + tag(2, "ENTITIES")
+    for (x0, y0), (x1, y1) in PART_LINES:
+        data += tag(0, "LINE") + tag(8, "0") + tag(10, float(x0)) + tag(20, float(y0)) \
+            + tag(11, float(x1)) + tag(21, float(y1))
+    path.write_bytes(data + tag(0, "ENDSEC") + tag(0, "EOF"))
+    return path
+
+
+@pytest.mark.parametrize("make", [headerless_ascii, headerless_binary_r12])
+def test_a_headerless_drawing_is_millimetres_with_a_warning_not_metres(tmp_path, make):
+    program = read_dxf(make(tmp_path / "part.dxf"))
+    assert extents(program) == (0, 0, 40 * MM, 25 * MM)  # 40 mm wide, not 40 m
+    assert program.metadata["insunits"] is None and program.metadata["units"] == "mm"
+    assert program.metadata["binary"] is (make is headerless_binary_r12)
+    assert program.metadata["layers"] == {"0": 4}  # not ezdxf's default table's Defpoints
+    assert [w.message for w in program.warnings] == [
+        "the drawing has no $INSUNITS: read as millimetres (--units in reads it as inches)"]
+
+
+@pytest.mark.parametrize("version, fmt", [("R12", "asc"), ("R12", "bin"), ("R2000", "asc"),
+                                          ("R2000", "bin")])
+def test_every_version_and_encoding_keeps_its_units(tmp_path, version, fmt):
+    """ezdxf writes no $INSUNITS into R12 files (mm with a warning); R2000+ keep theirs."""
+    doc = ezdxf.new(version)
+    doc.units = 1  # inches
+    doc.modelspace().add_line((0, 0), (2, 0))
+    program = read_dxf(save(doc, tmp_path, fmt=fmt))
+    r12 = version == "R12"
+    assert drawn(program) == [(K.LINE, 2 * (MM if r12 else 25_400_000), 0, 0, 0)]
+    assert any("no $INSUNITS" in w.message for w in program.warnings) is r12
+
+
 def test_units_override_beats_the_header(tmp_path):
     doc = new_doc(1)
     doc.modelspace().add_line((0, 0), (2, 0))
@@ -782,6 +837,34 @@ def test_corpus_details():
     binary = _read("binary/netdxf-sample-binary.dxf")
     assert set(binary.table[:, LINE].tolist()) == {0} and binary.metadata["handles"]
     assert rows(binary) == rows(_read("netdxf/netdxf-sample.dxf"))
+
+
+def test_every_corpus_flavour_reads_in_the_units_its_file_names():
+    """Headerless, binary, R12 and R2000+ files: the unit is the file's own $INSUNITS
+    (the manifest's column); none, 0 (unitless) or a code that is no length is mm with a
+    warning, never the metres of ezdxf's default header."""
+    from galileo_cnc.readers.dxf.units import INSUNITS
+
+    flavours = set()
+    for row in _corpus_rows():
+        if row["kind"] == "invalid":
+            continue
+        program = _read(row["path"])
+        version = row["dxf_version"]
+        flavours.add("headerless" if version == "none" else "R12-" if version <= "AC1009"
+                     else "R2000+")
+        if program.metadata["binary"]:
+            flavours.add("binary")
+        warned = [w for w in program.warnings if "$INSUNITS" in w.message]
+        code = None if row["insunits"] == "none" else int(row["insunits"])
+        if code in INSUNITS:
+            assert program.metadata["insunits"] == code, row["path"]
+            assert Fraction(program.metadata["nm_per_unit"]) == INSUNITS[code][1], row["path"]
+            assert not warned, row["path"]
+        else:
+            assert program.metadata["nm_per_unit"] == str(MM), row["path"]
+            assert len(warned) == 1 and "read as millimetres" in warned[0].message, row["path"]
+    assert flavours == {"headerless", "binary", "R12-", "R2000+"}
 
 
 def test_no_other_reader_claims_a_dxf_file_and_every_dxf_file_sniffs():

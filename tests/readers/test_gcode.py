@@ -550,8 +550,11 @@ def _program(*rows):
 
 
 def test_writer_refuses_ops_without_a_gcode_equivalent():
-    with pytest.raises(GcodeExportError, match="FLASH has no G-code equivalent") as info:
-        write_gcode(_program((int(K.MOVE), 1, 1), (int(K.FLASH), 1, 1, 0, 0, 10, 0, 7, 3)))
+    # in words and mm, not `FLASH` (issue 31, item 14)
+    with pytest.raises(GcodeExportError, match=r"^built:7:3: the flash of D10 at X 2.5 Y 1 mm "
+                       r"\(file coordinates\): G-code has no such thing") as info:
+        write_gcode(_program((int(K.MOVE), 1, 1),
+                             (int(K.FLASH), 2_500_000, 1_000_000, 0, 0, 10, 0, 7, 3)))
     assert str(info.value.pos) == "built:7:3"
     with pytest.raises(GcodeExportError, match="feed rate must be positive"):
         write_gcode(_program((int(K.FEED), 0, 0, 0, 0, NO_TOOL, 0)))

@@ -179,6 +179,32 @@ def test_step_and_repeat_copies_the_block():
     assert len(ops(program, OpKind.LINE)) == 6
 
 
+def test_step_and_repeat_moves_only_to_points_of_the_drawing():
+    # issue 31, item 3: the block selects its aperture before any coordinate (a row at
+    # 0, 0); no copy may travel there, and every row of a copy (its pen-down too) is moved
+    program = read("%FSLAX46Y46*%%MOMM*%%ADD10C,0.2*%%SRX2Y1I20.0J0*%D10*"
+                   "X100000000Y100000000D02*X110000000Y100000000D01*%SR*%M02*")
+    assert points(program, OpKind.MOVE) == [(100_000_000, 100_000_000),
+                                            (120_000_000, 100_000_000)]
+    assert points(program, OpKind.PEN_DOWN) == points(program, OpKind.MOVE)
+    assert points(program, OpKind.LINE) == [(110_000_000, 100_000_000),
+                                            (130_000_000, 100_000_000)]
+
+
+def test_a_step_and_repeat_block_that_draws_from_the_current_point_starts_there_moved():
+    # the block's first draw starts where %SR found the pen (5, 0): each copy first goes
+    # to that point moved, pen up, and lowers the pen there
+    program = read(HEADER_MM + "X5000000Y0D02*X6000000Y0D01*%SRX1Y3I0J10.0*%"
+                   "X5000000Y2000000D01*%SR*%M02*")
+    table = [(OpKind(kind), x, y) for kind, x, y, *_ in ops(program)
+             if kind in (OpKind.MOVE, OpKind.PEN_DOWN, OpKind.LINE)]
+    mm = 1_000_000
+    assert table[3:] == [(OpKind.PEN_DOWN, 6 * mm, 0), (OpKind.LINE, 5 * mm, 2 * mm)] + [
+        row for k in (1, 2) for row in ((OpKind.MOVE, 6 * mm, 10 * k * mm),
+                                        (OpKind.PEN_DOWN, 6 * mm, 10 * k * mm),
+                                        (OpKind.LINE, 5 * mm, (10 * k + 2) * mm))]
+
+
 def test_aperture_block_is_replayed_at_each_flash():
     program = read("%FSLAX46Y46*%%MOMM*%%ADD10C,0.1*%%ABD20*%D10*X0Y0D03*X1000000Y0D03*%AB*%"
                    "D20*X5000000Y5000000D03*X7000000Y5000000D03*M02*")

@@ -132,12 +132,11 @@ def test_step_and_repeat_within_the_limit_gives_the_same_rows_as_before():
     program = read_gerber("t.gbr", text)
     cells = [(ix, iy) for ix in range(3) for iy in range(2)]
     moves = program.table[program.table[:, 0] == 0][:, [X, Y]].tolist()
-    # Each copy but the first starts with a move to its first point (the flash), then
-    # the block's own move; the first copy has only the block's move.
-    expected = [[1_000_000, 0]] + [p for ix, iy in cells[1:] for p in
-                                   ([ix * 5_000_000, iy * 10_000_000],
-                                    [1_000_000 + ix * 5_000_000, iy * 10_000_000])]
-    assert moves == expected
+    # The block starts with a flash, which goes to its point itself: each copy has only
+    # the block's own move, moved (issue 31, item 3: no lead-in move of its own).
+    assert moves == [[1_000_000 + ix * 5_000_000, iy * 10_000_000] for ix, iy in cells]
+    flashes = program.table[program.table[:, 0] == 4][:, [X, Y]].tolist()
+    assert flashes == [[ix * 5_000_000, iy * 10_000_000] for ix, iy in cells]
 
 
 def test_nested_aperture_blocks_are_refused_before_memory_runs_out(monkeypatch):
@@ -270,6 +269,34 @@ def test_an_include_file_is_read_in_place(tmp_path):
     (tmp_path / "self.gbr").write_text(HEADER + "%IFself.gbr*%\nM02*\n")
     with pytest.raises(GerberError, match="nested more than"):
         read_file(tmp_path / "self.gbr")
+
+
+def test_include_files_are_read_from_the_including_files_folder_only(tmp_path):
+    # issue 31, item 18: relative to the including file (a subfolder is inside it; a
+    # nested include is relative to its own file), never outside that folder
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "parts" / "outline.gbr").write_text("X1000000Y0D02*\n%IFedge.gbr*%\n")
+    (tmp_path / "parts" / "edge.gbr").write_text("X2000000Y0D01*\n")
+    main = tmp_path / "main.gbr"
+    main.write_text(HEADER + "%IFparts/outline.gbr*%\nM02*\n")
+    lines = read_file(main).table
+    assert lines[lines[:, 0] == 1][:, X].tolist() == [2_000_000]
+    outside = tmp_path / "secret.gbr"
+    outside.write_text("X9000000Y0D01*\n")
+    board = tmp_path / "board"
+    board.mkdir()
+    (board / "link.gbr").symlink_to(outside)
+    for target, why in [("../secret.gbr", "is not inside the folder of top.gbr"),
+                        ("sub\\..\\..\\secret.gbr", "is not inside the folder of top.gbr"),
+                        (str(outside), "is not inside the folder of top.gbr"),
+                        ("C:\\boards\\secret.gbr", "is not inside the folder of top.gbr"),
+                        ("link.gbr", "leads out of the folder of top.gbr")]:
+        top = board / "top.gbr"
+        top.write_text(HEADER + f"X0Y0D02*\n%IF{target}*%\nM02*\n")
+        with pytest.raises(GerberError) as caught:
+            read_file(top)
+        assert (caught.value.pos.file, caught.value.pos.line) == (str(top), 6), target
+        assert f"include file {target!r} (%IF) {why}" in caught.value.message
 
 
 def test_a_region_left_open_at_m02_is_a_positioned_error():

@@ -68,7 +68,10 @@ def read_dxf(path: str | os.PathLike, *, units: str | None = None,
     for line, message in load_warnings:
         out.warn(line, 1 if line else 0, message)
 
-    insunits = _insunits(doc, scan.insunits)
+    # What the file says, from our scan: ezdxf gives a file without a HEADER (an OpenSCAD
+    # export, a trimmed or binary R12 file) its own default header, whose $INSUNITS is 6
+    # (metres), and that would read a 40 mm part 40 m wide.
+    insunits = scan.insunits
     code = override if override is not None else insunits
     if code is None or code == 0 or code not in INSUNITS:
         if override is None:
@@ -80,7 +83,8 @@ def read_dxf(path: str | os.PathLike, *, units: str | None = None,
     unit, factor = INSUNITS[code]
     tolerance_units = tolerance_nm / float(factor)
 
-    all_layers = _layer_names(doc, attribute)
+    # without a TABLES section the layer table is ezdxf's default (0, Defpoints)
+    all_layers = _layer_names(doc, attribute, "TABLES" in scan.sections)
     selection = _selection(name, layers, all_layers)
     emitter = Emitter(out, Scale(factor), name)
     emitter.max_ops = limits.max_ops(max_ops)
@@ -125,18 +129,9 @@ def read_dxf(path: str | os.PathLike, *, units: str | None = None,
                      line_count=scan.line_count)
 
 
-def _insunits(doc, scanned: int | None) -> int | None:
-    value = doc.header.get("$INSUNITS")
-    if value is None:
-        return scanned
-    try:
-        return int(value)
-    except (TypeError, ValueError):
-        return scanned
-
-
-def _layer_names(doc, attribute) -> list[str]:
-    """The layers of the layer table, then any others that entities name."""
+def _layer_names(doc, attribute, table: bool = True) -> list[str]:
+    """The layers of the file's layer table (if it has one), then any others that
+    entities name."""
     names = []
     seen = set()
 
@@ -145,7 +140,7 @@ def _layer_names(doc, attribute) -> list[str]:
             seen.add(layer_name.casefold())
             names.append(layer_name)
 
-    for layer in doc.layers:
+    for layer in doc.layers if table else ():
         add(layer.dxf.name)
     for layout in (doc.modelspace(), *doc.blocks):
         for entity in layout:

@@ -57,6 +57,7 @@ class Scan:
     line_count: int = 0
     insunits: int | None = None
     acadver: str | None = None
+    sections: list[str] = field(default_factory=list)  # names of the sections, in order
     handles: dict[str, EntityLines] = field(default_factory=dict)
     layouts: dict[str, list[EntityLines]] = field(default_factory=dict)
     vertex_by_handle: dict[str, int] = field(default_factory=dict)
@@ -101,6 +102,7 @@ class _Machine:
                                 f"{self.seen[name]}): a DXF file has each section once; the file "
                                 "is damaged or two files were joined", str(value))
             self.seen[name] = line
+            self.scan.sections.append(name)
             self.section = name
             return
         if code == 999:

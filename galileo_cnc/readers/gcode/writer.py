@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import Iterator
 
 from galileo_cnc.errors import GalileoError, SourcePos
+from galileo_cnc.program.describe import describe_op
 from galileo_cnc.program.ops import (COL, I, J, KIND, LINE, NM_PER_MM, NO_TOOL, TOOL, VALUE,
                                      X, Y, OpKind, Program)
 
@@ -81,7 +82,8 @@ def gcode_lines(program: Program) -> Iterator[str]:
                 raise _refuse(program, row, "a feed rate must be positive")
             yield f"F{mm(row[VALUE] * 60)}"  # nm/s -> mm/min, exact
         else:
-            raise _refuse(program, row, f"{OpKind(kind).name} has no G-code equivalent")
+            raise _refuse(program, row, f"{describe_op(program, index)}: G-code has no such "
+                          "thing")
     yield "M2"
 
 

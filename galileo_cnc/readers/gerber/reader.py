@@ -127,8 +127,8 @@ class GerberReader:
         self.tool: int | None = NO_TOOL
         self.pen_down = False
         self.in_region = False
-        # nx, ny, dx, dy, first row, offset of the %SR statement
-        self.step_repeat: tuple[int, int, int, int, int, int] | None = None
+        # nx, ny, dx, dy, first row, offset of the %SR statement, current point there
+        self.step_repeat: tuple[int, int, int, int, int, int, int, int] | None = None
         self.ended = False
         # Rows store the statement's character offset in the `line` column while
         # reading; offsets become line and column once, at the end.
@@ -747,12 +747,14 @@ class GerberReader:
         except ValueError as problem:
             raise self.error(str(problem), block) from None
         if nx * ny > 1:
-            self.step_repeat = (nx, ny, dx, dy, len(self.rows) // NCOL, self.offset)
+            self.step_repeat = (nx, ny, dx, dy, len(self.rows) // NCOL, self.offset,
+                                self.x, self.y)
+            self.pen_down = False  # each copy's first draw then lowers the pen itself
 
     def _close_step_repeat(self) -> None:
         if self.step_repeat is None:
             return
-        nx, ny, dx, dy, first, where = self.step_repeat
+        nx, ny, dx, dy, first, where, start_x, start_y = self.step_repeat
         self.step_repeat = None
         rows = np.frombuffer(self.rows, dtype=np.int64).reshape(-1, NCOL)[first:].copy()
         if not len(rows):
@@ -761,26 +763,32 @@ class GerberReader:
         self.offset = where  # limits are reported at the %SR statement
         self._check_ops((nx * ny - 1) * (len(rows) + 1),
                         f"%SR repeating {len(rows):,} operations {nx:,} x {ny:,} times would make")
-        moving = np.isin(rows[:, KIND], POSITIONED_KINDS + (
-            int(OpKind.SELECT), int(OpKind.REGION_BEGIN), int(OpKind.REGION_END), int(OpKind.POLARITY)))
         reach = int(np.abs(rows[:, [X, Y]]).max()) + max((nx - 1) * abs(dx), (ny - 1) * abs(dy))
         if reach > MAX_COORD_NM:
             raise self.error(f"%SR repeats the image {nx:,} x {ny:,} times up to "
                              f"{reach / 1e9:g} m from the origin (at most {MAX_COORD_NM / 1e9:g} m)")
         self.offset = here
-        # Each copy is a pen-up move to its first point, then the block's rows moved by
-        # (ix dx, iy dy); copies in the order ix, then iy, made a slab at a time.
-        unit = np.concatenate((rows[:1], rows))
-        unit[0, :7] = (MOVE, rows[0, X], rows[0, Y], 0, 0, NO_TOOL, 0)
-        unit_moving = np.concatenate(([moving[0]], moving))
+        # Each copy is the block's rows moved by (ix dx, iy dy) (every row carries the
+        # point it happens at), copies in the order ix, then iy, made a slab at a time.
+        # A block that starts with a move or a flash goes to its point itself; one that
+        # draws from the point where %SR stood gets a pen-up move to that point, moved,
+        # first. No other move: the point of a row before any coordinate (a SELECT at
+        # 0, 0) is no point of the drawing, and a move there would stretch the job's box
+        # and the offset proposed from it.
+        positioned = np.flatnonzero(np.isin(rows[:, KIND], POSITIONED_KINDS))
+        unit = rows
+        if len(positioned) and rows[positioned[0], KIND] in (LINE, ARC_CW, ARC_CCW):
+            lead = rows[:1].copy()
+            lead[0, :7] = (MOVE, start_x, start_y, 0, 0, NO_TOOL, 0)
+            unit = np.concatenate((lead, rows))
         per_slab = max(1, 65_536 // len(unit))
         count = nx * ny - 1
         for start in range(0, count, per_slab):
             index = np.arange(start + 1, min(start + 1 + per_slab, count + 1), dtype=np.int64)
             ix, iy = index // ny, index % ny  # copy k is (k // ny, k % ny); 0 is the block itself
             slab = np.broadcast_to(unit, (len(index),) + unit.shape).copy()
-            slab[:, unit_moving, X] += (ix * dx)[:, None]
-            slab[:, unit_moving, Y] += (iy * dy)[:, None]
+            slab[:, :, X] += (ix * dx)[:, None]
+            slab[:, :, Y] += (iy * dy)[:, None]
             self.rows.frombytes(memoryview(slab).cast("B"))
         self.pen_down = False
 
@@ -818,8 +826,7 @@ class GerberReader:
         if len(self.includes) >= limits.MAX_INCLUDE_DEPTH:
             raise self.error(f"include files (%IF) nested more than {limits.MAX_INCLUDE_DEPTH} "
                              "deep: does a file include itself?", block)
-        path = target if os.path.isabs(target) else \
-            os.path.join(os.path.dirname(self.name) or ".", target)
+        path = self._include_path(target, block)
         try:
             text = read_text(path, GerberError)
         except FileAccessError as problem:
@@ -844,6 +851,25 @@ class GerberReader:
             view[first // NCOL:, LINE_COL] = where  # the included rows sit at the %IF
             view[first // NCOL:, COL_COL] = 0
             del view  # a buffer exported by the array would stop it from growing
+
+    def _include_path(self, target: str, block: str) -> str:
+        """The path of an %IF file: relative to the including file and inside its folder
+        (subfolders allowed). An absolute path, a drive, a `..` or a link that leads out
+        is refused: a board file must not make the reader open files elsewhere."""
+        folder = os.path.dirname(self.name) or "."
+        parts = re.split(r"[\\/]", target)
+        if os.path.isabs(target) or target[:1] in "\\/" or re.match(r"[A-Za-z]:", target) \
+                or ".." in parts:
+            raise self.error(f"include file {target!r} (%IF) is not inside the folder of "
+                             f"{os.path.basename(self.name)}: only a relative path without "
+                             "'..' is read (copy the file beside it)", block)
+        path = os.path.join(folder, *[part for part in parts if part not in ("", ".")])
+        real_folder = os.path.realpath(folder)
+        if os.path.commonpath([real_folder, os.path.realpath(path)]) != real_folder:
+            raise self.error(f"include file {target!r} (%IF) leads out of the folder of "
+                             f"{os.path.basename(self.name)} (a link to "
+                             f"{os.path.realpath(path)}): only files inside it are read", block)
+        return path
 
     def _load_transform(self, block: str) -> None:
         self.metadata.setdefault("load_transforms", []).append(block)
