@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import IntEnum
+from fractions import Fraction
 from typing import Union
 
 from galileo_cnc.errors import GalileoError
@@ -164,6 +165,8 @@ class Job:
     pens_nm: tuple = ()                     # ink mode: the pen set it was inked for
     layers: tuple = ()                      # DXF: the layers read (empty: all)
     units: str | None = None                # DXF: units given instead of $INSUNITS
+    scale: Fraction = Fraction(1)           # the drawing scaled (plan/transform.py), exact
+    rotate_deg: int = 0                     # and turned clockwise (0, 90, 180, 270)
     #: command index -> aperture: stop before that command for a pen change.
     pen_changes: dict[int, int] = field(default_factory=dict)
     #: aperture (pen key) -> what to ask for: "the 0.3 mm pen", "pen for aperture D11 (...)"

@@ -28,6 +28,9 @@ getg [--mode ink|centre] [--pens MM,MM] [--layers A,B] [--units mm|in]
     in an order that cuts pen-up travel; G-code keeps its own order unless
     --optimize is given (refused, naming the line, for a file that does more
     than draw with a pen: spindle speeds, depths, dwells, tool changes).
+    --scale F (0.5, 80%), --rotate 90|180|270 (clockwise) and --fit (the
+    largest size that fits the travel, aspect kept) change the drawing
+    before the offsets: getg --fit wide.dxf.
     Without FILE it asks for one (Tab completes paths, ~ included). A job
     larger than the machine's travel is refused at once, with both sizes. It
     shows the smallest X and Y the artwork uses and proposes offsets that move

@@ -92,6 +92,7 @@ def backward_imports(source: str, module: str, is_package: bool = False) -> list
 #: (curves, widths, ...) lies below them all.
 PLAN_STAGES = {
     "offsets": 0, "curves": 0, "widths": 0, "native": 0, "collector": 0, "measure": 0,
+    "transform": 0, "feeds": 0,
     "order": 1,
     "ink": 2, "planner": 2,
     "pipeline": 3,

@@ -49,12 +49,15 @@ def _run_info(args: argparse.Namespace) -> int:
     from galileo_cnc.cli.info import format_summary, summarize
     from galileo_cnc.plan.pipeline import load_artwork
 
-    artwork = load_artwork(args.file, margin_nm=round(args.margin * NM_PER_MM),
-                           layers=_layers(args), units=args.units)
-    summary = summarize(artwork)
     config = _profile(args).config
-    summary["misfit"] = artwork.misfit(config)          # None: the job fits
     options = _plan_options(args)
+    artwork = load_artwork(args.file, margin_nm=round(args.margin * NM_PER_MM),
+                           layers=_layers(args), units=args.units,
+                           transform=options.transform, config=config)
+    summary = summarize(artwork)
+    summary["misfit"] = artwork.misfit(config)          # None: the job fits
+    summary["transform"] = artwork.transform.describe()
+    summary["feeds"] = _feed_notes(artwork.program, config)
     if options.optimize and artwork.program.format == "gcode":
         _check_reorder(artwork.program)
     if options.mode_for(artwork.program) == "ink":
@@ -66,7 +69,28 @@ def _run_info(args: argparse.Namespace) -> int:
         print(json.dumps(summary, indent=2))
     else:
         print(format_summary(summary))
+        if summary["misfit"]:
+            print(f"            {artwork.way_out()}")
+        if summary["transform"]:
+            print(f"transform   {summary['transform']}")
+        for note in summary["feeds"]:
+            print(note)
     return 0
+
+
+def _feed_notes(program, config) -> list[str]:
+    """info: the feed warnings plot would give, and its refusal as a line (plan/feeds.py)."""
+    from galileo_cnc.plan.feeds import FeedError, check_feeds
+    try:
+        return check_feeds(program, config)
+    except FeedError as refused:
+        return [f"refused: {refused}"]
+
+
+def _say_feed_warnings(planned) -> None:
+    """preview and convert: their result goes to stdout, the feed warnings to stderr."""
+    for warning in planned.feed_warnings:
+        print(warning, file=sys.stderr)
 
 
 def _check_reorder(program) -> None:
@@ -93,7 +117,13 @@ def _profile(args: argparse.Namespace):
 def _plan_options(args: argparse.Namespace):
     from galileo_cnc.plan.pipeline import PlanOptions
     return PlanOptions(mode=args.mode, file_order=getattr(args, "file_order", False),
-                       layers=_layers(args), units=args.units, optimize=args.optimize)
+                       layers=_layers(args), units=args.units, optimize=args.optimize,
+                       transform=_transform(args))
+
+
+def _transform(args: argparse.Namespace):
+    from galileo_cnc.plan.transform import Transform
+    return Transform.asked(args.scale, args.rotate, args.fit)
 
 
 def _layers(args: argparse.Namespace) -> tuple[str, ...]:
@@ -131,7 +161,8 @@ def _run_plot(args: argparse.Namespace) -> int:
                               preview=args.preview, trace=args.trace, resume=args.resume,
                               group=not args.file_order, mode=args.mode,
                               layers=_layers(args), units=args.units, optimize=args.optimize,
-                              home=args.home, check=args.check, handle=handle, kind=kind)
+                              transform=_transform(args), home=args.home, check=args.check,
+                              handle=handle, kind=kind)
         return run_plot(options)
     finally:
         if handle is not None:
@@ -146,6 +177,7 @@ def _run_preview(args: argparse.Namespace) -> int:
     config = _profile(args).config
     planned = _plan(args, config)
     # stepped piece by piece as the preview reads it: no whole trace in memory
+    _say_feed_warnings(planned)
     steps = JobSteps(planned.job.commands, config)
     try:
         info = render_preview(planned.program, steps, config, planned.offset_nm, args.output,
@@ -169,16 +201,18 @@ def _plan(args: argparse.Namespace, config):
 
 
 def _run_convert(args: argparse.Namespace) -> int:
-    from galileo_cnc.plan.gcode_writer import converted_gcode
+    from galileo_cnc.plan.gcode_writer import converted_gcode, pen_moves
     from galileo_cnc.plan.measure import job_lengths
 
     check_output(args.output, "--output")
     config = _profile(args).config
+    pen = pen_moves(config, args.pen, args.target)      # refused before any planning
     planned = _plan(args, config)
+    _say_feed_warnings(planned)
     lines = 0
     try:
         with open(args.output, "w", encoding="ascii", newline="\n") as out:
-            for line in converted_gcode(planned, config):
+            for line in converted_gcode(planned, config, pen):
                 out.write(line + "\n")
                 lines += 1
     except OSError as problem:
@@ -274,6 +308,17 @@ def _add_drawing_options(parser: argparse.ArgumentParser) -> None:
                         "(info lists them)")
     parser.add_argument("--units", choices=("mm", "in"), help="DXF: the drawing's units, "
                         "instead of its $INSUNITS (a drawing without them is read as mm)")
+    _add_transform_options(parser)
+
+
+def _add_transform_options(parser: argparse.ArgumentParser) -> None:
+    """--scale, --rotate, --fit (plan/transform.py): before the offset, exact in nm."""
+    parser.add_argument("--scale", metavar="F", help="scale the drawing by F (0.5, 2, "
+                        "80%%), exactly, about the file's origin")
+    parser.add_argument("--rotate", metavar="DEG", help="turn the drawing 90, 180 or 270 "
+                        "degrees clockwise (as vpype's rotate)")
+    parser.add_argument("--fit", action="store_true", help="scale the drawing to the "
+                        "largest size that fits the travel with the margin (keeps the aspect)")
 
 
 def _add_ink_options(parser: argparse.ArgumentParser) -> None:
@@ -340,6 +385,13 @@ def build_parser() -> argparse.ArgumentParser:
     _add_job_options(convert)
     convert.add_argument("-o", "--output", required=True, metavar="NC")
     convert.add_argument("--profile", metavar="TOML", help="machine profile (feed, pens)")
+    convert.add_argument("--pen", choices=("z", "servo", "spindle"),
+                         help="how the pen moves: z (the profile's pen heights), servo "
+                         "(M3 S.. / M5 and a dwell), spindle (M3 / M5); default: the "
+                         "profile's [grbl] pen")
+    convert.add_argument("--target", choices=("grbl", "galileo"), default="grbl",
+                         help="who reads the file: grbl (its senders; G4 P in seconds, "
+                         "the default) or galileo (galileo-cnc itself; G4 P in ms)")
     convert.set_defaults(run=_run_convert, port=None, baud=None)
 
     ports = commands.add_parser("ports", help="list serial ports (and sim://)")

@@ -29,6 +29,7 @@ from galileo_cnc.config.profile import Profile
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.grbl.stream import GrblStreamError
 from galileo_cnc.machine.timing import duration_text, job_timing
+from galileo_cnc.plan.feeds import machine_refusal
 from galileo_cnc.plan.ink.background import Deferred
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
 from galileo_cnc.plan.widths import mm_text
@@ -138,6 +139,7 @@ class PlotOptions:
     layers: tuple[str, ...] = ()
     units: str | None = None
     optimize: bool = False          # reorder pen-drawing G-code too (plan/order/gcode_order.py)
+    transform: Any = None           # --scale, --rotate, --fit (plan/transform.py)
     home: bool = False              # home before the job: a reset mid-job is resumable
     check: bool = False             # GRBL's check mode ($C) instead of plotting
     #: the board's port, already open and probed (discovery.open_board), and what
@@ -148,7 +150,8 @@ class PlotOptions:
     @property
     def plan(self) -> PlanOptions:
         return PlanOptions(mode=self.mode, file_order=not self.group, layers=self.layers,
-                           units=self.units, optimize=self.optimize)
+                           units=self.units, optimize=self.optimize,
+                           **({"transform": self.transform} if self.transform else {}))
 
 
 class PlotOperator:
@@ -218,6 +221,9 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
         found = " (no board found)" if profile.port is None and machine.simulated else ""
         out.write(machine.describe() + found + "\n")
         machine.check_profile()             # before any plan is shown: no job for it
+        if planned is not None and (refused := machine_refusal(
+                planned.program, profile.config, machine.feed_refusal)) is not None:
+            raise GalileoError(refused)     # GRBL's $110/$111: plan_file knows only ours
         if options.check and not machine.checks_jobs:
             raise GalileoError(f"plot --check runs GRBL's check mode ($C): it needs a GRBL "
                                f"board, and {machine.port_name} runs galileo-cnc firmware "
@@ -309,9 +315,13 @@ def _say_place(planned, out: TextIO) -> None:
     program, box = planned.artwork.program, planned.artwork.drawn_box_nm
     offset = planned.offset_nm
     if box is not None:
-        out.write(f"{program.source}: minimum X {box[0] / NM_PER_MM:.3f} mm, "
+        done = planned.artwork.transform.describe()
+        out.write(f"{program.source}: {done + '; ' if done else ''}"
+                  f"minimum X {box[0] / NM_PER_MM:.3f} mm, "
                   f"Y {box[1] / NM_PER_MM:.3f} mm; offset {offset[0] / NM_PER_MM:.3f}, "
                   f"{offset[1] / NM_PER_MM:.3f} mm\n")
+    for warning in getattr(planned, "feed_warnings", ()):     # a resumed job said them
+        out.write(f"{warning}\n")
 
 
 def _say_ink(ink, out: TextIO) -> None:

@@ -15,7 +15,9 @@ from galileo_cnc.config.machine import pen_widths_from_text
 from galileo_cnc.console import jobs
 from galileo_cnc.plan.offsets import offset_from_text
 from galileo_cnc.errors import GalileoError
+from galileo_cnc.plan.feeds import machine_refusal
 from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, Artwork, PlanOptions, load_artwork
+from galileo_cnc.plan.transform import Transform
 from galileo_cnc.program.ops import NM_PER_MM
 
 
@@ -27,10 +29,18 @@ def run(console, arguments: list[str]) -> None:
         return
     console.machine.check_profile()         # e.g. a board built for another machine
     artwork = load_artwork(os.path.expanduser(path), layers=options.layers,
-                           units=options.units)     # GalileoError: one message, no traceback
+                           units=options.units, transform=options.transform,
+                           config=console.config)     # GalileoError: one message, no traceback
     if (problem := artwork.misfit(console.config)) is not None:
-        console.say(problem)                          # before any question or planning
+        # before any question or planning
+        console.say(f"{problem}: getg {artwork.way_out()}")
         return
+    if (refused := machine_refusal(artwork.program, config,
+                                   console.machine.feed_refusal)) is not None:
+        console.say(refused)                # GRBL's $110/$111: plan_file knows only ours
+        return
+    if artwork.transform.describe():
+        console.say(f"drawing     {artwork.transform.describe()}")
     if artwork.drawn_box_nm is None:
         console.say(f"{artwork.program.source}: nothing is drawn")
         return
@@ -52,6 +62,8 @@ def run(console, arguments: list[str]) -> None:
     if planned.ink is not None:
         for warning in planned.ink.warnings_to_show():
             console.say(warning)
+    for warning in planned.feed_warnings:
+        console.say(warning)
     jobs.plot(console, planned, config)
 
 
@@ -63,13 +75,17 @@ def _options(console, arguments: list[str]) -> tuple[PlanOptions, object, list[s
     mode, config, rest = "auto", console.config, list(arguments)
     layers: tuple[str, ...] = ()
     units = None
-    optimize = False
+    optimize = fit = False
+    scale = rotate = None
     while rest and rest[0].startswith("--"):
         flag = rest.pop(0)
-        if flag == "--optimize":                  # the one option without a value
-            optimize = True
+        if flag in ("--optimize", "--fit"):       # the options without a value
+            optimize, fit = optimize or flag == "--optimize", fit or flag == "--fit"
             continue
         value = rest.pop(0) if rest else ""
+        if flag in ("--scale", "--rotate"):
+            scale, rotate = (value, rotate) if flag == "--scale" else (scale, value)
+            continue
         if flag == "--mode" and value in ("ink", "centre"):
             mode = value
         elif flag == "--pens":
@@ -81,8 +97,10 @@ def _options(console, arguments: list[str]) -> tuple[PlanOptions, object, list[s
         else:
             raise GalileoError(f"getg: unknown option {flag} {value}".rstrip()
                                + " (getg [--mode ink|centre] [--pens MM,MM] [--layers A,B] "
-                               "[--units mm|in] [--optimize] [FILE])")
-    return PlanOptions(mode=mode, layers=layers, units=units, optimize=optimize), config, rest
+                               "[--units mm|in] [--optimize] [--scale F] [--rotate 90|180|270] "
+                               "[--fit] [FILE])")
+    return PlanOptions(mode=mode, layers=layers, units=units, optimize=optimize,
+                       transform=Transform.asked(scale, rotate, fit)), config, rest
 
 
 def choose_offset(console, artwork: Artwork, inked=None) -> tuple[int, int] | None:

@@ -78,14 +78,15 @@ def _as_planned(file: tuple, config: MachineConfig, offset: OffsetChoice,
         return None
     return (file, _without_pens(config), tuple(offset), options.mode,
             tuple(options.pens_nm), not options.file_order, optimize, tuple(options.layers),
-            options.units)
+            options.units, options.transform.scale, options.transform.rotate_deg)
 
 
 def _planned_key(file: tuple, config: MachineConfig, planned: PlannedFile) -> tuple:
     """What `_as_planned` makes of a request for exactly this plan."""
     job = planned.job
     return (file, _without_pens(config), tuple(planned.offset_nm), planned.mode,
-            tuple(job.pens_nm), job.grouped, job.ordered, tuple(job.layers), job.units)
+            tuple(job.pens_nm), job.grouped, job.ordered, tuple(job.layers), job.units,
+            job.scale, job.rotate_deg)
 
 
 def _without_pens(config: MachineConfig) -> tuple:

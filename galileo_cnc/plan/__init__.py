@@ -14,5 +14,6 @@ Each stage imports only those below it (tests/test_layout.py checks it):
                    paths chained and ordered to cut pen-up travel
   shared           offsets.py (where the artwork goes), curves.py (arcs as chords),
                    widths.py (an aperture's stroke width), native.py (the compiled
-                   parts), collector.py, measure.py (what a planned Job draws)
+                   parts), collector.py, measure.py (what a planned Job draws),
+                   transform.py (--scale, --rotate, --fit), feeds.py (feeds checked)
 """

@@ -5,6 +5,10 @@ the machine will visit (drawn, flashed and travelled to), the offset that brings
 it to the origin plus a margin, and whether it fits the machine at all.
 `plan_file` plans it with the offset the front end chose. `info` stops after
 the first step; `plot`, `preview`, the console's `getg` and `resume` take both.
+A scale, rotation or fit the user asks for (transform.py) is applied as the file is
+read, before the box and the offset are worked out; the feeds are checked before
+planning (feeds.py): above the machine's limits refused, above the warning feed
+said in `PlannedFile.feed_warnings`.
 """
 
 from __future__ import annotations
@@ -16,10 +20,12 @@ from typing import Callable, Union
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.job import Job
 from galileo_cnc.plan.collector import collector_paused
+from galileo_cnc.plan.feeds import check_feeds
 from galileo_cnc.plan.ink.inking import InkPlan, ink_paths
 from galileo_cnc.plan.offsets import (DEFAULT_MARGIN_NM, OffsetError, offset_for_box,
                                       offset_from_text)
 from galileo_cnc.plan.planner import PlanError, plan_program
+from galileo_cnc.plan.transform import NO_TRANSFORM, Transform, apply_transform
 from galileo_cnc.program.extents import extents
 from galileo_cnc.program.ops import NM_PER_MM, Program
 from galileo_cnc.readers import read_file
@@ -45,6 +51,8 @@ class Artwork:
     drawn_box_nm: Box | None     # drawn centre lines (arcs by their extremes) and flashes
     visited_box_nm: Box | None   # everything the machine goes to: drawn, flashed, moved to
     margin_nm: int
+    #: the scale and rotation `program` was read with (a --fit resolved to its scale)
+    transform: Transform = NO_TRANSFORM
 
     @property
     def proposal_nm(self) -> tuple[int, int]:
@@ -61,10 +69,16 @@ class Artwork:
                                         ("tall", y1 - y0, config.y_travel_mm, "y_travel_mm")):
             if size > round(travel * NM_PER_MM):
                 # where a bigger machine says so: the profile ([machine], docs/streaming.md)
+                done = f", {self.transform.describe()}" if self.transform.describe() else ""
                 return (f"{self.program.source}: the job is {size / NM_PER_MM:.1f} mm {axis} "
-                        f"(with its travel moves); the machine's travel is {travel:g} mm "
-                        f"({key} in the profile)")
+                        f"(with its travel moves{done}); the machine's travel is {travel:g} "
+                        f"mm ({key} in the profile)")
         return None
+
+    def way_out(self) -> str:
+        """What makes a misfit fit (transform.py), for the front ends to add."""
+        turn = "" if self.transform.rotate_deg else ", --rotate 90"
+        return f"--fit scales it to the travel (or --scale F{turn})"
 
 
 MODES = ("auto", "ink", "centre")
@@ -80,7 +94,8 @@ class PlanOptions:
     profile's pens. `file_order` keeps the file's order: no grouping by pen, no
     path order. `optimize` orders G-code's paths too (Gerber and DXF are ordered
     anyway), if it only draws with a pen. `layers` and `units` choose what of a DXF
-    drawing is read (read_dxf)."""
+    drawing is read (read_dxf). `transform`: the scale, rotation or fit the drawing
+    is read with (transform.py)."""
 
     mode: str = "auto"
     pens_nm: tuple[int, ...] = ()
@@ -88,6 +103,7 @@ class PlanOptions:
     layers: tuple[str, ...] = ()
     units: str | None = None
     optimize: bool = False
+    transform: Transform = NO_TRANSFORM
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -115,6 +131,8 @@ class PlannedFile:
     plotted: Program
     mode: str = "centre"
     ink: InkPlan | None = None
+    #: feeds above the profile's warning feed, one line each (feeds.py)
+    feed_warnings: tuple[str, ...] = ()
 
     @property
     def program(self) -> Program:
@@ -128,12 +146,20 @@ class PlannedFile:
 
 
 def load_artwork(source: str | Path | Program, margin_nm: int = DEFAULT_MARGIN_NM, *,
-                 layers: tuple[str, ...] = (), units: str | None = None) -> Artwork:
+                 layers: tuple[str, ...] = (), units: str | None = None,
+                 transform: Transform = NO_TRANSFORM,
+                 config: MachineConfig | None = None) -> Artwork:
     """Read `source` (a path, or a Program already read) and find where it sits;
-    `layers` and `units` are a DXF drawing's (readers.read_file)."""
+    `layers` and `units` are a DXF drawing's (readers.read_file); `transform` scales
+    and turns it first, a fit to the travel of `config` (the seed's machine if None)."""
     program = source if isinstance(source, Program) \
         else read_file(source, layers=layers, units=units)
-    return Artwork(program, extents(program), extents(program, visited=True), margin_nm)
+    if not transform.is_identity:
+        config = config or MachineConfig()
+        travel = (round(config.x_travel_mm * NM_PER_MM), round(config.y_travel_mm * NM_PER_MM))
+        program, transform = apply_transform(program, transform, travel, margin_nm)
+    return Artwork(program, extents(program), extents(program, visited=True), margin_nm,
+                   transform)
 
 
 def resolve_offset(artwork: Artwork, choice: OffsetChoice) -> tuple[int, int]:
@@ -173,9 +199,11 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
     with collector_paused():        # millions of objects, none in a cycle (collector.py)
         config = config or MachineConfig()
         artwork = source if isinstance(source, Artwork) else \
-            load_artwork(source, margin_nm, layers=options.layers, units=options.units)
+            load_artwork(source, margin_nm, layers=options.layers, units=options.units,
+                         transform=options.transform, config=config)
         if (problem := artwork.misfit(config)) is not None:
-            raise PlanError(problem)
+            raise PlanError(f"{problem}: {artwork.way_out()}")
+        feed_warnings = check_feeds(artwork.program, config)   # PlanError above the limit
         offset_nm = resolve_offset(artwork, offset)
         mode = options.mode_for(artwork.program)
         stage = on_stage if on_stage is not None and len(artwork.program) >= PLANNING_NOTICE_OPS \
@@ -219,4 +247,5 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
         job.mode = mode
         job.pens_nm = ink.pens_nm if ink is not None else ()
         job.layers, job.units = tuple(options.layers), options.units
-        return PlannedFile(artwork, offset_nm, job, plotted, mode, ink)
+        job.scale, job.rotate_deg = artwork.transform.scale, artwork.transform.rotate_deg
+        return PlannedFile(artwork, offset_nm, job, plotted, mode, ink, tuple(feed_warnings))

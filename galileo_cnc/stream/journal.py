@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 import os
 import time
 from dataclasses import asdict, dataclass
@@ -71,6 +72,10 @@ class JournalEntry:
     #: the job's frame is the homed one (`plot --home` homed the machine before it,
     #: so homing again finds it after a reset); older journals: not
     homed: bool = False
+    #: the drawing scaled (an exact fraction, "4/5") and turned clockwise before the
+    #: offset (plan/transform.py); older journals: neither
+    scale: str = "1"
+    rotate_deg: int = 0
 
     def index_of_seq(self, seq: int) -> int | None:
         """The command a sequence number of this session would belong to (the
@@ -122,6 +127,9 @@ _FIELD_CHECKS = {
                "a list of layer names"),
     "units": (lambda v: v is None or v in ("mm", "in"), "null, mm or in"),
     "homed": (lambda v: isinstance(v, bool), "true or false"),
+    "scale": (lambda v: isinstance(v, str) and re.fullmatch(r"[1-9][0-9]*(/[1-9][0-9]*)?", v)
+              is not None, "a fraction such as 4/5"),
+    "rotate_deg": (lambda v: v in (0, 90, 180, 270), "0, 90, 180 or 270"),
 }
 _REQUIRED = ("source", "digest", "offset_nm", "profile", "group", "total", "confirmed",
              "first_index", "first_seq")

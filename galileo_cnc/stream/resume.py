@@ -26,6 +26,7 @@ the job's path near where it stopped) is refused, saying why.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from fractions import Fraction
 from pathlib import Path
 from typing import Callable
 
@@ -37,6 +38,7 @@ from galileo_cnc.errors import GalileoError
 from galileo_cnc.job import Command, Job, PenDown, Rapid, SetFeed
 from galileo_cnc.machine import ReferenceMachine
 from galileo_cnc.plan.pipeline import Artwork, PlannedFile, PlanOptions, plan_file
+from galileo_cnc.plan.transform import Transform
 from galileo_cnc.program.ops import Program
 from galileo_cnc.stream.homing import home_after_reset
 from galileo_cnc.stream.journal import ABORTED, RESET, Journal, JournalEntry, file_digest
@@ -156,13 +158,15 @@ def replan(entry: JournalEntry, config: MachineConfig,
            on_stage: Callable[[str], None] | None = None,
            plan: Callable[..., PlannedFile] = plan_file) -> PlannedFile:
     """The journal's job planned again exactly as it was (file, offset, mode, order,
-    pens, layers, units; the planner is deterministic), for our firmware's resume and
-    GRBL's. `on_stage`: see plan_file; `plan`: plan_file, or one that keeps plans
-    (the console's PlanCache)."""
+    pens, layers, units, scale and rotation; the planner is deterministic), for our
+    firmware's resume and GRBL's. `on_stage`: see plan_file; `plan`: plan_file, or one
+    that keeps plans (the console's PlanCache)."""
     return plan(entry.source, config, tuple(entry.offset_nm),
                 options=PlanOptions(mode=entry.mode, file_order=not entry.group,
                                     pens_nm=tuple(entry.pens_nm),
-                                    layers=tuple(entry.layers), units=entry.units),
+                                    layers=tuple(entry.layers), units=entry.units,
+                                    transform=Transform(Fraction(entry.scale),
+                                                        entry.rotate_deg)),
                 optimize=entry.ordered, on_stage=on_stage)
 
 

@@ -483,7 +483,8 @@ class JobStreamer:
             self.job.grouped, len(self.job), self.start - 1, self.start, first_seq,
             start_position=self.job_start, mode=self.job.mode, ordered=self.job.ordered,
             pens_nm=tuple(self.job.pens_nm), layers=tuple(self.job.layers),
-            units=self.job.units, homed=self.homed))
+            units=self.job.units, homed=self.homed, scale=str(self.job.scale),
+            rotate_deg=self.job.rotate_deg))
 
     def _journal_end(self, state: str, reason: str = "") -> None:
         if self.journal is not None and self.journal.entry is not None:
