@@ -31,6 +31,7 @@ from galileo_cnc.grbl.stream import GrblStreamError
 from galileo_cnc.machine.timing import duration_text, job_timing
 from galileo_cnc.plan.ink.background import Deferred
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
+from galileo_cnc.plan.open_traces import ink_warnings, open_traces
 from galileo_cnc.plan.widths import mm_text
 from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, PlanOptions, plan_file
 from galileo_cnc.program.ops import NM_PER_MM
@@ -140,6 +141,7 @@ class PlotOptions:
     optimize: bool = False          # reorder pen-drawing G-code too (plan/order/gcode_order.py)
     home: bool = False              # home before the job: a reset mid-job is resumable
     check: bool = False             # GRBL's check mode ($C) instead of plotting
+    allow_open: bool = False        # plot although the ink leaves trace pieces out
     #: the board's port, already open and probed (discovery.open_board), and what
     #: answered there: the machine greets over it instead of opening the port again
     handle: Any = None
@@ -200,6 +202,8 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
             planned = plan_file(options.file, profile.config, options.offset,
                                 margin_nm=options.margin_nm, on_progress=progress.planning,
                                 on_stage=on_stage, options=options.plan)
+        if planned.ink is not None and not options.allow_open:
+            refuse_open_traces(planned.ink)  # before the machine is opened
     # our firmware's timing (the estimate and the progress line's time left: 3.5 s for
     # hellboard's 121k commands) in a second process while the machine opens
     timing = Deferred(job_timing, planned.job.commands, profile.config,
@@ -320,8 +324,15 @@ def _say_ink(ink, out: TextIO) -> None:
     share = 100 * ink.inked_nm2 / ink.copper_nm2 if ink.copper_nm2 else 100.0
     out.write(f"ink: pens {pens} mm, {share:.1f} % of the copper inked, "
               f"{len(ink.narrow)} narrow features as centre lines\n")
-    for warning in ink.warnings_to_show():
+    for warning in ink_warnings(ink):
         out.write(f"{warning}\n")
+
+
+def refuse_open_traces(ink) -> None:
+    """plot does not draw a board with open nets unless told to (--allow-open)."""
+    summary = open_traces(ink)
+    if summary is not None:
+        raise GalileoError(f"{summary.text()}. plot --allow-open plots it so")
 
 
 def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO) -> None:

@@ -15,6 +15,7 @@ from galileo_cnc.config.machine import pen_widths_from_text
 from galileo_cnc.console import jobs
 from galileo_cnc.plan.offsets import offset_from_text
 from galileo_cnc.errors import GalileoError
+from galileo_cnc.plan.open_traces import ink_warnings, open_traces
 from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, Artwork, PlanOptions, load_artwork
 from galileo_cnc.program.ops import NM_PER_MM
 
@@ -44,8 +45,12 @@ def run(console, arguments: list[str]) -> None:
         console.say(f"offsets     X {_mm(planned.offset_nm[0])} mm, Y {_mm(planned.offset_nm[1])} "
                     "mm (the ink reaches past the centre lines)")
     if planned.ink is not None:
-        for warning in planned.ink.warnings_to_show():
+        for warning in ink_warnings(planned.ink):
             console.say(warning)
+        if open_traces(planned.ink) is not None and \
+                not console.confirm("plot it with these trace pieces left out?", default=False):
+            console.say("not plotted (getg --pens MM,MM plans it for other pens)")
+            return
     jobs.plot(console, planned, config)
 
 
