@@ -157,14 +157,19 @@ def _run_preview(args: argparse.Namespace) -> int:
     from galileo_cnc.preview.render import render_preview
 
     check_output(args.output, "--output")
-    preview_kind(args.output, "--output")
+    kind = preview_kind(args.output, "--output")
     config = _profile(args).config
     planned = _plan(args, config)
-    # stepped piece by piece as the preview reads it: no whole trace in memory
-    steps = JobSteps(planned.job.commands, config)
     try:
-        info = render_preview(planned.program, steps, config, planned.offset_nm, args.output,
-                              job=planned.job, copper=planned.copper)
+        if kind == "svg":               # from the job's commands: nothing to step
+            from galileo_cnc.preview.svg import render_svg
+            info = render_svg(planned.program, planned.job, config, planned.offset_nm,
+                              args.output, copper=planned.copper)
+        else:
+            # stepped piece by piece as the preview reads it: no whole trace in memory
+            steps = JobSteps(planned.job.commands, config)
+            info = render_preview(planned.program, steps, config, planned.offset_nm,
+                                  args.output, job=planned.job, copper=planned.copper)
     except OSError as problem:
         raise GalileoError(f"--output {args.output}: cannot write: {problem.strerror}") from None
     print(f"{args.output}: {info.summary()}")
@@ -341,7 +346,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_connection_options(plot)
     plot.add_argument("--yes", action="store_true",
                       help="announce pen changes instead of waiting for Enter")
-    plot.add_argument("--preview", metavar="PNG", help="write a preview of what was plotted")
+    plot.add_argument("--preview", metavar="PNG|SVG",
+                      help="write a preview of what was plotted (.svg: vector)")
     plot.add_argument("--trace", metavar="NPZ", help="write the step trace (tick, axis, dir)")
     plot.add_argument("--home", action="store_true",
                       help="home the machine (X and Y end stops, Z too if it has one) before "
@@ -365,9 +371,11 @@ def build_parser() -> argparse.ArgumentParser:
                       "nothing, and list every line GRBL rejects (exit 1 if any)")
     plot.set_defaults(run=_run_plot)
 
-    preview = commands.add_parser("preview", help="draw what the machine will plot, as PNG")
+    preview = commands.add_parser("preview", help="draw what the machine will plot: a PNG "
+                                  "picture, or an SVG a browser zooms (with a legend, a "
+                                  "scale and the origin)")
     _add_job_options(preview)
-    preview.add_argument("-o", "--output", required=True, metavar="PNG")
+    preview.add_argument("-o", "--output", required=True, metavar="PNG|SVG")
     preview.add_argument("--profile", metavar="TOML", help="machine profile")
     preview.set_defaults(run=_run_preview, port=None, baud=None)
 

@@ -341,6 +341,13 @@ def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO)
     if job is None or not (options.trace or options.preview):
         return
     planned, config = job.planned, job.config
+    if options.preview and options.preview.lower().endswith(".svg"):
+        from galileo_cnc.preview.svg import render_svg      # from the commands: no trace
+        info = render_svg(planned.program, planned.job, config, planned.offset_nm,
+                          options.preview, copper=planned.copper)
+        out.write(f"preview: {options.preview}: {info.summary()}\n")
+        if not options.trace:
+            return
     from galileo_cnc.machine import simulate
     trace = simulate(planned.job.commands, config)
     if options.trace:
@@ -353,7 +360,7 @@ def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO)
             trace.save(options.trace)
             out.write(f"step trace: {options.trace} ({len(trace)} steps): the reference "
                       f"machine's, since {machine.port_name} cannot report its steps\n")
-    if options.preview:
+    if options.preview and not options.preview.lower().endswith(".svg"):
         from galileo_cnc.preview.render import render_preview
         info = render_preview(planned.program, trace, config, planned.offset_nm,
                               options.preview, job=planned.job, copper=planned.copper)
