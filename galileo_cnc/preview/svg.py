@@ -29,8 +29,8 @@ import numpy as np
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.job import ArcTo, Flash, Job, LineTo, PenDown, PenUp, Rapid
-from galileo_cnc.preview.artwork import ART, _path_width_mm
-from galileo_cnc.preview.render import OUTSIDE, STROKE, TRAVEL, UNINKED, _copper_rings
+from galileo_cnc.preview.artwork import ART, path_width_mm
+from galileo_cnc.preview.render import OUTSIDE, STROKE, TRAVEL, UNINKED, copper_rings
 from galileo_cnc.program.extents import extents, start_points
 from galileo_cnc.program.ops import I, J, KIND, NM_PER_MM, TOOL, VALUE, X, Y, OpKind, Program
 
@@ -205,7 +205,7 @@ def _write(out: TextIO, program: Program, paths: _Paths, offset_nm, copper, view
         for x, y in dots:
             out.write(f'<circle cx="{x:.4f}" cy="{y:.4f}" r="{r:.4f}" fill="currentColor"/>\n')
     out.write('</g>\n')
-    rings = _copper_rings(copper) if copper is not None else None
+    rings = copper_rings(copper) if copper is not None else None
     if rings is not None:
         data = _rings_data(rings, offset_nm)
         out.write(f'<path id="copper" fill-rule="evenodd" d="{data}"/>\n')
@@ -343,7 +343,7 @@ def _write_artwork(out: TextIO, program: Program, offset_nm) -> None:
             if in_region:
                 region.append((f"M{sx:.4f} {sy:.4f}" if not region else "") + step)
                 continue
-            width = round(_path_width_mm(program.apertures.get(row[TOOL])), 4)
+            width = round(path_width_mm(program.apertures.get(row[TOOL])), 4)
             by_width.setdefault(width, []).append(f"M{sx:.4f} {sy:.4f}{step}")
         elif kind == OpKind.MOVE and in_region and region:
             regions.append("".join(region) + "Z")
