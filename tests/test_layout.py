@@ -94,7 +94,7 @@ PLAN_STAGES = {
     "offsets": 0, "curves": 0, "widths": 0, "native": 0, "collector": 0, "measure": 0,
     "order": 1,
     "ink": 2, "planner": 2,
-    "pipeline": 3,
+    "pipeline": 3, "open_traces": 3,
     "gcode_writer": 4,
 }
 
