@@ -266,24 +266,32 @@ def test_a_bare_d02_before_the_first_coordinate_moves_nowhere(tmp_path):
     assert "process has finished" in result.stdout
 
 
-def test_info_sums_up_many_warnings_and_plans_only_on_request(tmp_path):
+def test_info_sums_up_many_warnings_and_plans_only_on_request(tmp_path, capsys,
+                                                              monkeypatch):
     # issue 31, item 13: info printed every warning (1,950 lines for one layer) and
     # planned the whole job (50 s on a 1.4 MB layer) for figures nobody asked for
+    from galileo_cnc.cli.main import main
+    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path))      # no profile of the user
+
+    def info(*args) -> str:
+        assert main(["info", *map(str, args)]) == 0
+        return capsys.readouterr().out
+
     drawing = tmp_path / "mcodes.nc"
     drawing.write_text("G21 G90\nG1 X0 Y0 F600\n" + "".join(
         f"M1{k:02d}\nG1 X{k} Y0\n" for k in range(1, 31)) + "M2\n")
-    text = galileo("info", str(drawing)).stdout.splitlines()
+    text = info(drawing).splitlines()
     assert "warnings    30" in text
     shown = [line for line in text if ": warning: unknown M code" in line]
     assert len(shown) == 10 and shown[0].endswith("mcodes.nc:3:1: warning: unknown M code "
                                                   "M101 is ignored  [M101]")
     assert text[-1] == "  ... and 20 more (--verbose lists them all)"
     assert text[-13].startswith("plan        --plan works out the job")
-    every = galileo("info", str(drawing), "--verbose").stdout
+    every = info(drawing, "--verbose")
     assert every.count(": warning: unknown M code") == 30 and "--verbose lists" not in every
     # the plan's figures on request only
-    assert "ink" not in json.loads(galileo("info", "samples/led-blinker.gbr", "--json").stdout)
-    planned = json.loads(galileo("info", str(drawing), "--json", "--plan").stdout)
+    assert "ink" not in json.loads(info(ROOT / "samples" / "led-blinker.gbr", "--json"))
+    planned = json.loads(info(drawing, "--json", "--plan"))
     assert planned["plan"]["pen_down_mm"] >= 30.0 and "ink" not in planned
-    board = galileo("info", "samples/led-blinker.gbr", "--plan").stdout
-    assert "ink         pens 0.4 mm: copper" in board
+    assert "ink         pens 0.4 mm: copper" in info(ROOT / "samples" / "led-blinker.gbr",
+                                                      "--plan")

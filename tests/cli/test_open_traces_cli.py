@@ -12,6 +12,8 @@ from pathlib import Path
 
 import pytest
 
+from galileo_cnc.cli.main import main
+
 ROOT = Path(__file__).resolve().parents[2]
 HEADER = "%FSLAX46Y46*%\n%MOMM*%\nG75*\n"
 # three pairs of 0.15 mm traces of different islands, 0.31 mm centre to centre: with
@@ -56,18 +58,23 @@ def test_plot_refuses_a_board_with_open_traces_unless_allowed(board, tmp_path):
     assert "open traces" not in done.stdout
 
 
-def test_preview_convert_and_info_say_the_summary(board, tmp_path):
+def test_preview_convert_and_info_say_the_summary(board, tmp_path, capsys, monkeypatch):
+    # in this process (main), not a child each: five commands
+    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path))      # no profile of the user
     summary = SUMMARY.format(board=board)
+
+    def said(*args) -> str:
+        assert main([*map(str, args)]) == 0
+        return capsys.readouterr().out
+
     for command, output in (("preview", "p.png"), ("convert", "p.nc")):
-        done = galileo(command, board, "--pens", "0.3", "-o", tmp_path / output, home=tmp_path)
-        assert done.returncode == 0, done.stderr
-        assert done.stdout.splitlines()[-1] == summary
-    text = galileo("info", board, "--pens", "0.3", home=tmp_path).stdout
+        out = said(command, board, "--pens", "0.3", "-o", tmp_path / output)
+        assert out.splitlines()[-1] == summary
+    text = said("info", board, "--pens", "0.3")
     assert f"  {summary}" in text.splitlines()
     assert "would join the ink of line" not in text
-    every = galileo("info", board, "--pens", "0.3", "--verbose", home=tmp_path).stdout
+    every = said("info", board, "--pens", "0.3", "--verbose")
     assert every.count("would join the ink of line") == 3 and summary in every
-    figures = json.loads(galileo("info", board, "--pens", "0.3", "--json",
-                                 home=tmp_path).stdout)["ink"]["open_traces"]
+    figures = json.loads(said("info", board, "--pens", "0.3", "--json"))["ink"]["open_traces"]
     assert figures["pieces"] == 3 and figures["total_mm"] == 12.0
     assert figures["longest_mm"] == 4.0 and 0.25 <= figures["widest_pen_mm"] < 0.3
