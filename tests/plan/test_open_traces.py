@@ -3,8 +3,10 @@ that draws every trace, checked by planning the board again with that pen."""
 
 from __future__ import annotations
 
+from corpus import corpus_file
+
 from galileo_cnc.config.machine import MachineConfig
-from galileo_cnc.plan.open_traces import open_traces
+from galileo_cnc.plan.open_traces import PEN_STEP_NM, open_traces
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 
 HEADER = "%FSLAX46Y46*%\n%MOMM*%\nG75*\n"
@@ -46,3 +48,22 @@ def test_the_summary_counts_the_pieces_and_names_the_pen_that_draws_them_all(tmp
 def test_a_board_whose_traces_all_fit_has_no_summary(tmp_path):
     assert open_traces(ink_plan(tmp_path, 200_000)) is None
     assert open_traces(None) is None
+
+
+def test_on_a_real_layer_the_named_pen_draws_every_trace():
+    # tracespace's Allegro layer with a 0.8 mm pen: 53 pieces left out (as in
+    # test_ink_narrow.py); the pen the summary names, rounded down to 0.01 mm as it is
+    # said, leaves none out (0.01 mm more leaves 20 out, checked once by hand; the
+    # tight bound is tested on the small board above)
+    layer = corpus_file("allegro/tracespace-371/l1_primary.art")
+    roomy = MachineConfig(x_travel_mm=400.0, y_travel_mm=400.0)
+
+    def plan(pen_nm: int):
+        return open_traces(plan_file(layer, roomy, "auto",
+                                     options=PlanOptions(mode="ink", pens_nm=(pen_nm,))).ink)
+
+    summary = plan(800_000)
+    assert summary.pieces == 53
+    named = summary.widest_pen_nm // PEN_STEP_NM * PEN_STEP_NM
+    assert f"a pen of {named / 1e6:g} mm or thinner" in summary.text()
+    assert plan(named) is None
