@@ -3,6 +3,7 @@ infinite margins, and output files that could not be written after a long job.""
 
 import subprocess
 import sys
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
@@ -88,7 +89,10 @@ def test_plot_with_no_board_found_is_an_error_unless_sim_is_named(tmp_path):
                            "--port (galileo-cnc ports --probe lists them); --port sim:// plots "
                            "on the built-in simulated machine (sim://?speed=0 at once)\n")
     assert done.stdout == ""
+    svg = tmp_path / "plotted.svg"           # and the vector preview of what was plotted
     done = galileo("plot", SAMPLE, "--yes", "--mode", "centre", "--port", "sim://?speed=0",
-                   home=tmp_path)
+                   "--preview", str(svg), home=tmp_path)
     assert done.returncode == 0, done.stderr
     assert "connected to sim://?speed=0" in done.stdout and "no board found" not in done.stdout
+    assert f"preview: {svg}: vector preview " in done.stdout
+    assert ET.parse(svg).getroot().tag == "{http://www.w3.org/2000/svg}svg"
