@@ -41,7 +41,11 @@ getg [--mode ink|centre] [--pens MM,MM] [--layers A,B] [--units mm|in]
     ones the job uses. It then plans the job (a move outside the travel is
     refused, naming the file line, the axis and the distance in mm), shows
     the number of machine commands and the estimated time, and streams it
-    with a progress bar. When
+    with a progress bar. A board whose ink leaves trace pieces out (open
+    traces: a centre line would join another copper island) is summed up in
+    one line, with the widest pen that draws every trace, and getg asks
+    before plotting it (n: nothing is plotted; getg --pens with that pen
+    draws them all). When
     the job needs another pen the bell rings and it asks for it ("insert the
     0.8 mm pen"): insert it and press Enter. q or Ctrl-C stops the job (the
     machine ramps down); `resume` continues it. At the end: "process has

@@ -95,7 +95,7 @@ PLAN_STAGES = {
     "transform": 0, "feeds": 0,
     "order": 1,
     "ink": 2, "planner": 2,
-    "pipeline": 3,
+    "pipeline": 3, "open_traces": 3,
     "gcode_writer": 4,
 }
 

@@ -12,6 +12,7 @@ import numpy as np
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.plan.measure import job_lengths
+from galileo_cnc.plan.open_traces import ink_warnings, open_traces
 from galileo_cnc.plan.pipeline import Artwork, PlanOptions, plan_file
 from galileo_cnc.program.extents import extents, region_mask
 from galileo_cnc.readers.gerber.transformed import aperture_label
@@ -82,18 +83,32 @@ def summarize(artwork: Artwork) -> dict:
     }
 
 
-def ink_summary(artwork: Artwork, config: MachineConfig, options: PlanOptions,
-                on_stage: Callable[[str], None] | None = None) -> dict:
-    """What the pens make of the copper: areas, pen-down length, lifts, narrow features
-    (`on_stage`: see plan_file)."""
+def plan_summary(artwork: Artwork, config: MachineConfig, options: PlanOptions,
+                 on_stage: Callable[[str], None] | None = None,
+                 verbose: bool = False) -> tuple[str, dict]:
+    """("ink", ink_summary) in ink mode, else ("plan", the job's lengths): the figures
+    of the whole plan, which info works out only on request (--plan: seconds on a
+    large board). `verbose`: every warning (else left-out trace pieces as one summary)."""
     if artwork.misfit(config) is not None:
-        # the ink of a board too big for this machine is still worth knowing (the
+        # the plan of a board too big for this machine is still worth knowing (the
         # summary says it does not fit): measured on a machine whose travel holds it
         config = _holding(config, artwork)
     planned = plan_file(artwork, config, "auto", options=options, on_stage=on_stage)
-    ink = planned.ink
     lengths = job_lengths(planned.job)
     mm_per_step = config.nm_per_step / NM_PER_MM
+    if planned.ink is None:
+        return "plan", {"pen_down_mm": round(lengths.drawn_steps * mm_per_step, 1),
+                        "pen_up_mm": round(lengths.travel_steps * mm_per_step, 1),
+                        "pen_lifts": lengths.lifts,
+                        "pen_changes": len(planned.job.pen_changes)}
+    return "ink", ink_summary(planned, lengths, mm_per_step, verbose)
+
+
+def ink_summary(planned, lengths, mm_per_step: float, verbose: bool = False) -> dict:
+    """What the pens make of the copper: areas, pen-down length, lifts, narrow
+    features, the trace pieces left out."""
+    ink = planned.ink
+    traces = open_traces(ink)
     return {
         "pens_mm": [_mm(w) for w in ink.pens_nm],
         "copper_mm2": round(ink.copper_nm2 / NM_PER_MM ** 2, 3),
@@ -107,7 +122,11 @@ def ink_summary(artwork: Artwork, config: MachineConfig, options: PlanOptions,
         "bridges_avoided": len(ink.bridges),
         "close_island_pairs": ink.close.count,
         "planning_s": round(ink.seconds, 2),
-        "warnings": [str(w) for w in ink.warnings],
+        "open_traces": None if traces is None else {
+            "pieces": traces.pieces, "total_mm": _mm(traces.total_nm),
+            "longest_mm": _mm(traces.longest_nm), "longest_at": str(traces.longest_at),
+            "widest_pen_mm": _mm(traces.widest_pen_nm)},
+        "warnings": ink_warnings(ink, verbose),
     }
 
 
@@ -119,8 +138,12 @@ def _holding(config: MachineConfig, artwork: Artwork) -> MachineConfig:
                           y_travel_mm=max(config.y_travel_mm, 2 * (y1 - y0) / NM_PER_MM))
 
 
-def format_summary(summary: dict) -> str:
-    """The human-readable `info` report."""
+#: file warnings info prints without --verbose (a layer may have thousands)
+SHOWN_WARNINGS = 10
+
+
+def format_summary(summary: dict, verbose: bool = False) -> str:
+    """The human-readable `info` report; `verbose`: every file warning."""
     lines = [
         f"file        {summary['file']}",
         f"format      {summary['format']}  units {summary['units']}"
@@ -173,9 +196,23 @@ def format_summary(summary: dict) -> str:
                         "kept apart" if ink["close_island_pairs"] else ""))
         for warning in ink["warnings"]:
             lines.append(f"  {warning}")
+    plan = summary.get("plan")
+    if plan:
+        lines.append(f"plan        pen down {plan['pen_down_mm'] / 1000:.2f} m, pen up "
+                     f"{plan['pen_up_mm'] / 1000:.2f} m, {plan['pen_lifts']} pen lifts, "
+                     f"{plan['pen_changes']} pen changes")
+    if not ink and not plan:
+        lines.append("plan        --plan works out the job: pen-down and travel lengths"
+                     + ("; on Gerber the ink and the trace pieces it leaves out"
+                        if summary["format"] == "gerber" else "")
+                     + " (seconds on a large board)")
     if summary["warnings"]:
         total = sum(summary["warning_counts"].values()) or len(summary["warnings"])
         lines.append(f"warnings    {total}")
-        for warning in summary["warnings"]:
+        shown = summary["warnings"] if verbose else summary["warnings"][:SHOWN_WARNINGS]
+        for warning in shown:
             lines.append(f"  {warning}")
+        if len(shown) < len(summary["warnings"]):
+            lines.append(f"  ... and {len(summary['warnings']) - len(shown):,} more "
+                         "(--verbose lists them all)")
     return "\n".join(lines)

@@ -12,6 +12,7 @@ import sys
 from galileo_cnc import __version__
 from galileo_cnc.config.hardware import DEFAULT_BAUD
 from galileo_cnc.errors import GalileoError
+from galileo_cnc.preview.formats import preview_kind
 from galileo_cnc.program.ops import NM_PER_MM
 
 
@@ -60,15 +61,16 @@ def _run_info(args: argparse.Namespace) -> int:
     summary["feeds"] = _feed_notes(artwork.program, config)
     if options.optimize and artwork.program.format == "gcode":
         _check_reorder(artwork.program)
-    if options.mode_for(artwork.program) == "ink":
-        from galileo_cnc.cli.info import ink_summary
+    if args.plan or args.pens:          # pens are a question about the plan
+        from galileo_cnc.cli.info import plan_summary
         from galileo_cnc.cli.plot import stages_on_terminal
         with stages_on_terminal(sys.stderr) as on_stage:   # stdout: the summary (maybe JSON)
-            summary["ink"] = ink_summary(artwork, config, options, on_stage)
+            key, figures = plan_summary(artwork, config, options, on_stage, args.verbose)
+        summary[key] = figures
     if args.json:
         print(json.dumps(summary, indent=2))
     else:
-        print(format_summary(summary))
+        print(format_summary(summary, args.verbose))
         if summary["misfit"]:
             print(f"            {artwork.way_out()}")
         if summary["transform"]:
@@ -137,7 +139,12 @@ def _run_plot(args: argparse.Namespace) -> int:
     from galileo_cnc.transport.port import SIM_URL
 
     _plan_options(args)                     # contradictory options refused before connecting
+    if args.offset != "auto":               # only "auto" needs the artwork: a typo is
+        from galileo_cnc.plan.pipeline import resolve_offset    # refused before connecting
+        resolve_offset(None, args.offset)
     check_output(args.preview, "--preview")
+    if args.preview is not None:
+        preview_kind(args.preview, "--preview")
     check_output(args.trace, "--trace")
     profile = _profile(args)
     if args.resume and args.check:
@@ -150,6 +157,12 @@ def _run_plot(args: argparse.Namespace) -> int:
     # the one probe; the probed port stays open for the machine (an Uno resets each
     # time it is opened)
     device, kind, handle = open_board(profile.port, profile.baud)
+    if profile.port is None and device == SIM_URL:
+        # the simulated machine runs in real time: a job there takes as long as on paper
+        raise GalileoError("plot: no board found (no serial port answered as galileo-cnc "
+                           "firmware or GRBL): connect it, or name its port with --port "
+                           "(galileo-cnc ports --probe lists them); --port sim:// plots on "
+                           "the built-in simulated machine (sim://?speed=0 at once)")
     try:
         if kind == GRBL and args.home:
             raise GalileoError("plot --home: on a GRBL board, home with `home` ($H) in the "
@@ -162,7 +175,7 @@ def _run_plot(args: argparse.Namespace) -> int:
                               group=not args.file_order, mode=args.mode,
                               layers=_layers(args), units=args.units, optimize=args.optimize,
                               transform=_transform(args), home=args.home, check=args.check,
-                              handle=handle, kind=kind)
+                              handle=handle, kind=kind, allow_open=args.allow_open)
         return run_plot(options)
     finally:
         if handle is not None:
@@ -174,18 +187,33 @@ def _run_preview(args: argparse.Namespace) -> int:
     from galileo_cnc.preview.render import render_preview
 
     check_output(args.output, "--output")
+    kind = preview_kind(args.output, "--output")
     config = _profile(args).config
     planned = _plan(args, config)
-    # stepped piece by piece as the preview reads it: no whole trace in memory
     _say_feed_warnings(planned)
-    steps = JobSteps(planned.job.commands, config)
     try:
-        info = render_preview(planned.program, steps, config, planned.offset_nm, args.output,
-                              job=planned.job, copper=planned.copper)
+        if kind == "svg":               # from the job's commands: nothing to step
+            from galileo_cnc.preview.svg import render_svg
+            info = render_svg(planned.program, planned.job, config, planned.offset_nm,
+                              args.output, copper=planned.copper)
+        else:
+            # stepped piece by piece as the preview reads it: no whole trace in memory
+            steps = JobSteps(planned.job.commands, config)
+            info = render_preview(planned.program, steps, config, planned.offset_nm,
+                                  args.output, job=planned.job, copper=planned.copper)
     except OSError as problem:
         raise GalileoError(f"--output {args.output}: cannot write: {problem.strerror}") from None
     print(f"{args.output}: {info.summary()}")
+    _say_open_traces(planned)
     return 0
+
+
+def _say_open_traces(planned) -> None:
+    """preview and convert: the trace pieces the ink leaves out, as one summary."""
+    from galileo_cnc.plan.open_traces import open_traces
+    summary = open_traces(planned.ink)
+    if summary is not None:
+        print(summary.text())
 
 
 def _plan(args: argparse.Namespace, config):
@@ -222,6 +250,7 @@ def _run_convert(args: argparse.Namespace) -> int:
     print(f"{args.output}: {lines} lines, {lengths.drawn_steps / metres:.2f} m drawn, "
           f"{lengths.travel_steps / metres:.2f} m pen-up travel, {lengths.lifts} pen lift{'' if lengths.lifts == 1 else 's'} "
           f"({planned.mode} mode{', paths ordered' if planned.job.ordered else ''})")
+    _say_open_traces(planned)
     return 0
 
 
@@ -344,6 +373,13 @@ def build_parser() -> argparse.ArgumentParser:
     info.add_argument("--margin", type=margin_mm, default=1.0, metavar="MM",
                       help="margin kept from the origin by the proposed offset (default 1 mm)")
     info.add_argument("--profile", metavar="TOML", help="machine profile (its pens)")
+    info.add_argument("--plan", action="store_true",
+                      help="plan the job too (seconds on a large board): pen-down and "
+                      "travel lengths; in ink mode the ink and the trace pieces left out "
+                      "(--pens implies it)")
+    info.add_argument("--verbose", action="store_true",
+                      help="every warning (else the first few, and left-out trace pieces "
+                      "as one summary)")
     _add_optimize_option(info)
     _add_ink_options(info)
     _add_drawing_options(info)
@@ -354,7 +390,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_connection_options(plot)
     plot.add_argument("--yes", action="store_true",
                       help="announce pen changes instead of waiting for Enter")
-    plot.add_argument("--preview", metavar="PNG", help="write a preview of what was plotted")
+    plot.add_argument("--preview", metavar="PNG|SVG",
+                      help="write a preview of what was plotted (.svg: vector)")
     plot.add_argument("--trace", metavar="NPZ", help="write the step trace (tick, axis, dir)")
     plot.add_argument("--home", action="store_true",
                       help="home the machine (X and Y end stops, Z too if it has one) before "
@@ -369,14 +406,20 @@ def build_parser() -> argparse.ArgumentParser:
                       "not have finished: lines the machine confirmed may still have been "
                       "queued (up to 9 commands), so a few are drawn twice. A reset job "
                       "without --home cannot be resumed")
+    plot.add_argument("--allow-open", action="store_true",
+                      help="plot a board although the ink leaves trace pieces out (open "
+                      "traces: a centre line would join another copper island); refused "
+                      "otherwise, with a summary and the widest pen that draws them all")
     plot.add_argument("--check", action="store_true",
                       help="GRBL only: run the job through GRBL's check mode ($C), moving "
                       "nothing, and list every line GRBL rejects (exit 1 if any)")
     plot.set_defaults(run=_run_plot)
 
-    preview = commands.add_parser("preview", help="draw what the machine will plot, as PNG")
+    preview = commands.add_parser("preview", help="draw what the machine will plot: a PNG "
+                                  "picture, or an SVG a browser zooms (with a legend, a "
+                                  "scale and the origin)")
     _add_job_options(preview)
-    preview.add_argument("-o", "--output", required=True, metavar="PNG")
+    preview.add_argument("-o", "--output", required=True, metavar="PNG|SVG")
     preview.add_argument("--profile", metavar="TOML", help="machine profile")
     preview.set_defaults(run=_run_preview, port=None, baud=None)
 

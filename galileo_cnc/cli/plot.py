@@ -32,6 +32,7 @@ from galileo_cnc.machine.timing import duration_text, job_timing
 from galileo_cnc.plan.feeds import machine_refusal
 from galileo_cnc.plan.ink.background import Deferred
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
+from galileo_cnc.plan.open_traces import ink_warnings, open_traces
 from galileo_cnc.plan.widths import mm_text
 from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, PlanOptions, plan_file
 from galileo_cnc.program.ops import NM_PER_MM
@@ -142,6 +143,7 @@ class PlotOptions:
     transform: Any = None           # --scale, --rotate, --fit (plan/transform.py)
     home: bool = False              # home before the job: a reset mid-job is resumable
     check: bool = False             # GRBL's check mode ($C) instead of plotting
+    allow_open: bool = False        # plot although the ink leaves trace pieces out
     #: the board's port, already open and probed (discovery.open_board), and what
     #: answered there: the machine greets over it instead of opening the port again
     handle: Any = None
@@ -203,6 +205,8 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
             planned = plan_file(options.file, profile.config, options.offset,
                                 margin_nm=options.margin_nm, on_progress=progress.planning,
                                 on_stage=on_stage, options=options.plan)
+        if planned.ink is not None and not options.allow_open:
+            refuse_open_traces(planned.ink)  # before the machine is opened
     # our firmware's timing (the estimate and the progress line's time left: 3.5 s for
     # hellboard's 121k commands) in a second process while the machine opens
     timing = Deferred(job_timing, planned.job.commands, profile.config,
@@ -330,8 +334,15 @@ def _say_ink(ink, out: TextIO) -> None:
     share = 100 * ink.inked_nm2 / ink.copper_nm2 if ink.copper_nm2 else 100.0
     out.write(f"ink: pens {pens} mm, {share:.1f} % of the copper inked, "
               f"{len(ink.narrow)} narrow features as centre lines\n")
-    for warning in ink.warnings_to_show():
+    for warning in ink_warnings(ink):
         out.write(f"{warning}\n")
+
+
+def refuse_open_traces(ink) -> None:
+    """plot does not draw a board with open nets unless told to (--allow-open)."""
+    summary = open_traces(ink)
+    if summary is not None:
+        raise GalileoError(f"{summary.text()}. plot --allow-open plots it so")
 
 
 def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO) -> None:
@@ -340,6 +351,13 @@ def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO)
     if job is None or not (options.trace or options.preview):
         return
     planned, config = job.planned, job.config
+    if options.preview and options.preview.lower().endswith(".svg"):
+        from galileo_cnc.preview.svg import render_svg      # from the commands: no trace
+        info = render_svg(planned.program, planned.job, config, planned.offset_nm,
+                          options.preview, copper=planned.copper)
+        out.write(f"preview: {options.preview}: {info.summary()}\n")
+        if not options.trace:
+            return
     from galileo_cnc.machine import simulate
     trace = simulate(planned.job.commands, config)
     if options.trace:
@@ -352,7 +370,7 @@ def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO)
             trace.save(options.trace)
             out.write(f"step trace: {options.trace} ({len(trace)} steps): the reference "
                       f"machine's, since {machine.port_name} cannot report its steps\n")
-    if options.preview:
+    if options.preview and not options.preview.lower().endswith(".svg"):
         from galileo_cnc.preview.render import render_preview
         info = render_preview(planned.program, trace, config, planned.offset_nm,
                               options.preview, job=planned.job, copper=planned.copper)

@@ -16,6 +16,7 @@ from galileo_cnc.console import jobs
 from galileo_cnc.plan.offsets import offset_from_text
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.plan.feeds import machine_refusal
+from galileo_cnc.plan.open_traces import ink_warnings, open_traces
 from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, Artwork, PlanOptions, load_artwork
 from galileo_cnc.plan.transform import Transform
 from galileo_cnc.program.ops import NM_PER_MM
@@ -60,8 +61,12 @@ def run(console, arguments: list[str]) -> None:
     if planned is None or planned.offset_nm != offset_nm:
         planned = plan("auto" if offset_nm == artwork.proposal_nm else offset_nm)
     if planned.ink is not None:
-        for warning in planned.ink.warnings_to_show():
+        for warning in ink_warnings(planned.ink):
             console.say(warning)
+        if open_traces(planned.ink) is not None and \
+                not console.confirm("plot it with these trace pieces left out?", default=False):
+            console.say("not plotted (getg --pens MM,MM plans it for other pens)")
+            return
     for warning in planned.feed_warnings:
         console.say(warning)
     jobs.plot(console, planned, config)

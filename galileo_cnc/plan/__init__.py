@@ -6,6 +6,7 @@ Each stage imports only those below it (tests/test_layout.py checks it):
 
   gcode_writer.py  a planned file as pen-plotter G-code (`galileo-cnc convert`)
   pipeline.py      the stages in turn for one file
+  open_traces.py   beside it: the trace pieces an ink plan leaves out, as one summary
   planner.py       ordered rows -> machine commands in steps, soft limits checked
   ink/             beside the planner, neither importing the other: Gerber copper ->
                    pen paths for a pen set (docs/ink.md); it starts path order on its

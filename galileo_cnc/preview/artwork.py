@@ -182,7 +182,7 @@ def draw_program(draw: ImageDraw.ImageDraw, program: Program, to_px: PixelFrame,
             in_region = False
         elif kind in (OpKind.LINE, OpKind.ARC_CW, OpKind.ARC_CCW):
             aperture = program.apertures.get(row[TOOL])
-            width = 1 if in_region else max(1, round(to_px.length(_path_width_mm(aperture))))
+            width = 1 if in_region else max(1, round(to_px.length(path_width_mm(aperture))))
             if kind == OpKind.LINE:
                 flat = start_px + end_px
             else:
@@ -217,7 +217,7 @@ def _rows(table: np.ndarray, starts: np.ndarray, px, block: int = 8192):
         yield from zip(range(lo, lo + len(rows)), rows.tolist(), begins, ends)
 
 
-def _path_width_mm(aperture: Aperture | None) -> float:
+def path_width_mm(aperture: Aperture | None) -> float:
     if aperture is None:
         return _BARE_PATH_MM
     p = aperture.params_nm

@@ -302,7 +302,7 @@ def _copper_outlines(copper, to_px, offset_nm, tolerance_nm: int):
     step's rounding) is neither."""
     from galileo_cnc.plan.ink import clip     # pyclipper: only previews with copper need it
 
-    rings = _copper_rings(copper)
+    rings = copper_rings(copper)
     if tolerance_nm <= 0:
         edges = _copper_edges(rings, to_px, offset_nm)
         return edges, edges
@@ -311,7 +311,7 @@ def _copper_outlines(copper, to_px, offset_nm, tolerance_nm: int):
             _copper_edges(clip.offset(rings, tolerance_nm, arc), to_px, offset_nm))
 
 
-def _copper_rings(copper) -> list:
+def copper_rings(copper) -> list:
     """The rings of a DarkImage (its pyclipper set, or shells and holes of another
     backend's) or of a pyclipper polygon set."""
     native = getattr(copper, "native", copper)

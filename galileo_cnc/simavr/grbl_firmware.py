@@ -2,12 +2,14 @@
 folder) and run it as a SimulatedBoard with its pins traced and simavr's timer
 quirks corrected (docs/harness.md "Timer quirks", docs/grbl.md).
 
-The GRBL source is $GALILEO_GRBL_SOURCE if set, else the checkout's unmodified
-copy, third_party/grbl-1.1h (a GPL-3 test fixture, never part of the package),
-else `../shared/grbl-1.1h` beside the checkout; it is built in a temporary folder
-and the ELF cached in the checkout's firmware/build-grbl/ (ignored by git), or,
-installed without a checkout, in the user's cache folder, with the source digest
-it came from.
+The GRBL source is $GALILEO_GRBL_SOURCE if set, else a checkout's unmodified
+copy, third_party/grbl-1.1h (a GPL-3 test fixture, never part of the package):
+the checkout the package runs from, else the current directory's (after
+`pip install .` the package runs from the venv, whose folders hold no GRBL), else
+`../shared/grbl-1.1h` beside either. It is built in a temporary folder and the ELF
+cached in the checkout's firmware/build-grbl/ (ignored by git), or, installed
+without a checkout, in the user's cache folder, with the source digest it came
+from.
 Lives beside the harness so `simavr://?firmware=grbl` (protocol_simavr) can use
 it; galileo_cnc.grbl.firmware re-exports it.
 """
@@ -25,15 +27,29 @@ from pathlib import Path
 import numpy as np
 
 from galileo_cnc.errors import GalileoError
-from galileo_cnc.simavr.board import (REPO_ROOT, SimulatedBoard, missing_debian_packages,
-                                      step_trace)
+from galileo_cnc.simavr.board import (REPO_ROOT, SimulatedBoard, checkouts,
+                                      missing_debian_packages, step_trace)
 from galileo_cnc.simavr.build_lock import build_lock
 
 GRBL_SOURCE_ENV = "GALILEO_GRBL_SOURCE"
-#: where the source is looked for, unless $GALILEO_GRBL_SOURCE names it: the first found
-SOURCE_PLACES = (REPO_ROOT / "third_party" / "grbl-1.1h",
-                 REPO_ROOT.parent / "shared" / "grbl-1.1h")
-DEFAULT_SOURCE = next((place for place in SOURCE_PLACES if (place / "Makefile").is_file()),
+GRBL_SOURCE_URL = "https://github.com/gnea/grbl/releases/tag/v1.1h.20190825"
+
+
+def source_places() -> list[Path]:
+    """Where the source is looked for, unless $GALILEO_GRBL_SOURCE names it, in order:
+    each checkout's third_party/grbl-1.1h, then ../shared/grbl-1.1h beside it."""
+    roots = [REPO_ROOT] + [root for root in checkouts() if root != REPO_ROOT.resolve()]
+    places = [root / "third_party" / "grbl-1.1h" for root in roots]
+    return places + [root.parent / "shared" / "grbl-1.1h" for root in roots]
+
+
+def _is_source(place: Path) -> bool:
+    return (place / "Makefile").is_file() and (place / "grbl" / "grbl.h").is_file()
+
+
+#: the source found at import (source_dir() looks again, the current folder included)
+SOURCE_PLACES = tuple(source_places())
+DEFAULT_SOURCE = next((place for place in SOURCE_PLACES if _is_source(place)),
                       SOURCE_PLACES[0])
 BUILD_DIR = REPO_ROOT / "firmware" / "build-grbl"
 ELF_NAME = "grbl.elf"
@@ -57,13 +73,34 @@ class GrblBuildError(GalileoError):
 
 
 def source_dir() -> Path:
-    return Path(os.environ.get(GRBL_SOURCE_ENV, DEFAULT_SOURCE))
+    """$GALILEO_GRBL_SOURCE, else the first of source_places() that holds the source
+    (GrblBuildError naming what is needed if none does)."""
+    if os.environ.get(GRBL_SOURCE_ENV):
+        return Path(os.environ[GRBL_SOURCE_ENV])
+    places = source_places()
+    found = next((place for place in places if _is_source(place)), None)
+    if found is None:
+        raise GrblBuildError(missing_source_text(places))
+    return found
+
+
+def missing_source_text(places: list[Path]) -> str:
+    """What simavr://?firmware=grbl needs when no GRBL source was found."""
+    looked = ", ".join(str(place) for place in places)
+    return (f"simavr://?firmware=grbl builds stock GRBL 1.1h and found no source (looked in "
+            f"{looked}): run from a galileo-cnc checkout (it holds third_party/grbl-1.1h), "
+            f"or set {GRBL_SOURCE_ENV} to a grbl-1.1h folder holding its Makefile and grbl/ "
+            f"({GRBL_SOURCE_URL}); building needs make, gcc-avr and avr-libc, and running "
+            f"it the simavr harness (make -C firmware/harness)")
 
 
 def build_dir() -> Path:
-    """The checkout's firmware/build-grbl, else (installed with pip) the user's cache."""
+    """A checkout's firmware/build-grbl, else (installed with pip, run elsewhere) the
+    user's cache."""
     if (REPO_ROOT / "firmware").is_dir():
         return BUILD_DIR
+    for root in checkouts():
+        return root / "firmware" / "build-grbl"
     cache = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
     return Path(cache) / "galileo-cnc" / "build-grbl"
 
@@ -79,9 +116,8 @@ def build_grbl(src: Path | None = None, out_dir: Path | None = None) -> Path:
     """The GRBL ELF, built from `src` unless the cached one came from the same source."""
     src = Path(src) if src else source_dir()
     out_dir = Path(out_dir) if out_dir else build_dir()
-    if not (src / "Makefile").is_file() or not (src / "grbl" / "grbl.h").is_file():
-        raise GrblBuildError(f"GRBL 1.1h source not found at {src} (set {GRBL_SOURCE_ENV} "
-                             f"to a grbl-1.1h folder holding its Makefile and grbl/)")
+    if not _is_source(src):
+        raise GrblBuildError(missing_source_text([src]))
     digest = source_digest(src)
     with build_lock(out_dir):       # another process may be building the same ELF
         return _build_unless_current(src, out_dir, digest)

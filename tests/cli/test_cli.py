@@ -145,11 +145,11 @@ def test_a_profile_sets_the_machine_and_the_port(tmp_path):
     assert "the job is 40.0 mm wide" in result.stderr
     assert "the machine's travel is 30 mm (x_travel_mm in the profile)" in result.stderr
     # info still tells all about it, the ink too, and says it does not fit
-    result = galileo("info", "samples/led-blinker.gbr", "--json", home=tmp_path)
+    result = galileo("info", "samples/led-blinker.gbr", "--json", "--plan", home=tmp_path)
     assert result.returncode == 0, result.stderr
     summary = json.loads(result.stdout)
     assert "the job is 40.0 mm wide" in summary["misfit"]
-    roomy = json.loads(galileo("info", "samples/led-blinker.gbr", "--json").stdout)
+    roomy = json.loads(galileo("info", "samples/led-blinker.gbr", "--json", "--plan").stdout)
     assert roomy["misfit"] is None
     assert summary["ink"]["inked_mm2"] == roomy["ink"]["inked_mm2"] > 0
     text = galileo("info", "samples/led-blinker.gbr", home=tmp_path).stdout
@@ -265,3 +265,34 @@ def test_a_bare_d02_before_the_first_coordinate_moves_nowhere(tmp_path):
                      home=tmp_path)
     assert result.returncode == 0, result.stderr
     assert "process has finished" in result.stdout
+
+
+def test_info_sums_up_many_warnings_and_plans_only_on_request(tmp_path, capsys,
+                                                              monkeypatch):
+    # issue 31, item 13: info printed every warning (1,950 lines for one layer) and
+    # planned the whole job (50 s on a 1.4 MB layer) for figures nobody asked for
+    from galileo_cnc.cli.main import main
+    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path))      # no profile of the user
+
+    def info(*args) -> str:
+        assert main(["info", *map(str, args)]) == 0
+        return capsys.readouterr().out
+
+    drawing = tmp_path / "mcodes.nc"
+    drawing.write_text("G21 G90\nG1 X0 Y0 F600\n" + "".join(
+        f"M1{k:02d}\nG1 X{k} Y0\n" for k in range(1, 31)) + "M2\n")
+    text = info(drawing).splitlines()
+    assert "warnings    30" in text
+    shown = [line for line in text if ": warning: unknown M code" in line]
+    assert len(shown) == 10 and shown[0].endswith("mcodes.nc:3:1: warning: unknown M code "
+                                                  "M101 is ignored  [M101]")
+    assert text[-1] == "  ... and 20 more (--verbose lists them all)"
+    assert text[-13].startswith("plan        --plan works out the job")
+    every = info(drawing, "--verbose")
+    assert every.count(": warning: unknown M code") == 30 and "--verbose lists" not in every
+    # the plan's figures on request only
+    assert "ink" not in json.loads(info(ROOT / "samples" / "led-blinker.gbr", "--json"))
+    planned = json.loads(info(drawing, "--json", "--plan"))
+    assert planned["plan"]["pen_down_mm"] >= 30.0 and "ink" not in planned
+    assert "ink         pens 0.4 mm: copper" in info(ROOT / "samples" / "led-blinker.gbr",
+                                                      "--plan")

@@ -327,7 +327,7 @@ def test_copper_area_in_pixels(tmp_path):
     to_px = PixelFrame((0.0, 0.0, 12.0, 8.0), 50.0)
     pixels = []
     for given in (copper, copper.native):
-        edges = render._copper_edges(render._copper_rings(given), to_px, planned.offset_nm)
+        edges = render._copper_edges(render.copper_rings(given), to_px, planned.offset_nm)
         pixels.append(render._copper_rows(edges, 0, 400, 600))
     assert np.array_equal(*pixels)
     assert pixels[0].sum() / 50 ** 2 == pytest.approx(copper.area_nm2() / 1e12, rel=0.01)

@@ -86,6 +86,9 @@ class Bridge:
     other_nm: tuple[int, int]    # the nearest point of the other island's copper or line
     left_out_nm: int             # length not drawn
     other: NarrowFeature | None = None   # the other island's centre line, when it was that
+    # the widest pen whose line would not have been cut here (0: none): its ink keeps
+    # the clearance from the nearest copper and line the left-out part comes to
+    widest_pen_nm: int = 0
 
 
 def find_narrow(program: Program, limit_nm: int, pen_nm: int,
@@ -285,8 +288,18 @@ def keep_islands_apart(features: list[NarrowFeature], islands: Islands,
                 other = (round(float(point[0])), round(float(point[1])))
                 other_feature = features[int(whose[best])]
             bridges.append(Bridge(feature, (int(first[0]), int(first[1])), other,
-                                  round(length), other_feature))
+                                  round(length), other_feature,
+                                  _widest_pen(to_copper[run], to_ink[run])))
     return bridges
+
+
+def _widest_pen(to_copper: np.ndarray, to_ink: np.ndarray) -> int:
+    """The widest pen (nm) for which samples this far from other copper and from another
+    island's line (the same pen draws it) would not have been cut: the reaches of
+    keep_islands_apart solved for the pen."""
+    slack = CLEARANCE_NM + SAMPLE_NM // 2
+    limits = [2 * (float(to_copper.min()) - slack), float(to_ink.min()) - slack]
+    return max(0, math.floor(min(limits)))
 
 
 def _nearby(features: list[NarrowFeature], copper: EdgeIndex, owner_of_ring: np.ndarray,
