@@ -279,8 +279,18 @@ class ReferenceMachine:
             max_steps = span + 2 * cfg.home_pulloff_steps + reads
             n = direction * (switch_at - phys) + reads - 1
             if n > max_steps:
-                raise self._fail(f"{AXIS_NAMES[a]} end-stop not found within "
-                                 f"{self._mm(max_steps)} [{max_steps} steps]", AXIS_NAMES[a])
+                # The machine finds this out at the seek's end: what it stepped until
+                # the alarm (sim:// runs it) goes with the refusal.
+                items.append(SeekMove(tuple(self.position), a, direction, max_steps, base,
+                                      reads, phys, switch_at, max_steps))
+                self.position[a] += direction * max_steps
+                refused = self._fail(f"{AXIS_NAMES[a]} end-stop not found within "
+                                     f"{self._mm(max_steps)} [{max_steps} steps]",
+                                     AXIS_NAMES[a])
+                refused.moves_until_alarm = list(items)
+                refused.state_at_alarm = (tuple(self.position), tuple(self.origin),
+                                          tuple(self.phys_offset))
+                raise refused
             self.motors_on = True
             items.append(SeekMove(tuple(self.position), a, direction, n, base, reads,
                                   phys, switch_at, max_steps))
