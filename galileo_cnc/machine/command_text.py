@@ -18,10 +18,17 @@ def mm_text(steps: int, steps_per_mm: float) -> str:
     return f"{steps / steps_per_mm:.3f} mm"
 
 
+def number_text(value: float) -> str:
+    """`0.03125`, `1000000`: up to 5 decimals, never an exponent."""
+    text = f"{value:.5f}".rstrip("0").rstrip(".")
+    return "0" if text in ("", "-0") else text
+
+
 def feed_text(steps_per_s: int, steps_per_mm: float) -> str:
     """`5 mm/s (300 mm/min) [800 steps/s]`."""
     mm_s = steps_per_s / steps_per_mm
-    return f"{mm_s:g} mm/s ({mm_s * 60:g} mm/min) [{steps_per_s} steps/s]"
+    return (f"{number_text(mm_s)} mm/s ({number_text(mm_s * 60)} mm/min) "
+            f"[{steps_per_s} steps/s]")
 
 
 def field_text(name: str, value: int, steps_per_mm: float) -> str:
@@ -29,7 +36,7 @@ def field_text(name: str, value: int, steps_per_mm: float) -> str:
     if name in _LENGTHS:
         return f"{_LENGTHS[name]} {mm_text(value, steps_per_mm)}"
     if name == "feed_steps_per_s":
-        return f"feed {value / steps_per_mm:g} mm/s"
+        return f"feed {number_text(value / steps_per_mm)} mm/s"
     return f"{name.replace('_ms', '')} {value} ms" if name.endswith("ms") else f"{name} {value}"
 
 

@@ -135,7 +135,7 @@ def test_bad_feed_and_commands_after_end_are_refused():
     with pytest.raises(MachineError, match=r"feed 0\.03125 mm/s \(1\.875 mm/min\) "
                        r"\[5 steps/s\] outside 0\.0625 \.\. 250 mm/s"):
         simulate([SetFeed(5)])
-    with pytest.raises(MachineError, match=r"feed 250\.006 mm/s .*\[40001 steps/s\]"):
+    with pytest.raises(MachineError, match=r"feed 250\.00625 mm/s .*\[40001 steps/s\]"):
         simulate([SetFeed(40001)])
     with pytest.raises(MachineError, match="ended"):
         simulate([EndJob(), LineTo(1, 1)])
