@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import re
 
-from test_console import WAIT_S, INSTANT_SIM, console_in_thread, home  # noqa: F401 (fixture)
+from test_console import (BOARD, INSTANT_SIM, WAIT_S, console_in_thread,  # noqa: F401
+                          home)
 
 #: the X switch out of reach: `home` seeks the travel plus two pull-offs, then alarm 11
 FAR_X_SWITCH = "[machine]\nsim_x_endstop_steps = -100000\n"
@@ -38,6 +39,11 @@ def test_a_failed_home_leaves_the_head_outside_and_a_jog_back_works(home, tmp_pa
         user.expect(r"alarm:11 end-stop not found")
         user.expect(r"type unlock")
         assert user.status() == ("alarm", -32324, 0, 0)       # the whole seek ran
+        user.line(f"getg {BOARD}")                             # locked: says so, sends nothing
+        user.expect(r"use these offsets\?")
+        user.line("y")
+        user.expect(r"the machine is locked: nothing of the job was sent; type unlock")
+        user.expect(r">>")
         user.line("unlock")
         user.expect(r"unlocked.*: state idle")
         _keypad(user, "100")                                   # 1 mm
@@ -50,6 +56,11 @@ def test_a_failed_home_leaves_the_head_outside_and_a_jog_back_works(home, tmp_pa
         user.expect(r"position X -201\.025  Y 0\.000  Z 0\.000 mm")
         user.line("q")
         assert user.status() == ("idle", -32164, 0, 0)
+        user.line(f"getg {BOARD}")                             # from out there, into the travel
+        user.expect(r"use these offsets\?")
+        user.line("y")
+        user.expect(r"process has finished")
+    assert "reconnect" not in user.screen.text and "port is gone" not in user.screen.text
 
 
 def test_a_pen_powered_on_lifted_can_be_lowered_and_z_stays_within_its_travel(home):
