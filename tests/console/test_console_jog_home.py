@@ -94,3 +94,39 @@ def test_a_jog_refusal_speaks_the_jog_lines_work_coordinates(home):
         user.type("q")
         user.expect(r"position X -10\.000  Y 0\.000  Z 0\.000 mm")
         user.line("q")
+
+
+def test_a_failed_home_on_grbl_says_how_far_to_jog_back(home):  # noqa: F811 (the fixture)
+    # GRBL (simavr, no switches wired): $H seeks Z up 1.5 x $132, ALARM:9, and leaves
+    # Z at +15 mm machine, above its travel -10..0 mm. GRBL itself takes only a jog that
+    # ends inside the travel (jog_execute checks the target), so the keypad's 1 mm jogs
+    # are refused both ways: the refusal says how far one jog must go.
+    from test_console_grbl import CONFIG, SETTINGS, console_object, grbl_machine, jog_screen
+    settings = {**SETTINGS, 22: "1", 20: "1", 130: "50", 131: "50", 132: "10", 25: "1000",
+                24: "200"}
+    with grbl_machine(settings) as (board, setup_link):
+        setup_link.port.close()                    # the console opens the board itself
+        with console_object(home, board.port, CONFIG) as (user, _):
+            user.line("home")
+            user.expect(r"ALARM:9: Homing fail")
+            user.expect(r">>")
+            user.line("unlock")
+            user.expect(r"unlocked \(\$X\).*Z 15\.000 mm")
+            user.line("setup")
+            user.expect(r"choice:")
+            jog_screen(user, 100)                  # 1 mm
+            user.type("1")                         # Z down 1 mm: still above the travel
+            _expect_note(user, re.escape(re.sub(r"\s", "", (
+                "jog refused: Z would go to 14 mm (work; machine 14 mm), outside GRBL's "
+                "travel: work -10..0 mm, machine -10..0 mm ($132=10.000); Z stands outside it, "
+                "and GRBL takes only a jog that ends inside: jog Z by -15 mm or more in one "
+                "jog, or home ($H) once the switches work"))))
+            user.type("q")
+            user.expect(r"choice:")
+            jog_screen(user, 1500)                 # 15 mm: into the travel, taken
+            user.type("1")
+            user.expect(r"Idle")
+            user.type("q")
+            user.expect(r"position X 0\.000  Y 0\.000  Z 0\.000 mm \(work\)")
+            user.line("q")
+        board.stop()

@@ -119,7 +119,8 @@ def test_soft_limits_refuse_before_any_step():
         m.run([LineTo(500, 500), LineTo(-1, 10)])
     assert e.value.axis == "X" and e.value.limit == 0 and isinstance(e.value, GalileoError)
     assert m.position == [0, 0, 0] and m.clock_ticks == 0  # nothing ran
-    with pytest.raises(MachineError, match=r"Y would reach 200\.006 mm \(machine\), beyond the travel's end at "
+    with pytest.raises(MachineError, match=r"Y would reach 200\.006 mm \(machine\), beyond the "
+                       r"travel's end at "
                        r"200\.000 mm \[32001 steps\]"):
         simulate([LineTo(0, 32001)])
     with pytest.raises(MachineError, match="Z") as e:
