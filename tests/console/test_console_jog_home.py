@@ -102,7 +102,7 @@ def test_a_failed_home_on_grbl_says_how_far_to_jog_back(home):  # noqa: F811 (th
     # ends inside the travel (jog_execute checks the target), so the keypad's 1 mm jogs
     # are refused both ways: the refusal says how far one jog must go.
     from test_console_grbl import CONFIG, SETTINGS, console_object, grbl_machine, jog_screen
-    settings = {**SETTINGS, 22: "1", 20: "1", 130: "50", 131: "50", 132: "10", 25: "1000",
+    settings = {**SETTINGS, 22: "1", 20: "1", 130: "50", 131: "50", 132: "10", 25: "4000",
                 24: "200"}
     with grbl_machine(settings) as (board, setup_link):
         setup_link.port.close()                    # the console opens the board itself
