@@ -60,8 +60,13 @@ setup
        (with NumLock off, Home/End and the arrow keys do the same). The
        position shown follows the head. 0 or o makes the current position
        the origin of all three axes (so Z 0, where the pen now is, becomes
-       the drawing height); q leaves. A jog past the travel is refused with
-       the distance in mm.
+       the drawing height); q leaves. A jog past the travel is refused in
+       mm, in the work coordinates the line shows (machine after). A head
+       outside the travel (a failed home) may jog back towards it; on GRBL
+       only a jog that ends inside, and the refusal says how far. Z has no
+       switch: it may go the pen lift below where it was at power-on (a pen
+       powered on lifted can be lowered) and stays within its travel's
+       length of every height it has had.
     2) Feed rate in mm/s. Above 6.25 mm/s (300 rpm) the motors may lose
        steps: you are warned and asked to confirm. Rates outside the
        machine's limits are refused; the menu stays so you can try again.
@@ -100,9 +105,10 @@ home
 [unlock]
 unlock
     Leave the alarm state. A homing error (switch already pressed, or not
-    found) locks the machine; it refuses motion until you unlock it. Check
-    the machine first: the position is kept. Finished and stopped jobs do not
-    need it: the console leaves the machine ready itself.
+    found) locks the machine; it refuses motion and jobs until you unlock
+    it. Check the machine first: the position is kept (a seek that found no
+    switch ends outside the travel: jog back towards it). Finished and
+    stopped jobs do not need it: the console leaves the machine ready itself.
 
 [send]
 send LINE

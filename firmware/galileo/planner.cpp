@@ -16,6 +16,14 @@
 #error "travel above 46000 steps per axis: the line setup's 32-bit n*n would overflow"
 #endif
 
+/* Z without an end-stop (§7): its travel is a length, not a place. The machine
+ * keeps Z within one travel's length of every Z it has been planned at since
+ * power-on and of the pen heights (where a pen may stand at power-on), so a
+ * user who powered on with the pen lifted can still lower it. */
+#define Z_FLOATS (CFG_Z_HOME_PIN < 0)
+#define PEN_Z_LO (CFG_PEN_DOWN_Z_STEPS < CFG_PEN_UP_Z_STEPS ? CFG_PEN_DOWN_Z_STEPS : CFG_PEN_UP_Z_STEPS)
+#define PEN_Z_HI (CFG_PEN_DOWN_Z_STEPS < CFG_PEN_UP_Z_STEPS ? CFG_PEN_UP_Z_STEPS : CFG_PEN_DOWN_Z_STEPS)
+
 struct planner pl;
 struct limit_violation pl_violation;
 
@@ -26,6 +34,8 @@ void planner_init(void)
 {
     memset(&pl, 0, sizeof(pl));
     pl.feed_steps_per_s = CFG_FEED_STEPS_PER_S;
+    pl.z_seen[0] = PEN_Z_LO;
+    pl.z_seen[1] = PEN_Z_HI;
 }
 
 static struct block *stage(uint8_t kind)
@@ -62,15 +72,24 @@ static const int32_t TRAVEL_MAX[3] = {CFG_X_TRAVEL_MAX_STEPS, CFG_Y_TRAVEL_MAX_S
                                       CFG_Z_TRAVEL_MAX_STEPS};
 
 /* §7: refuse a move whose visited range [lo, hi] (machine steps) on axis a
- * leaves the travel. A move checks its axes in order 0, 1, 2: the first that
- * leaves is reported. Scalars, not arrays: no box on the caller's stack. */
+ * leaves the travel, widened to where the head stands: a head outside the
+ * travel (a failed or stopped homing) may move back towards it, never further
+ * out. A move checks its axes in order 0, 1, 2: the first that leaves is
+ * reported, with the travel's own limit. Scalars, not arrays: no box on the
+ * caller's stack. */
 static __attribute__((noinline)) uint8_t check_axis(uint8_t a, int32_t lo, int32_t hi)
 {
-    if (lo < TRAVEL_MIN[a] || hi > TRAVEL_MAX[a]) {
+    int32_t tmin = TRAVEL_MIN[a], tmax = TRAVEL_MAX[a];
+    if (Z_FLOATS && a == 2) {
+        tmin = pl.z_seen[1] - (CFG_Z_TRAVEL_MAX_STEPS - CFG_Z_TRAVEL_MIN_STEPS);
+        tmax = pl.z_seen[0] + (CFG_Z_TRAVEL_MAX_STEPS - CFG_Z_TRAVEL_MIN_STEPS);
+    }
+    int32_t here = pl.pos[a];
+    if ((lo < tmin && lo < here) || (hi > tmax && hi > here)) {
         pl_violation.axis = a;
-        pl_violation.above = lo >= TRAVEL_MIN[a];
+        pl_violation.above = !(lo < tmin && lo < here);
         pl_violation.value = pl_violation.above ? hi : lo;
-        pl_violation.limit = pl_violation.above ? TRAVEL_MAX[a] : TRAVEL_MIN[a];
+        pl_violation.limit = pl_violation.above ? tmax : tmin;
         return ERR_SOFT_LIMIT;
     }
     return 0;
@@ -121,6 +140,10 @@ static uint8_t line_to(const int32_t target[3], uint32_t feed, uint8_t ramped, u
     set_ramp(b, b->base_sub, ramped ? ramp_events(feed) : 0);
     for (uint8_t a = 0; a < 3; a++)
         pl.pos[a] = target[a];
+    if (target[2] < pl.z_seen[0])
+        pl.z_seen[0] = target[2];
+    if (target[2] > pl.z_seen[1])
+        pl.z_seen[1] = target[2];
     return 0;
 }
 
@@ -265,13 +288,15 @@ uint8_t planner_blocks_needed(uint8_t cmd)
     return cmd == CMD_HOME ? blocks * HOME_AXES : blocks;
 }
 
-/* Every command but the arcs. On an error, pl is restored: only pos can have
- * changed by then (a first block queued: Rapid's or Flash's Z move), as origin,
- * feed and ended change only in commands that cannot fail after changing them. */
+/* Every command but the arcs. On an error, pl is restored: only pos and z_seen
+ * can have changed by then (a first block queued: Rapid's or Flash's Z move), as
+ * origin, feed and ended change only in commands that cannot fail after changing
+ * them. */
 static __attribute__((noinline)) uint8_t execute_other(uint8_t cmd, const int32_t *args,
                                                        uint8_t nargs)
 {
     int32_t saved_pos[3] = {pl.pos[0], pl.pos[1], pl.pos[2]};
+    int32_t saved_z_seen[2] = {pl.z_seen[0], pl.z_seen[1]};
     uint8_t err = 0;
     switch (cmd) {
     case CMD_RAPID: err = rapid(args); break;
@@ -311,9 +336,12 @@ static __attribute__((noinline)) uint8_t execute_other(uint8_t cmd, const int32_
             pl.ended = 1;
         break;
     }
-    if (err)
+    if (err) {
         for (uint8_t a = 0; a < 3; a++)
             pl.pos[a] = saved_pos[a];
+        pl.z_seen[0] = saved_z_seen[0];
+        pl.z_seen[1] = saved_z_seen[1];
+    }
     return err;
 }
 

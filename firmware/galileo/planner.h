@@ -9,6 +9,8 @@ struct planner {
     int32_t pos[3];            /* machine steps after the last queued block */
     int32_t origin[3];         /* machine steps of work zero, as planned */
     uint32_t feed_steps_per_s; /* LineTo, ArcTo, Jog */
+    int32_t z_seen[2];         /* lowest, highest Z planned since power-on (Z without
+                                  an end-stop: its travel floats with them) */
     uint8_t ended;             /* EndJob seen: refuse until Unlock */
 };
 

@@ -188,6 +188,7 @@ class GalileoMachine(Machine):
             operator.progress(replace(p, confirmed=p.confirmed + streamer.start,
                                       total=p.total + streamer.start))
 
+        self._refuse_if_locked()
         self._streamer = streamer
         try:
             result: StreamResult = streamer.run(on_progress=progress,
@@ -196,6 +197,16 @@ class GalileoMachine(Machine):
             self._streamer = None
         return JobResult(result.completed, result.confirmed, result.total, result.elapsed_s,
                          result.reason, "commands")
+
+    def _refuse_if_locked(self) -> None:
+        """A machine locked before the job (a failed `home`) takes none of it: said so,
+        rather than found in the middle of streaming as an alarm nobody raised."""
+        if self.link.status().state != "alarm":
+            return
+        alarm = self.link.take_alarm()
+        cause = f" (alarm:{alarm.code} {alarm.text})" if alarm else ""
+        raise GalileoError(f"the machine is locked{cause}: nothing of the job was sent; type "
+                           f"unlock, then home again or jog to where the job should start")
 
     def stop(self) -> None:
         streamer = self._streamer

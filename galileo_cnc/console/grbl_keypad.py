@@ -57,7 +57,7 @@ class GrblKeypadJog:
     def line(self) -> str:
         if self.status.state != "Idle":
             self._refresh()                 # the head is moving: show where it is now
-        note = f"   {self.note}" if self.note else ""
+        note = f"\n{self.note}" if self.note else ""      # wrapped: a refusal is long
         return (f"jog {self.units} units = {self.step_mm:g} mm at F{self.feed_mm_min:g}   "
                 f"{position_text(self.status.wpos_nm)} ({self.status.state}){note}\n{HINT}")
 
@@ -143,7 +143,7 @@ class GrblKeypadJog:
         for key in LEAVE_KEYS + ("c-c",):
             keys.add(key)(lambda event: self.leave(event.app))
         app: Application = Application(
-            layout=Layout(Window(FormattedTextControl(self.line), height=2)),
+            layout=Layout(Window(FormattedTextControl(self.line), wrap_lines=True)),
             key_bindings=keys, full_screen=False, refresh_interval=REFRESH_S)
         app.run()
 

@@ -54,13 +54,9 @@ def jog(link: GrblLink, axis: str, distance_mm: float, feed_mm_min: float, *,
     text = jog_text(axis, distance_mm, feed_mm_min)
     settings = link.settings
     if check_travel and settings is not None and settings.soft_limits:
-        a = AXES.index(axis)
-        target = link.status().mpos_nm[a] + round(distance_mm * MM)
-        low = -settings.max_travel_nm(a)
-        if not low <= target <= 0:
-            raise TravelError(f"jog refused: {axis} would go to {_mm(target)} mm (machine), "
-                              f"outside GRBL's travel {_mm(low)}..0 mm "
-                              f"(${130 + a}={settings[130 + a]})")
+        refusal = travel_refusal(link.status(), settings, axis, round(distance_mm * MM))
+        if refusal is not None:
+            raise TravelError(refusal)
     reply = link.command(text)
     if reply.ok:
         return text
@@ -68,6 +64,30 @@ def jog(link: GrblLink, axis: str, distance_mm: float, feed_mm_min: float, *,
         raise JogError(f"GRBL refused the jog {text!r}: it would leave the soft limits "
                        f"({reply.text})", reply.code)
     raise JogError(f"GRBL refused the jog {text!r}: {reply.text}", reply.code)
+
+
+def travel_refusal(status: Status, settings, axis: str, distance_nm: int) -> str | None:
+    """Why GRBL would refuse a jog of `distance_nm` along `axis` (soft limits on), None
+    if it would not. GRBL checks a jog's target only (jog_execute): a head outside the
+    travel (a failed `$H`, ALARM:9, leaves it beyond the switch side) gets a jog only
+    when it ends inside; the text says how far that is. Work coordinates first, as
+    the jog line shows them, machine after."""
+    a = AXES.index(axis)
+    here = status.mpos_nm[a]
+    target = here + distance_nm
+    low = -settings.max_travel_nm(a)
+    if low <= target <= 0:
+        return None
+    wco = status.mpos_nm[a] - status.wpos_nm[a]
+    text = (f"jog refused: {axis} would go to {_mm(target - wco)} mm (work; machine "
+            f"{_mm(target)} mm), outside GRBL's travel: work {_mm(low - wco)}..{_mm(-wco)} "
+            f"mm, machine {_mm(low)}..0 mm (${130 + a}={settings[130 + a]})")
+    if low <= here <= 0:
+        return text
+    edge = 0 if here > 0 else low
+    return (f"{text}; {axis} stands outside it, and GRBL takes only a jog that ends "
+            f"inside: jog {axis} by {_mm(edge - here)} mm or more in one jog, or home ($H) "
+            f"once the switches work")
 
 
 def wait_jog(link: GrblLink, max_reports: int = 100_000) -> Status:

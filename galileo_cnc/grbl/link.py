@@ -45,6 +45,9 @@ STATUS_EVERY_S = 0.2
 #: queries, room for a loaded host to read late, and the stop is reported within
 #: 3.2 s (one more read slice), inside the 5 s a user waits for.
 STATUS_SILENCE_S = 3.0
+#: A `?` unanswered for this long is asked again: one sent while GRBL resets (it does
+#: after a failed homing, ALARM:9) is lost, and a report comes within 20 ms otherwise.
+ASK_AGAIN_S = 1.0
 #: Hard (1) and soft (2) limit alarms: GRBL blocks until a reset, after this line.
 CRITICAL_ALARMS = (1, 2)
 RESET_TO_CONTINUE = "[MSG:Reset to continue]"
@@ -241,7 +244,10 @@ class GrblLink:
         deadline = time.monotonic() + timeout_s
         garbled = False
         while time.monotonic() < deadline:
-            line = self.read_line(deadline - time.monotonic())
+            line = self.read_line(min(ASK_AGAIN_S, deadline - time.monotonic()))
+            if line is None:                # GRBL resetting (after ALARM:9) drops a `?`
+                self.realtime(STATUS_QUERY)
+                continue
             if line is not None and line.startswith("<"):
                 try:
                     return self.tracker.update(parse_status(line))

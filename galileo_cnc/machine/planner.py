@@ -20,6 +20,7 @@ from galileo_cnc.job import (AXIS_NAMES, ArcTo, Command, Dwell, EndJob, Flash, H
                              SetOrigin)
 from galileo_cnc.machine import stepper as loop, vector
 from galileo_cnc.machine.arcs import MAX_ARC_COORD, arc_setup
+from galileo_cnc.machine.command_text import command_text, feed_text, mm_text
 from galileo_cnc.machine.blocks import ArcMove, Hold, Item, LineMove, Pause, SeekMove
 from galileo_cnc.machine.ramps import (FRAC_BITS, TICKS_PER_MS, axial_interval_sub,
                                        line_rho_q15, ramp_events, ramp_step_sub,
@@ -39,6 +40,11 @@ class ReferenceMachine:
         self._travel = (self.config.travel_min_steps, self.config.travel_max_steps)
         self.position = list(position)          # machine steps
         self.origin = [0, 0, 0]                 # machine steps of work zero
+        # Z without an end-stop: its travel floats with the lowest and highest Z
+        # planned since power-on and the pen heights (planner.cpp, z_seen)
+        self._z_floats = self.config.home_pins[2] == -1
+        pens = (self.config.pen_down_z_steps, self.config.pen_up_z_steps)
+        self.z_seen = [min(*pens, position[2]), max(*pens, position[2])]
         self.phys_offset = [0, 0, 0]            # simulated world: physical - machine
         self.feed_steps_per_s = self.config.feed_steps_per_s
         self.motors_on = True
@@ -77,11 +83,11 @@ class ReferenceMachine:
 
     def _state(self) -> tuple:
         return (list(self.position), list(self.origin), list(self.phys_offset),
-                self.feed_steps_per_s, self.motors_on, self.ended)
+                self.feed_steps_per_s, self.motors_on, self.ended, list(self.z_seen))
 
     def _restore(self, state: tuple) -> None:
         (self.position, self.origin, self.phys_offset, self.feed_steps_per_s,
-         self.motors_on, self.ended) = state
+         self.motors_on, self.ended, self.z_seen) = state
 
     def run(self, commands: Iterable[Command], holds: Sequence[Hold] = (),
             abort_at_tick: int | None = None, backend: str = "numpy") -> Trace:
@@ -119,23 +125,40 @@ class ReferenceMachine:
         return origin
 
     # ---- helpers ----------------------------------------------------------------
+    def _mm(self, steps: int) -> str:
+        return mm_text(steps, self.config.steps_per_mm)
+
     def _fail(self, message: str, axis: str = "", limit: int | None = None,
               value: int | None = None) -> MachineError:
-        return MachineError(f"command {self._index} ({self._command}): {message}",
+        what = command_text(self._command, self.config.steps_per_mm)
+        return MachineError(f"command {self._index + 1} ({what}): {message}",
                             axis=axis, limit=limit, index=self._index, value=value)
 
-    def _check_travel(self, lo: Sequence[int], hi: Sequence[int]) -> None:
-        """Refuse a move whose visited box [lo, hi] (machine steps) leaves the travel."""
+    def travel_bounds(self, axis: int) -> tuple[int, int]:
+        """The travel a move on `axis` is checked against, machine steps: the
+        configured one, or for a Z without an end-stop one travel's length around
+        every Z planned so far (its travel is a length, not a place)."""
         tmin, tmax = self._travel
+        if axis == 2 and self._z_floats:
+            span = tmax[2] - tmin[2]
+            return self.z_seen[1] - span, self.z_seen[0] + span
+        return tmin[axis], tmax[axis]
+
+    def _check_travel(self, lo: Sequence[int], hi: Sequence[int]) -> None:
+        """Refuse a move whose visited box [lo, hi] (machine steps) leaves the travel.
+        A head outside the travel (a failed or stopped homing) may move back towards
+        it, never further out: the travel is widened to where the head stands."""
         for a in range(3):
-            if lo[a] < tmin[a]:
-                raise self._fail(f"{AXIS_NAMES[a]} would reach {lo[a]} steps, below the "
-                                 f"travel minimum {AXIS_NAMES[a]}={tmin[a]}",
-                                 AXIS_NAMES[a], tmin[a], lo[a])
-            if hi[a] > tmax[a]:
-                raise self._fail(f"{AXIS_NAMES[a]} would reach {hi[a]} steps, beyond the "
-                                 f"travel maximum {AXIS_NAMES[a]}={tmax[a]}",
-                                 AXIS_NAMES[a], tmax[a], hi[a])
+            tmin, tmax = self.travel_bounds(a)
+            here = self.position[a]
+            if lo[a] < tmin and lo[a] < here:
+                raise self._fail(f"{AXIS_NAMES[a]} would reach {self._mm(lo[a])} "
+                                 f"(machine), below the travel's start at "
+                                 f"{self._mm(tmin)} [{lo[a]} steps]", AXIS_NAMES[a], tmin, lo[a])
+            if hi[a] > tmax and hi[a] > here:
+                raise self._fail(f"{AXIS_NAMES[a]} would reach {self._mm(hi[a])} "
+                                 f"(machine), beyond the travel's end at "
+                                 f"{self._mm(tmax)} [{hi[a]} steps]", AXIS_NAMES[a], tmax, hi[a])
 
     def _work_to_machine(self, x: int, y: int, z: int | None) -> list[int]:
         o = self.origin
@@ -158,6 +181,7 @@ class ReferenceMachine:
         items.append(LineMove(tuple(self.position), delta, n, base, ramp,
                               ramp_step_sub(base, ramp, cfg.ramp_start_factor)))
         self.position = list(target)
+        self.z_seen = [min(self.z_seen[0], target[2]), max(self.z_seen[1], target[2])]
 
     def _z_to(self, z_work: int, items: list[Item]) -> None:
         target = list(self.position)
@@ -183,8 +207,9 @@ class ReferenceMachine:
         rel_s = (self.position[0] - center[0], self.position[1] - center[1])
         rel_e = (end[0] - center[0], end[1] - center[1])
         if max(abs(rel_s[0]), abs(rel_s[1]), abs(rel_e[0]), abs(rel_e[1])) > MAX_ARC_COORD:
-            raise self._fail(f"arc radius too large (more than {MAX_ARC_COORD} steps "
-                             f"from the centre on an axis)")
+            raise self._fail(f"arc radius too large (more than "
+                             f"{self._mm(MAX_ARC_COORD)} [{MAX_ARC_COORD} steps] from the "
+                             f"centre on an axis)")
         geom, (x0, x1, y0, y1) = arc_setup(rel_s, rel_e, not cmd.cw)
         z = self.position[2]
         self._check_travel([x0 + center[0], y0 + center[1], z], [x1 + center[0], y1 + center[1], z])
@@ -224,8 +249,9 @@ class ReferenceMachine:
     def _set_feed(self, cmd: SetFeed, items: list[Item]) -> None:
         hi = self.config.max_feed_steps_per_s
         if not MIN_FEED_STEPS_PER_S <= cmd.feed_steps_per_s <= hi:
-            raise self._fail(f"feed {cmd.feed_steps_per_s} steps/s outside "
-                             f"{MIN_FEED_STEPS_PER_S}..{hi} steps/s")
+            spm = self.config.steps_per_mm
+            raise self._fail(f"feed {feed_text(cmd.feed_steps_per_s, spm)} outside "
+                             f"{MIN_FEED_STEPS_PER_S / spm:g} .. {hi / spm:g} mm/s")
         self.feed_steps_per_s = cmd.feed_steps_per_s
 
     def _jog(self, cmd: Jog, items: list[Item]) -> None:
@@ -253,8 +279,18 @@ class ReferenceMachine:
             max_steps = span + 2 * cfg.home_pulloff_steps + reads
             n = direction * (switch_at - phys) + reads - 1
             if n > max_steps:
-                raise self._fail(f"{AXIS_NAMES[a]} end-stop not found within {max_steps} "
-                                 f"steps", AXIS_NAMES[a])
+                # The machine finds this out at the seek's end: what it stepped until
+                # the alarm (sim:// runs it) goes with the refusal.
+                items.append(SeekMove(tuple(self.position), a, direction, max_steps, base,
+                                      reads, phys, switch_at, max_steps))
+                self.position[a] += direction * max_steps
+                refused = self._fail(f"{AXIS_NAMES[a]} end-stop not found within "
+                                     f"{self._mm(max_steps)} [{max_steps} steps]",
+                                     AXIS_NAMES[a])
+                refused.moves_until_alarm = list(items)
+                refused.state_at_alarm = (tuple(self.position), tuple(self.origin),
+                                          tuple(self.phys_offset))
+                raise refused
             self.motors_on = True
             items.append(SeekMove(tuple(self.position), a, direction, n, base, reads,
                                   phys, switch_at, max_steps))

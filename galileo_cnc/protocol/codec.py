@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 from galileo_cnc.errors import GalileoError
+from galileo_cnc.machine.command_text import field_text
 from galileo_cnc.protocol.spec import (BANNER_NAME, BY_MNEMONIC, CHECK_BYTES, CHECK_SEPARATORS,
                                        COMMANDS, CRC16_INIT, ERROR_BY_CODE, FLAG, MAX_LINE_BYTES,
                                        PROTOCOL_VERSION, SEQ_MAX, STATES, CommandSpec, ErrorSpec)
@@ -92,14 +93,20 @@ def _spec_of(cmd: object) -> CommandSpec:
     raise ProtocolError(f"no wire form for {cmd!r}")
 
 
-def range_problem(cmd: object) -> str | None:
+def range_problem(cmd: object, steps_per_mm: float | None = None) -> str | None:
     """What of a command the wire cannot carry ('ms=1000000000 outside 0..2000000'),
-    else None: the planner asks before anything is sent."""
+    else None: the planner asks before anything is sent. With `steps_per_mm`, a
+    length or feed is said in mm (the wire's form in brackets)."""
     spec = _spec_of(cmd)
     for field, kind in spec.args:
         value = getattr(cmd, field)
         if value is not None and not kind.lo <= int(value) <= kind.hi:
-            return f"{field}={int(value)} outside {kind.lo}..{kind.hi}"
+            wire = f"{field}={int(value)} outside {kind.lo}..{kind.hi}"
+            if steps_per_mm is None or not field.endswith(("_steps", "_steps_per_s")):
+                return wire
+            return (f"{field_text(field, int(value), steps_per_mm)} is more than a machine "
+                    f"command carries ({field_text(field, kind.hi, steps_per_mm)} at most) "
+                    f"[{wire}]")
     return None
 
 
@@ -112,7 +119,8 @@ def _ranges_of_class(cls: type) -> tuple[tuple[str, int, int], ...] | None:
     return tuple((field, kind.lo, kind.hi) for field, kind in forms.pop())
 
 
-def first_range_problem(commands: list) -> tuple[int, str] | None:
+def first_range_problem(commands: list, steps_per_mm: float | None = None
+                        ) -> tuple[int, str] | None:
     """(index, range_problem) of the first command the wire cannot carry, else None:
     range_problem over a whole job, with each class's ranges looked up once
     (hellboard's 137k-command ink job: 0.25 -> 0.1 s)."""
@@ -123,14 +131,14 @@ def first_range_problem(commands: list) -> tuple[int, str] | None:
             ranges[cls] = _ranges_of_class(cls)
         checks = ranges[cls]
         if checks is None:
-            problem = range_problem(cmd)
+            problem = range_problem(cmd, steps_per_mm)
             if problem is not None:
                 return at, problem
             continue
         for field, lo, hi in checks:
             value = getattr(cmd, field)
             if value is not None and not lo <= value <= hi:
-                problem = range_problem(cmd)      # its message (and its int())
+                problem = range_problem(cmd, steps_per_mm)      # its message (and its int())
                 if problem is not None:
                     return at, problem
     return None

@@ -428,7 +428,10 @@ class SimulatedMachine:
             for code, words in ((10, "already active"), (11, "not found"),
                                 (12, "after the pull-off")):
                 if words in text:           # found "while the job runs" on the board
-                    self._queue_block(_Block(needed, [], self._snapshot(), mnemonic, code), now)
+                    # a seek that finds no switch runs to its end first, as the board's
+                    moves = getattr(exc, "moves_until_alarm", [])
+                    after = getattr(exc, "state_at_alarm", self._snapshot())
+                    self._queue_block(_Block(needed, moves, after, mnemonic, code), now)
                     return 0, ""
             if "job has ended" in text:
                 return 8, ""

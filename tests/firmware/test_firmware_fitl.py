@@ -19,10 +19,12 @@ from galileo_cnc import protocol as P
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.job import (ArcTo, Dwell, EndJob, Flash, Home, Jog, LineTo, PenDown, PenUp,
                              Rapid, SetFeed, SetOrigin)
-from galileo_cnc.machine import simulate
+from galileo_cnc.job import MachineError
+from galileo_cnc.machine import ReferenceMachine, simulate
 from galileo_cnc.simavr.board import SimulatedBoard, step_trace
 
-from firmware_support import ELF, FirmwareLink, build_firmware, build_harness, check_bad_input_replies
+from firmware_support import (ELF, FirmwareLink, build_firmware, build_harness,
+                              check_bad_input_replies, status_when)
 
 # Every step edge lies within [offset, offset + LATENCY_JITTER_TICKS] of its
 # reference tick: the compare match is exact, the edge follows it by a fixed
@@ -309,3 +311,61 @@ def test_abort_decelerates_keeps_the_position_and_locks_until_unlock(firmware):
     assert (status.x_steps, status.y_steps) == (moved[0] - 3000, moved[1] - 3000)
     x_gaps = np.diff(tick[axis == 0])[-20:]
     assert np.all(np.diff(x_gaps) >= -LATENCY_JITTER_TICKS)   # slowing down to the stop
+
+
+def _refusal(machine, command):
+    """The reference's refusal of `command` as the firmware words it (error:5's detail)."""
+    with pytest.raises(MachineError) as refused:
+        machine.plan([command])
+    e = refused.value
+    return P.soft_limit_detail(e.axis, e.value, e.limit)
+
+
+def test_z_without_an_end_stop_goes_below_its_power_on_height(firmware):
+    # Issue 31 item 10: powered on with the pen lifted, the user lowers it by the pen
+    # lift, sets the origin there and draws; Z has no end-stop, so its travel is a
+    # length around where Z has been (and the pen heights), not a place.
+    job = [SetFeed(4000), Jog(0, 0, -300), SetOrigin(), PenDown(), LineTo(400, 200), PenUp(),
+           PenDown(), LineTo(0, 0), PenUp()]
+    ref = check_job(firmware, job)
+    assert ref.final_position == (0, 0, 300)        # up: machine Z 0, the power-on height
+    beyond = Jog(0, 0, -301)                        # one step past a travel below Z 300
+    machine = ReferenceMachine()
+    machine.plan(job)
+    assert _refusal(machine, beyond) == "Z would reach -301, below -300"
+    with SimulatedBoard(firmware) as board:
+        link = FirmwareLink(board.port)
+        try:
+            assert all(r.kind == "ok" for r in link.stream(job))
+            r = link.send(beyond)
+            assert (r.code, r.text) == (5, "soft limit: Z would reach -301, below -300")
+        finally:
+            link.close()
+
+
+def test_a_head_outside_the_travel_moves_back_towards_it_never_further(firmware):
+    # Issue 31 item 6: a homing that stops outside the travel (alarm 11 after its whole
+    # seek, or stopped as here) left every jog refused, even back towards the travel.
+    with SimulatedBoard(firmware) as board:            # no end-stops: the X seek runs on
+        link = FirmwareLink(board.port)
+        try:
+            assert link.send(Home()).kind == "ok"
+            status_when(link, lambda s: s.x_steps < -200, timeout_s=30)
+            link.port.write(P.RT_ABORT)
+            assert link.read_reply().code == 14
+            assert link.send(P.Unlock()).kind == "ok"
+            outside = link.status()
+            machine = ReferenceMachine(position=(outside.x_steps, outside.y_steps,
+                                                 outside.z_steps))
+            further = Jog(-1, 0, 0)
+            r = link.send(further)
+            assert r.code == 5 and r.text == f"soft limit: {_refusal(machine, further)}"
+            assert r.text == f"soft limit: X would reach {outside.x_steps - 1}, below 0"
+            back = [Jog(100, 0, 0), Jog(0, 50, 0), Rapid(200, 100)]
+            assert [link.send(c).kind for c in back] == ["ok"] * 3
+            machine.plan(back)
+            final = link.wait_idle()
+        finally:
+            link.close()
+    assert (final.x_steps, final.y_steps, final.z_steps) == (200, 100, 300) == \
+        tuple(machine.work_position)

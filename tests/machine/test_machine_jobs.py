@@ -113,11 +113,15 @@ def test_an_abort_keeps_only_the_origins_set_before_the_stop():
 
 def test_soft_limits_refuse_before_any_step():
     m = ReferenceMachine()
-    with pytest.raises(MachineError, match=r"X would reach -1 steps, below the travel minimum X=0") as e:
+    with pytest.raises(MachineError, match=r"command 2 \(LineTo to X -0\.006 mm Y 0\.062 mm "
+                       r"\(work\)\): X would reach -0\.006 mm \(machine\), below the "
+                       r"travel's start at 0\.000 mm \[-1 steps\]") as e:
         m.run([LineTo(500, 500), LineTo(-1, 10)])
     assert e.value.axis == "X" and e.value.limit == 0 and isinstance(e.value, GalileoError)
     assert m.position == [0, 0, 0] and m.clock_ticks == 0  # nothing ran
-    with pytest.raises(MachineError, match="Y would reach 32001 steps, beyond the travel maximum Y=32000"):
+    with pytest.raises(MachineError, match=r"Y would reach 200\.006 mm \(machine\), beyond the "
+                       r"travel's end at "
+                       r"200\.000 mm \[32001 steps\]"):
         simulate([LineTo(0, 32001)])
     with pytest.raises(MachineError, match="Z") as e:
         simulate([Jog(0, 0, 601)])
@@ -129,9 +133,10 @@ def test_soft_limits_refuse_before_any_step():
 
 
 def test_bad_feed_and_commands_after_end_are_refused():
-    with pytest.raises(MachineError, match="feed 5 steps/s"):
+    with pytest.raises(MachineError, match=r"feed 0\.03125 mm/s \(1\.875 mm/min\) "
+                       r"\[5 steps/s\] outside 0\.0625 \.\. 250 mm/s"):
         simulate([SetFeed(5)])
-    with pytest.raises(MachineError, match="feed 40001"):
+    with pytest.raises(MachineError, match=r"feed 250\.00625 mm/s .*\[40001 steps/s\]"):
         simulate([SetFeed(40001)])
     with pytest.raises(MachineError, match="ended"):
         simulate([EndJob(), LineTo(1, 1)])

@@ -289,3 +289,16 @@ def test_sequence_is_checked_before_the_command_as_the_firmware_does():
     with pytest.raises(P.LineRejected) as info:
         P.decode_line(_framed(b"N5 zap"), expected_seq=5)
     assert (info.value.code, info.value.seq) == (3, 5)  # matched, then refused
+
+
+def test_what_the_wire_cannot_carry_is_said_in_mm_with_the_wire_form_in_brackets():
+    # issue 31 item 14: `Rapid: x_steps=-159999992640` reached the user
+    steps_per_mm = MachineConfig().steps_per_mm
+    assert first_range_problem([Rapid(1, 2), Rapid(-159999992640, 5)], steps_per_mm) == (
+        1, "X -999999954.000 mm is more than a machine command carries (X 62499.994 mm at "
+           "most) [x_steps=-159999992640 outside -9999999..9999999]")
+    assert first_range_problem([SetFeed(160_000_000)], steps_per_mm) == (
+        0, "feed 1000000 mm/s is more than a machine command carries (feed 62499.99375 mm/s "
+           "at most) [feed_steps_per_s=160000000 outside 0..9999999]")
+    assert first_range_problem([Dwell(10**10)], steps_per_mm) == (
+        0, "ms=10000000000 outside 0..2000000")            # no length: as it was
