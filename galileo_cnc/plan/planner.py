@@ -441,15 +441,15 @@ def _label_pens(job: Job, program: Program) -> None:
 def check_job(job: Job, program: Program, config: MachineConfig) -> None:
     """Soft limits (and feed range) by the reference machine's own checks, from a
     machine at its origin; raises PlanError naming the op behind the refused command."""
-    found = first_range_problem(job.commands)       # what the wire cannot carry
+    found = first_range_problem(job.commands, config.steps_per_mm)  # what the wire cannot carry
     if found is not None:
         at, problem = found
         op = job.op_index[at]
         row = program.table[op] if op != NO_OP else None
         pos = SourcePos(program.source, int(row[LINE]), int(row[COL])) \
             if row is not None and row[LINE] else None
-        raise PlanError(f"{type(job.commands[at]).__name__}: {problem} (the machine's range)",
-                        pos, "", op)
+        what = describe_op(program, op) if row is not None else "the end of the job"
+        raise PlanError(f"{what}: {problem}", pos, "", op)
     if _surely_inside(job.commands, config):
         return
     try:

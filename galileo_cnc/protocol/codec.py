@@ -102,7 +102,12 @@ def range_problem(cmd: object, steps_per_mm: float | None = None) -> str | None:
         value = getattr(cmd, field)
         if value is not None and not kind.lo <= int(value) <= kind.hi:
             wire = f"{field}={int(value)} outside {kind.lo}..{kind.hi}"
-            if steps_per_mm is None or not field.endswith(("_steps", "_steps_per_s")):
+            if steps_per_mm is None:
+                return wire
+            if field == "ms":               # a dwell: said in seconds, as G4 P is read
+                return (f"a dwell of {int(value) / 1000:g} s is longer than a machine command "
+                        f"carries ({kind.hi / 1000:g} s at most) [{wire}]")
+            if not field.endswith(("_steps", "_steps_per_s")):
                 return wire
             return (f"{field_text(field, int(value), steps_per_mm)} is more than a machine "
                     f"command carries ({field_text(field, kind.hi, steps_per_mm)} at most) "
