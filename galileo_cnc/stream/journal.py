@@ -71,6 +71,9 @@ class JournalEntry:
     #: the job's frame is the homed one (`plot --home` homed the machine before it,
     #: so homing again finds it after a reset); older journals: not
     homed: bool = False
+    #: a stopped job (q, Ctrl-C): the work position (steps) where the machine stood
+    #: once it ramped down, before the pen was lifted there; None: not stopped so
+    stopped_at: tuple | None = None
 
     def index_of_seq(self, seq: int) -> int | None:
         """The command a sequence number of this session would belong to (the
@@ -122,10 +125,11 @@ _FIELD_CHECKS = {
                "a list of layer names"),
     "units": (lambda v: v is None or v in ("mm", "in"), "null, mm or in"),
     "homed": (lambda v: isinstance(v, bool), "true or false"),
+    "stopped_at": (lambda v: v is None or _integers(3)(v), "null or a list of 3 integers"),
 }
 _REQUIRED = ("source", "digest", "offset_nm", "profile", "group", "total", "confirmed",
              "first_index", "first_seq")
-_TUPLES = ("offset_nm", "start_position", "pens_nm", "layers")
+_TUPLES = ("offset_nm", "start_position", "pens_nm", "layers", "stopped_at")
 
 
 def _checked_fields(data: dict, damaged) -> dict:
@@ -140,7 +144,7 @@ def _checked_fields(data: dict, damaged) -> dict:
             raise damaged(f"unknown key {name!r}")
         if not check[0](value):
             raise damaged(f"{name} must be {check[1]}, got {json.dumps(value)[:40]}")
-        fields[name] = tuple(value) if name in _TUPLES else value
+        fields[name] = tuple(value) if name in _TUPLES and value is not None else value
     if not -1 <= fields["confirmed"] < max(fields["total"], 0) or fields["total"] < 0:
         raise damaged(f"confirmed command {fields['confirmed']} is outside the job's "
                       f"{fields['total']} commands")
