@@ -205,9 +205,12 @@ def plan_resume(link: MachineLink, entry: JournalEntry,
         return _after_reset(job, artwork, entry, config, planned.plotted)
     status = link.wait_idle()
     here = (status.x_steps, status.y_steps, status.z_steps)
-    lifted = entry.stopped_at is not None and here == lifted_position(entry.stopped_at, config)
+    stopped_at = tuple(entry.stopped_at) if entry.stopped_at is not None else None
+    lifted = stopped_at is not None and here == lifted_position(stopped_at, config)
+    if stopped_at is not None and not lifted:
+        return _moved_since_stop(job, artwork, entry, config, planned.plotted, here)
     if lifted:
-        here = tuple(entry.stopped_at)      # where it stopped, before the pen was lifted
+        here = stopped_at                   # where it stopped, before the pen was lifted
     candidates = [entry.confirmed]
     before = link.initial_status
     if before is not None and (index := entry.index_of_seq(before.last_seq)) is not None:
@@ -224,17 +227,30 @@ def plan_resume(link: MachineLink, entry: JournalEntry,
             return ResumePoint(job, artwork, found[0], found[1], begun, planned.plotted,
                                homed=entry.homed)
     if entry.homed:                         # homing finds the job's frame again
-        if entry.stopped_at is not None:
-            found = _stopped_in(job, config, entry, tuple(entry.stopped_at))
-            if found is not None:
-                return ResumePoint(job, artwork, found[0], found[1], begun, planned.plotted,
-                                   home=True, homed=True, lost=NOT_WHERE_IT_STOPPED)
         return _after_reset(job, artwork, entry, config, planned.plotted, NOT_WHERE_IT_STOPPED)
     expected = position_after(job, entry.confirmed + 1, config, begun)
-    raise ResumeError(
+    raise _moved(here, expected, entry, config)
+
+
+def _moved(here, expected, entry: JournalEntry, config: MachineConfig) -> ResumeError:
+    return ResumeError(
         f"the machine stands at {_mm_text(here, config)}, but the job stopped at "
         f"{_mm_text(expected, config)} (after command {entry.confirmed + 1} of "
         f"{entry.total}): the board was reset or moved since; start the job again")
+
+
+def _moved_since_stop(job: Job, artwork: Artwork, entry: JournalEntry, config: MachineConfig,
+                      plotted: Program | None, here: tuple[int, int, int]) -> ResumePoint:
+    """A stopped job whose machine no longer stands where the stop lifted the pen: a
+    homed one is homed and continues in the command it stopped in; others are refused."""
+    stopped_at = tuple(entry.stopped_at)
+    if not entry.homed:
+        raise _moved(here, lifted_position(stopped_at, config), entry, config)
+    found = _stopped_in(job, config, entry, stopped_at)
+    if found is None:
+        return _after_reset(job, artwork, entry, config, plotted, NOT_WHERE_IT_STOPPED)
+    return ResumePoint(job, artwork, found[0], found[1], entry.start_position, plotted,
+                       home=True, homed=True, lost=NOT_WHERE_IT_STOPPED)
 
 
 def lifted_position(stopped_at, config: MachineConfig) -> tuple[int, int, int]:
