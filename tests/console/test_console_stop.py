@@ -10,6 +10,7 @@ line at 10 mm/s, long enough to stop it in the middle.
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
@@ -121,3 +122,53 @@ def test_q_on_the_firmware_in_simavr_lifts_the_pen_and_resume_lowers_it(home, dr
     ticks, z = the_lift(trace)
     assert z == CONFIG.pen_up_z_steps and ticks < TICKS_PER_S
     assert inked_points(trace) == inked_points(whole)
+
+
+def test_q_on_grbl_lifts_the_pen_and_resume_goes_on_where_grbl_kept_its_position(
+        home, drawing):  # noqa: F811
+    """GRBL without homing ($22=0), its work zero where it powered up: q mid-line holds
+    the feed and resets GRBL (the position kept), then lifts the pen (GRBL's pins and
+    its own report say Z is up); `resume` asks nothing about the position and goes on
+    from where GRBL stands, lowering the pen where the line was cut."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "grbl"))
+    from grbl_support import CONFIG as GRBL_CONFIG, QUICK_ACCEL, SETTINGS, grbl_machine, \
+        positions_and_ticks
+
+    whole = simulate(plan_file(drawing, GRBL_CONFIG).job.commands)
+    with grbl_machine({**SETTINGS, **QUICK_ACCEL}, realtime=True) as (board, setup):
+        setup.port.close()
+
+        def position():
+            return tuple(int(v) for v in positions_and_ticks(board.trace())[0][-1])
+
+        with console_in_thread(home, board.port, GRBL_CONFIG) as user:
+            user.line(f"getg {drawing}")
+            user.expect(r"use these offsets\? \[Y/n\]")
+            user.line("")
+            wait_drawing(position, min(x for x, _ in inked_points(whole)) + 2 * 160)
+            user.type("q")
+            user.expect(r"job stopped after \d+ of \d+ G-code lines: stopped by the user; "
+                        r"GRBL held the feed and was reset \(its queue dropped, the "
+                        r"position kept\); the pen lifted.*type resume to continue it")
+            user.line("status")
+            stopped = user.expect(r"state (\w+), .* Z (\S+) mm work")
+            user.line("resume")
+            user.expect(r"continue the job\? \[Y/n\]")
+            user.line("")
+            user.expect(r"GRBL kept its position since the job stopped: GRBL stands at "
+                        r"X \S+ Y \S+ Z 1\.875 mm \(work\); the job goes on from there")
+            user.expect(r"process has finished")
+            user.expect(r">>")
+        board.stop()
+        pos, tick = positions_and_ticks(board.trace())
+    text = user.screen.text
+    assert "work zero" not in text and "homing" not in text and "Traceback" not in text
+    assert stopped.groups() == ("Idle", "1.875")          # 300 steps: the pen up
+    assert tuple(pos[-1]) == whole.final_position
+    # the lift: Z steps up straight after the ramp-down, within a second of machine time
+    trace = Trace(tick[1:], np.argmax(np.diff(pos, axis=0) != 0, axis=1),
+                  np.diff(pos, axis=0).sum(axis=1), whole.final_position, 0)
+    ticks, z = the_lift(trace)
+    assert z == GRBL_CONFIG.pen_up_z_steps and ticks < TICKS_PER_S
+    down = {tuple(p[:2]) for p in pos if p[2] == GRBL_CONFIG.pen_down_z_steps}
+    assert down >= inked_points(whole)          # every point of the line inked
