@@ -19,7 +19,8 @@ help [COMMAND]
     Print this help, or only the part about COMMAND (help getg).
 
 [getg]
-getg [--mode ink|centre] [--pens MM,MM] [--layers A,B] [--units mm|in] [--optimize] [FILE]
+getg [--mode ink|centre] [--pens MM,MM] [--layers A,B] [--units mm|in]
+     [--optimize] [FILE]
     Plot a Gerber (RS-274X), G-code or DXF file. Gerber copper is inked with
     your pens (the profile's, or --pens 0.3,0.8); --mode centre draws each
     object's centre line with one pen per aperture. --layers picks a DXF
@@ -28,13 +29,16 @@ getg [--mode ink|centre] [--pens MM,MM] [--layers A,B] [--units mm|in] [--optimi
     --optimize is given (refused, naming the line, for a file that does more
     than draw with a pen: spindle speeds, depths, dwells, tool changes).
     Without FILE it asks for one (Tab completes paths, ~ included). A job
-    larger than the machine's travel is refused at once, with both sizes. It shows the smallest X and Y the
-    artwork uses and proposes offsets that move the whole job (travel moves
-    too) to the origin plus a 1 mm margin: answer Enter or y to use them, n to
-    type your own "X,Y" in mm (or nothing to keep the file's coordinates). It
-    then plans the job (a move outside the travel is refused, naming the file
-    line, the axis and the distance in mm), shows the number of machine
-    commands and the estimated time, and streams it with a progress bar. When
+    larger than the machine's travel is refused at once, with both sizes. It
+    shows the smallest X and Y the artwork uses and proposes offsets that move
+    the whole job (travel moves too) to the origin plus a 1 mm margin: answer
+    Enter or y to use them, n to type your own "X,Y" in mm (or nothing to keep
+    the file's coordinates). Gerber copper is inked before the question, as
+    its fills reach past the centre lines: the offsets asked about are the
+    ones the job uses. It then plans the job (a move outside the travel is
+    refused, naming the file line, the axis and the distance in mm), shows
+    the number of machine commands and the estimated time, and streams it
+    with a progress bar. When
     the job needs another pen the bell rings and it asks for it ("insert the
     0.8 mm pen"): insert it and press Enter. q or Ctrl-C stops the job (the
     machine ramps down); `resume` continues it. At the end: "process has
@@ -79,7 +83,12 @@ connect [PORT]
 
 [home]
 home
-    Drive the axes with end-stop switches to them (Z first, then X, then Y).
+    Drive the axes with end-stop switches to them: X, then Y; Z first only
+    when the profile gives Z an end stop (z_home_pin); on GRBL, $H as GRBL's
+    settings say. The end stops become the origin: an origin set in setup
+    before is replaced (the console says so), so set it again where the
+    paper is (setup, then o). On GRBL the work origin stays GRBL's G54
+    offset from the homed machine frame.
 
 [unlock]
 unlock
@@ -87,6 +96,19 @@ unlock
     found) locks the machine; it refuses motion until you unlock it. Check
     the machine first: the position is kept. Finished and stopped jobs do not
     need it: the console leaves the machine ready itself.
+
+[send]
+send LINE
+    Send a line to the machine, as UGS, CNCjs or Candle do; a line that
+    starts with $ or a G-code word (`$22=1`, `$$`, `G0 X10`) is sent without
+    typing send. On GRBL the line goes as it is: GRBL's $ commands ($$, $#,
+    $H, $X, $100=160 ...) and G-code; every line GRBL answers is shown, then
+    ok or error:N in GRBL's words, and after G-code where GRBL stands once
+    still. On our firmware a G-code line runs as a job of one line from
+    where the head stands (G91, G20, F and M3/M5 hold for the lines after
+    it; the pen lifts at its end; it is not journalled, so `resume` keeps
+    an interrupted job); $$ lists the profile's settings, $H homes, $X
+    unlocks, other $ commands are GRBL's and are refused.
 
 [resume]
 resume

@@ -241,3 +241,14 @@ class Machine:
         if not self.find_position(resumption, operator):
             return None
         return self.run_job(resumption.job, operator)
+
+    # ---- a command line -----------------------------------------------------------
+    def send_line(self, text: str, say: Callable[[str], None]) -> bool:
+        """One line typed for the machine (`$$`, `G0 X10`; backends/command_line.py),
+        its reply said; True when the machine took it."""
+        raise NotImplementedError
+
+    def origin_after_home(self) -> str:
+        """After a home: where the work origin is now (an origin the user set may be
+        gone), for the user."""
+        return ""

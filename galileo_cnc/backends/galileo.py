@@ -245,6 +245,22 @@ class GalileoMachine(Machine):
         operator.say(resumption.job.estimate_line())
         return True
 
+    # ---- a command line -----------------------------------------------------------
+    def send_line(self, text: str, say) -> bool:
+        """G-code as a job of one line, not journalled; `$$`, `$H`, `$X` as ours."""
+        from galileo_cnc.backends.command_line import send_to_galileo
+
+        return send_to_galileo(self, text, say)
+
+    def origin_after_home(self) -> str:
+        """Homing makes each homed axis's origin 0 at its switch (stream/homing.py)."""
+        axes, z_note = "X, Y and Z", ""
+        if not z_has_end_stop(self.link.config):
+            axes, z_note = "X and Y", "; Z has no end stop and keeps its origin"
+        return (f"the origin is now the home position ({axes} 0 at the end stops{z_note}): "
+                f"an origin set in setup before is replaced; set it again where the paper "
+                f"is (setup, then o)")
+
 
 class _Resumed:
     """A resumed job in the shape of a PlannedFile, for what front ends read of it."""

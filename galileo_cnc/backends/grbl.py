@@ -424,6 +424,39 @@ class GrblMachine(Machine):
             operator.say(resumption.job.estimate_line())
         return found
 
+    # ---- a command line -----------------------------------------------------------
+    def send_line(self, text: str, say) -> bool:
+        """The line as it is, GRBL's reply shown; `$N=` settings read again after."""
+        from galileo_cnc.backends.command_line import (changes_grbl_settings,
+                                                       run_home_or_unlock, send_to_grbl)
+
+        if run_home_or_unlock(self, text, say):
+            return True
+        try:
+            taken = send_to_grbl(self.link, text, say)
+        except GrblError as problem:
+            self._alarm_settled(problem)
+        if taken and changes_grbl_settings(text):
+            self.link.read_info()           # steps/mm, max rates: what jobs are checked by
+            try:
+                refuse_other_scale(self.link, self.profile_config.steps_per_mm,
+                                   self.config_path, self.port_name)
+                self.scale_problem = None
+            except GalileoError as problem:
+                self.scale_problem = str(problem)
+                say(f"warning: {problem}; jobs are refused until they agree")
+        return taken
+
+    def origin_after_home(self) -> str:
+        """$H sets GRBL's machine frame; the work origin stays G54's offset from it."""
+        status = self.link.status()
+        offset = tuple(m - w for m, w in zip(status.mpos_nm, status.wpos_nm))
+        if not any(offset):
+            return "the work origin is now the home position (GRBL's G54 offset is zero)"
+        return (f"the work origin is GRBL's G54 offset, {position_text(offset)} from the "
+                f"homed machine frame: where it was set only if GRBL was homed then too; "
+                f"else set it again where the paper is (setup, then o)")
+
 
 class GrblSteps:
     """The steps GRBL's pins made on simavr:// (recorded from the board's power-on),

@@ -12,6 +12,7 @@ steps/s, ticks) are derived properties, rounded once, here.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import hashlib
 import math
 from dataclasses import dataclass, fields
@@ -351,7 +352,8 @@ class MachineConfig:
         if isinstance(data.get("pens"), Mapping):
             unknown = sorted(set(data["pens"]) - {"widths_mm"})
             if unknown:
-                raise ConfigError(f"{source}: unknown pens setting(s): {', '.join(unknown)} "
+                named = ", ".join(unknown_key_text(key, {"widths_mm"}) for key in unknown)
+                raise ConfigError(f"{source}: unknown pens setting(s): {named} "
                                   "(expected widths_mm = [0.3, 0.8])")
             if "widths_mm" in data["pens"]:
                 tables["pen_widths_mm"] = data["pens"]["widths_mm"]
@@ -360,7 +362,8 @@ class MachineConfig:
                      "servo_up_s": "servo_up_s", "servo_dwell_ms": "servo_dwell_ms"}
             unknown = sorted(set(data["grbl"]) - set(names))
             if unknown:
-                raise ConfigError(f"{source}: unknown grbl setting(s): {', '.join(unknown)} "
+                raise ConfigError(f"{source}: unknown grbl setting(s): "
+                                  f"{', '.join(unknown_key_text(k, names) for k in unknown)} "
                                   f"(known: {', '.join(names)})")
             tables.update({names[key]: value for key, value in data["grbl"].items()})
         if "machine" in data and isinstance(data["machine"], Mapping):
@@ -417,7 +420,22 @@ def pen_widths_from_text(text: str) -> tuple[float, ...]:
 def _check_keys(data: Mapping[str, Any], source: str) -> None:
     unknown = sorted(set(data) - _FIELD_NAMES)
     if unknown:
-        raise ConfigError(f"{source}: unknown machine setting(s): {', '.join(unknown)}")
+        raise ConfigError(f"{source}: unknown machine setting(s): "
+                          + "; ".join(unknown_key_text(key, _FIELD_NAMES, data[key])
+                                      for key in unknown))
+
+
+def unknown_key_text(key: str, known, value: Any = None) -> str:
+    """`key`, and the known name it most likely meant (`feed_mm_min`: did you mean
+    feed_mm_s?, with the value in mm/s when only the unit was wrong)."""
+    close = difflib.get_close_matches(key, sorted(known), n=1, cutoff=0.6)
+    if not close:
+        return key
+    text = f"{key} (did you mean {close[0]}?"
+    if key.endswith("_mm_min") and close[0] == key[:-len("_mm_min")] + "_mm_s" \
+            and isinstance(value, (int, float)) and not isinstance(value, bool):
+        text += f" it is in mm/s: {value:g} mm/min is {close[0]} = {value / 60:g}"
+    return text + ")"
 
 
 def read_toml(path: str | Path, what: str = "config") -> dict:

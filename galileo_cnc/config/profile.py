@@ -22,10 +22,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from galileo_cnc.config.hardware import BAUD_RATES, DEFAULT_BAUD
-from galileo_cnc.config.machine import ConfigError, MachineConfig, read_toml
+from galileo_cnc.config.machine import ConfigError, MachineConfig, read_toml, unknown_key_text
 from galileo_cnc.config.userdirs import config_dir
 
 PROFILE_NAME = "profile.toml"
+#: the profile's tables: the machine, its pens, a GRBL board's pen, how to reach it
+TABLES = ("machine", "pens", "grbl", "serial")
+TABLE_NAMES = tuple(f"[{name}]" for name in TABLES)
 
 
 @dataclass(frozen=True)
@@ -43,10 +46,17 @@ def load_profile(path: str | os.PathLike | None = None, *, port: str | None = No
     if path is None and not found.exists():
         found = None
     data = read_toml(found, "the profile") if found is not None else {}
+    tables = sorted(key for key, value in data.items() if isinstance(value, dict))
+    unknown = [name for name in tables if name not in TABLES]
+    if unknown:        # a misspelt table would be read as nothing
+        named = ", ".join(unknown_key_text(f"[{name}]", TABLE_NAMES) for name in unknown)
+        raise ConfigError(f"{found}: unknown table(s): {named} "
+                          f"(known: {', '.join(TABLE_NAMES)})")
     serial_table = data.get("serial", {})
     unknown = sorted(set(serial_table) - {"port", "baud"})
     if unknown:
-        raise ConfigError(f"{found}: [serial] has unknown key(s): {', '.join(unknown)} "
+        raise ConfigError(f"{found}: [serial] has unknown key(s): "
+                          f"{', '.join(unknown_key_text(k, ('port', 'baud')) for k in unknown)} "
                           f"(known: port, baud)")
     config = MachineConfig.from_mapping(data, str(found)) if data else MachineConfig()
     if baud is not None:

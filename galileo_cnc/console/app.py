@@ -21,6 +21,7 @@ from prompt_toolkit.shortcuts import print_formatted_text, prompt
 from galileo_cnc import __version__
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.backends import Machine, MachineView, open_machine
+from galileo_cnc.backends.command_line import is_machine_line
 from galileo_cnc.config.profile import Profile
 from galileo_cnc.console.commands import build_registry
 from galileo_cnc.console.plans import PlanCache
@@ -28,6 +29,8 @@ from galileo_cnc.errors import GalileoError
 from galileo_cnc.transport.link import LinkError, MachineAlarm, PortGone
 
 PROMPT = ">> "
+#: the command a line for the machine goes to (`$22=1`, `G0 X10`: backends/command_line.py)
+SEND = "send"
 #: While the prompt waits, the toolbar's state and position are refreshed this often.
 TOOLBAR_REFRESH_S = 0.5
 
@@ -182,7 +185,8 @@ class Console:
             try:
                 line = self.session.prompt(PROMPT)
             except KeyboardInterrupt:
-                continue                 # Ctrl-C at the prompt: just a new prompt
+                self.say("(Ctrl-C stops a command or a job; exit or Ctrl-D leaves)")
+                continue                 # Ctrl-C at the prompt: a new prompt
             except EOFError:
                 break                    # Ctrl-D leaves
             finally:
@@ -214,6 +218,10 @@ class Console:
             return
         name, arguments = words[0], words[1:]
         command = self.registry.get(name)
+        if command is None and is_machine_line(line):
+            command, arguments = self.registry.get(SEND), [line.strip()]
+        elif command is not None and command.raw_arguments:
+            arguments = line.split(None, 1)[1:]      # the rest as typed, quotes and all
         if command is None:
             self.unknown(name)
             return
@@ -238,6 +246,7 @@ class Console:
         except (KeyboardInterrupt, EOFError):
             self.say("cancelled")
             self._stop_safely()
+            self.say(self._how_to_go_on(line.strip() if command.raw_arguments else name))
         if self.machine is not None:
             with self.machine.session():
                 view = self.refresh_status()
@@ -252,6 +261,20 @@ class Console:
                     self.stop_if_moving()
         except GalileoError as error:
             self.say(f"could not stop the machine: {error}")
+
+    def _how_to_go_on(self, name: str) -> str:
+        """After a cancelled command (`name`, or a line for the machine as typed): how
+        to start it again, and the job `resume` would continue (a job the command
+        stopped, or one stopped before it)."""
+        again = f"type {name} to start it again"
+        try:
+            entry = self.machine.pending() if self.machine is not None else None
+        except GalileoError:
+            entry = None
+        if entry is None:
+            return again
+        go_on = f"resume to continue the stopped job of {entry.source}"
+        return f"type {go_on}" if name == "resume" else f"{again}, or {go_on}"
 
     def unknown(self, word: str) -> None:
         closest = self.registry.closest(word)

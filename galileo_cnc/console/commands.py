@@ -12,6 +12,17 @@ def _leave(console, arguments: list[str]) -> None:
     console.leaving = True
 
 
+def _send(console, arguments: list[str]) -> None:
+    line = arguments[0] if arguments else console.ask("line for the machine: ")
+    if line:
+        console.machine.send_line(line, console.say)
+
+
+def _home(console, arguments: list[str]) -> None:
+    machine_commands.home(console, arguments)
+    console.say(console.machine.origin_after_home())      # the user's origin may be gone
+
+
 def build_registry() -> Registry:
     return Registry([
         ConsoleCommand("help", "help [COMMAND]", "print the help, or one command's",
@@ -27,9 +38,11 @@ def build_registry() -> Registry:
         ConsoleCommand("connect", "connect [PORT]", "reconnect, to PORT if given",
                        machine_commands.connect),
         ConsoleCommand("home", "home", "drive the axes to their end-stops",
-                       machine_commands.home, needs_machine=True),
+                       _home, needs_machine=True),
         ConsoleCommand("unlock", "unlock", "leave the alarm state (after a homing error)",
                        machine_commands.unlock, needs_machine=True),
+        ConsoleCommand("send", "send LINE", "send a line to the machine ($22=1, G0 X10)",
+                       _send, needs_machine=True, raw_arguments=True),
         ConsoleCommand("resume", "resume", "continue an interrupted job",
                        resume.run, needs_machine=True),
         ConsoleCommand("exit", "exit", "leave the console", _leave),

@@ -31,18 +31,24 @@ def run(console, arguments: list[str]) -> None:
     if (problem := artwork.misfit(console.config)) is not None:
         console.say(problem)                          # before any question or planning
         return
-    offset_nm = choose_offset(console, artwork)
+    if artwork.drawn_box_nm is None:
+        console.say(f"{artwork.program.source}: nothing is drawn")
+        return
+
+    def plan(offset):
+        if len(artwork.program) >= PLANNING_NOTICE_OPS:
+            console.say(f"planning {len(artwork.program)} operations ...")
+        return console.plans.plan_file(artwork, config, offset,  # PlanError: file:line
+                                       options=options, on_stage=console.say_stage)
+
+    # ink fills reach past the centre lines the proposal is made from: the offset
+    # asked about is the one the ink plan uses, so the ink is planned first
+    planned = plan("auto") if options.mode_for(artwork.program) == "ink" else None
+    offset_nm = choose_offset(console, artwork, planned)
     if offset_nm is None:
         return
-    if len(artwork.program) >= PLANNING_NOTICE_OPS:
-        console.say(f"planning {len(artwork.program)} operations ...")
-    # the accepted proposal is "auto": in ink mode the fills may need more room
-    choice = "auto" if offset_nm == artwork.proposal_nm else offset_nm
-    planned = console.plans.plan_file(artwork, config, choice,  # PlanError: file:line
-                                      options=options, on_stage=console.say_stage)
-    if planned.offset_nm != offset_nm:
-        console.say(f"offsets     X {_mm(planned.offset_nm[0])} mm, Y {_mm(planned.offset_nm[1])} "
-                    "mm (the ink reaches past the centre lines)")
+    if planned is None or planned.offset_nm != offset_nm:
+        planned = plan("auto" if offset_nm == artwork.proposal_nm else offset_nm)
     if planned.ink is not None:
         for warning in planned.ink.warnings_to_show():
             console.say(warning)
@@ -79,17 +85,23 @@ def _options(console, arguments: list[str]) -> tuple[PlanOptions, object, list[s
     return PlanOptions(mode=mode, layers=layers, units=units, optimize=optimize), config, rest
 
 
-def choose_offset(console, artwork: Artwork) -> tuple[int, int] | None:
-    """The offset to subtract, in nm: the proposal, the user's, or none (None: nothing drawn)."""
+def choose_offset(console, artwork: Artwork, inked=None) -> tuple[int, int] | None:
+    """The offset to subtract, in nm: the proposal (the ink plan's, when `inked` is
+    given), the user's, or none (None: nothing drawn)."""
     box = artwork.drawn_box_nm
     if box is None:
         console.say(f"{artwork.program.source}: nothing is drawn")
         return None
-    proposal = artwork.proposal_nm
-    console.say(f"minimum     X {_mm(box[0])} mm, Y {_mm(box[1])} mm")
+    margin = artwork.margin_nm
+    if inked is None:
+        proposal, what = artwork.proposal_nm, "job"
+        console.say(f"minimum     X {_mm(box[0])} mm, Y {_mm(box[1])} mm")
+    else:
+        proposal, what = inked.offset_nm, "ink"
+        console.say(f"minimum     X {_mm(proposal[0] + margin)} mm, Y "
+                    f"{_mm(proposal[1] + margin)} mm (where the pen goes, fills included)")
     console.say(f"offsets     X {_mm(proposal[0])} mm, Y {_mm(proposal[1])} mm "
-                f"(brings the job to the origin plus a {artwork.margin_nm / NM_PER_MM:g} mm "
-                "margin)")
+                f"(brings the {what} to the origin plus a {margin / NM_PER_MM:g} mm margin)")
     if console.confirm("use these offsets?"):
         return proposal
     while True:
@@ -103,4 +115,4 @@ def choose_offset(console, artwork: Artwork) -> tuple[int, int] | None:
 
 
 def _mm(nm: int) -> str:
-    return f"{nm / NM_PER_MM:.4f}"
+    return f"{round(nm / NM_PER_MM, 4) + 0.0:.4f}"     # + 0.0: never "-0.0000"

@@ -18,6 +18,8 @@ class ConsoleCommand:
     needs_machine: bool = False
     #: completion of the arguments (None: none); a callable gets the registry's names
     arguments: Completer | Callable[[list[str]], Completer] | None = None
+    #: the command gets the rest of the line as typed, as one argument (`send $J=X1 F60`)
+    raw_arguments: bool = False
 
 
 class Registry:

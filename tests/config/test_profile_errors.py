@@ -33,7 +33,14 @@ SAMPLE = Path(__file__).resolve().parents[2] / "samples" / "led-blinker.gbr"
     (b"[grbl]\npen = \"pneumatic\"\n", "grbl_pen ([grbl] pen) must be one of z, servo"),
     (b"[grbl]\nservo_down_s = -5\n", "servo_down_s must be 0..100000"),
     (b"[grbl]\nservo_dwell_ms = 1.5\n", "servo_dwell_ms must be an integer, got 1.5"),
-    (b"[grbl]\nservo = true\n", "unknown grbl setting(s): servo (known: pen,"),
+    (b"[grbl]\nservo = true\n", "unknown grbl setting(s): servo (did you mean servo_up_s?) (known: pen,"),
+    (b"[machine]\nfeed_mm_min = 300\n", "unknown machine setting(s): feed_mm_min (did you "
+     "mean feed_mm_s? it is in mm/s: 300 mm/min is feed_mm_s = 5)"),
+    (b"[machine]\nsteps_per_revolution = 200\n", "steps_per_revolution (did you mean "
+     "steps_per_rev?)"),
+    (b"[machin]\nfeed_mm_s = 3\n", "unknown table(s): [machin] (did you mean [machine]?)"),
+    (b"[serial]\nbaud_rate = 9600\n", "baud_rate (did you mean baud?) (known: port, baud)"),
+    (b"[pens]\nwidth_mm = [0.3]\n", "width_mm (did you mean widths_mm?)"),
 ])
 def test_bad_profile_names_file_key_and_expectation(tmp_path, text, expected):
     profile = tmp_path / "profile.toml"

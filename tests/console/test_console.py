@@ -230,7 +230,7 @@ def test_help_prints_the_help_file_and_one_command(home):
     with console_in_thread(home) as user:
         user.line("help")
         user.expect(r"galileo-cnc console")
-        user.expect(r"getg \[--mode ink\|centre\] .*\[FILE\]")
+        user.expect(r"(?s)getg \[--mode ink\|centre\] .*?\[FILE\]")
         user.expect(r"setup\n")
         user.expect(r"exit\n")
         user.line("help setup")
@@ -255,6 +255,18 @@ def test_every_command_has_a_section_in_the_shipped_help_file():
 
     sections = load_help(None).sections
     assert sorted(sections) == sorted(build_registry().names)
+
+
+def test_the_help_fits_80_columns_and_homes_z_only_with_a_switch():
+    from galileo_cnc.console.commands import build_registry
+
+    help_text = load_help(None)
+    too_wide = [line for line in help_text.full().splitlines() if len(line) > 80]
+    assert too_wide == []
+    for command in build_registry():        # what `help` says for a section it lacks
+        assert len(command.usage) <= 80 and len(f"    {command.summary}") <= 80, command
+    assert "Z first, then X" not in help_text.sections["home"]
+    assert "Z first only\n    when the profile gives Z an end stop" in help_text.sections["home"]
 
 
 def test_the_console_on_a_terminal_plots_and_keeps_its_history(home):
@@ -290,8 +302,8 @@ def test_tab_completes_command_names_and_file_names(home, monkeypatch):
         user.expect(r"tus")                         # wait until it has filled the word in
         user.type("\r")
         user.expect(r"state idle")
-        user.type("help se\t")
-        user.expect(r"tup")
+        user.type("help set\t")                  # "se" is setup or send
+        user.expect(r"up")
         user.type("\r")
         user.expect(r"7 / 1   Z up / down")
         user.type("getg samples/led-b")
@@ -301,7 +313,7 @@ def test_tab_completes_command_names_and_file_names(home, monkeypatch):
         user.type("\r")
         user.expect(r"use these offsets\?")
         user.type("\x03")                         # Ctrl-C cancels the question
-        user.expect(r"cancelled")
+        user.expect(r"cancelled\ntype getg to start it again\n")
         user.line("status")
         user.expect(r"state idle, X 0\.000")
 
@@ -316,6 +328,32 @@ def test_an_unknown_command_says_so_and_hints(home):
         assert "Did you mean" not in hint
         user.line("status")                      # the console goes on
         user.expect(r"state idle")
+
+
+# ---- a command line for the machine ----------------------------------------------------------
+def test_gcode_lines_typed_at_the_prompt_run_as_jobs_of_one_line(home):
+    """What UGS or CNCjs users type first, on our firmware: G-code lines are planned and
+    streamed as jobs of one line (their modes kept from line to line), `$` lines get
+    our firmware's answer, never "Unknown command!"."""
+    with console_in_thread(home) as user:
+        user.line("G0 X10")
+        user.expect(r"ok: the head stands at X 10\.000  Y 0\.000  Z \S+ mm \(work\)")
+        assert user.status()[1:3] == (1600, 0)              # 160 steps/mm
+        user.line("g1 y5 f600")                              # lower case, a feed of 10 mm/s
+        user.expect(r"ok: the head stands at X 10\.000  Y 5\.000")
+        user.line("G91")                                     # relative from now on
+        user.expect(r"ok \(nothing moves: what the line set holds for the next lines\)")
+        user.line("send G0 X-2.5 Y1")
+        user.expect(r"ok: the head stands at X 7\.500  Y 6\.000")
+        user.line("G0 X-900")                                # leaves the travel: nothing sent
+        user.expect(r"typed line:1:\d+: .*X would reach -892\.500 mm, below the travel")
+        assert user.status()[1:3] == (1200, 960)
+        user.line("$$")
+        user.expect(r"steps/mm 160 \(GRBL's \$100-\$102\)")
+        user.line("$22=1")
+        user.expect(r"\$22=1: `\$` commands are GRBL's, and this machine runs the "
+                    r"galileo-cnc firmware")
+    assert "Unknown command" not in user.screen.text
 
 
 # ---- getg ------------------------------------------------------------------------------------
@@ -374,6 +412,49 @@ def test_getg_takes_a_path_under_the_home_folder(home, tmp_path, monkeypatch):
         user.expect(r"process has finished")
 
 
+#: two 2 mm pads joined by a thin trace: the pads' fills reach 0.8 mm below and left of
+#: the flash points the centre-line proposal is made from
+PADS = """%FSLAX46Y46*%
+%MOMM*%
+%ADD10C,2.0*%
+%ADD11C,0.2*%
+D10*
+X10000000Y10000000D03*
+X20000000Y15000000D03*
+D11*
+X10000000Y10000000D02*
+X20000000Y15000000D01*
+M02*
+"""
+
+
+def test_getg_in_ink_mode_asks_about_the_offset_it_then_uses(home, tmp_path):
+    board = tmp_path / "pads.gbr"
+    board.write_text(PADS)
+    config = MachineConfig()
+    inked = plan_file(board, config)
+    asked = inked.offset_nm
+    assert inked.mode == "ink" and asked != proposed_offset(read_file(board))  # it matters
+    typed = plan_file(board, config, (8_000_000, 8_500_000))
+    with console_in_thread(home) as user:
+        user.line(f"getg {board}")
+        offsets = user.expect(r"offsets +X (\S+) mm, Y (\S+) mm \(brings the ink to the "
+                              r"origin plus a 1 mm margin\)")
+        assert offsets.groups() == (f"{asked[0] / 1e6:.4f}", f"{asked[1] / 1e6:.4f}")
+        user.expect(r"use these offsets\?")
+        user.line("y")
+        user.expect(r"process has finished")
+        assert user.status()[1:] == position_after(inked.job, len(inked.job), config)
+        user.line("getg " + str(board))
+        user.expect(r"use these offsets\?")
+        user.line("n")
+        user.expect(r"offsets X,Y in mm")
+        user.line("8, 8.5")
+        user.expect(r"process has finished")
+        assert user.status()[1:] == position_after(typed.job, len(typed.job), config)
+    assert user.screen.text.count("offsets     X") == 2          # asked twice, said twice
+
+
 def test_getg_refuses_a_job_wider_than_the_travel_before_asking(home, tmp_path):
     wide = tmp_path / "wide.nc"                 # 203.4 mm from the first X to the last
     wide.write_text("G21 G90\nG0 X0 Y0\nM3\nG1 X203.4 Y10\nM5\n")
@@ -417,7 +498,7 @@ def test_a_job_stopped_while_moving_leaves_the_machine_standing(home, stop_key):
     end = position_after(job, len(job), config)
     with console_in_thread(home, REAL_TIME_SIM) as user:
         user.type("\x03")                        # Ctrl-C at the prompt: a new prompt
-        user.expect(r">>")
+        user.expect(r"\(Ctrl-C stops a command or a job; exit or Ctrl-D leaves\)\n>>")
         user.line(f"getg --mode centre {BOARD}")
         user.expect(r"use these offsets\?")
         user.line("y")
@@ -444,6 +525,16 @@ def test_q_at_a_pen_change_stops_the_job_and_resume_finishes_it(home):
         user.type("q")
         user.expect(r"job stopped after \d+ of \d+ commands.*type resume to continue it")
         assert user.status()[0] == "idle"
+        user.line("resume")
+        user.expect(r"continue the job\? \[Y/n\]")
+        user.type("\x03")                         # not yet: the console says how to go on
+        user.expect(rf"cancelled\ntype resume to continue the stopped job of "
+                    rf"{re.escape(str(BOARD))}\n")
+        user.line(f"getg --mode centre {BOARD}")
+        user.expect(r"use these offsets\?")
+        user.type("\x03")
+        user.expect(r"cancelled\ntype getg to start it again, or resume to continue the "
+                    r"stopped job of ")
         user.line("resume")
         user.expect(r"continue the job\? \[Y/n\]")
         user.line("")
@@ -497,6 +588,13 @@ def test_setup_jogs_with_the_keypad_and_sets_the_origin(home):
         user.expect(r"choice:")
         user.line("q")
         assert user.status() == ("idle", 0, -160, 0)
+
+        user.line("home")                             # the origin goes to the switches
+        user.expect(r"homed: X 0\.000  Y 0\.000")
+        user.expect(r"the origin is now the home position \(X and Y 0 at the end stops; Z "
+                    r"has no end stop and keeps its origin\): an origin set in setup before "
+                    r"is replaced; set it again where the paper is \(setup, then o\)")
+        assert user.status() == ("idle", 0, 0, 0)
 
 
 def test_the_jog_line_follows_the_head_and_refusals_are_in_mm():
@@ -611,9 +709,14 @@ def test_a_homing_alarm_locks_the_machine_until_unlock(home, tmp_path):
         user.expect(r"the machine is locked \(alarm\): check it, then type unlock")
         assert user.screen.text.count("end-stop not found") == 1      # said once
         assert user.status()[0] == "alarm"
+        user.line("G0 X10")                           # a line for the machine waits too
+        user.expect(r"G0 X10: not sent, the machine is locked \(alarm\): type unlock \(or "
+                    r"home\), then send it again")
         user.line("unlock")
         user.expect(r"unlocked.*: state idle")
         assert user.status()[0] == "idle"
+        user.line("G0 X10")
+        user.expect(r"ok: the head stands at X 10\.000  Y 0\.000")
 
 
 # ---- a whole evening: jobs back to back, setup, a stop and a resume -------------------------

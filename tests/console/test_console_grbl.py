@@ -138,7 +138,9 @@ def planned_lines(config: MachineConfig):
 def test_an_evening_on_grbl(home):  # noqa: F811  (the fixture)
     job, lines = planned_lines(CONFIG)
     end_work = expected_end_steps(lines, SCALE)[-1]
-    with grbl_machine(HOMING, limits=SWITCHES, realtime=True) as (board, setup_link):
+    # homing off ($22=0) as GRBL ships: the user turns it on from the console
+    with grbl_machine({**HOMING, 22: "0"}, limits=SWITCHES,
+                      realtime=True) as (board, setup_link):
         setup_link.port.close()             # the console opens the board itself
         with console_object(home, board.port, CONFIG) as (user, console):
             # ---- connected: GRBL named, the toolbar from its status reports
@@ -148,6 +150,23 @@ def test_an_evening_on_grbl(home):  # noqa: F811  (the fixture)
             assert toolbar_shows(console, "GRBL Idle") == (
                 f" {board.port} | GRBL Idle | X 0.000  Y 0.000  Z 0.000 mm | feed 100 mm/s")
             assert status(user) == ("Idle", (0, 0, 0), (0, 0, 0))
+
+            # ---- the lines the console says to send, sent from its prompt: homing
+            # turned on, GRBL's settings read, a G-code move; each reply on the screen
+            user.line("home")
+            user.expect(r"homing is off on this GRBL \(\$22=0\): turn it on with \$22=1")
+            user.line("$22=1")
+            user.expect(r"\$22=1\nok\n")
+            user.line("$$")
+            settings = user.expect(r"\$\$\n((?:\$\d+=\S+\n)+)ok\n").group(1).split()
+            assert "$22=1" in settings and "$100=160.000" in settings, settings
+            user.line("G0 X10")
+            user.expect(r"G0 X10\nok\nGRBL stands at X 10\.000  Y 0\.000  Z 0\.000 mm "
+                        r"\(work\)")
+            assert status(user) == ("Idle", (1600, 0, 0), (1600, 0, 0))
+            user.line("G0 X0")
+            user.expect(r"GRBL stands at X 0\.000  Y 0\.000  Z 0\.000 mm \(work\)")
+
             user.line("resume")                 # the GRBL journal is empty
             user.expect(r"no interrupted GRBL job to resume \(journal .*journal-grbl\.json\)")
 
@@ -223,6 +242,8 @@ def test_an_evening_on_grbl(home):  # noqa: F811  (the fixture)
             user.line("home")
             user.expect(r"homed: X -1\.000  Y -1\.000  Z -1\.000 mm work, machine "
                         r"X -1\.000  Y -1\.000  Z -1\.000 mm")
+            user.expect(r"the work origin is now the home position \(GRBL's G54 offset is "
+                        r"zero\)")
             toolbar_shows(console, r"GRBL Idle \| X -1\.000  Y -1\.000  Z -1\.000 mm")
 
             # ---- homed, the travel is -50..0: a job at the work zero = machine
@@ -289,6 +310,7 @@ def test_an_evening_on_grbl(home):  # noqa: F811  (the fixture)
     text = user.screen.text
     assert text.count("ALARM:9") == 2                  # the alarm, then the unlock's cause
     assert "Traceback" not in text and "error:" not in text
+    assert "Unknown command" not in text
     # GRBL's pins: its machine position, counted from power-up, is the switches'
     # trip points away from the one homing set (homed at trip - 1 mm = -1 mm),
     # exactly on every axis (Y was one step off until the harness stopped counting
