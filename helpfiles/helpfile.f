@@ -127,15 +127,18 @@ send LINE
 resume
     Continue the last job if it was stopped (q, Ctrl-C) or lost its port.
     It first asks for the pen in force there. A job whose port died goes on
-    after the last command the machine ran; a stopped one goes back, pen up,
-    to the start of the command the machine ramped down in and draws on from
+    after the last command the machine ran; a stopped one (the stop lifted
+    the pen once the machine stood still) goes back, pen up, to the start of
+    the command the machine ramped down in, lowers the pen and draws on from
     there (a few millimetres may be drawn twice, nothing is skipped). It is
     refused, saying why, when the file changed or the machine was moved since
     (its position no longer lies on the job's path). After a reset of the
-    board it homes first, if the job was started homed (galileo-cnc plot
-    --home); else the job must start again. On a GRBL board it homes with $H
-    (or, with no switches, asks you to put the pen back at work zero), then
-    goes on after the last line GRBL confirmed.
+    board, or when a job started homed (galileo-cnc plot --home) finds the
+    machine elsewhere, it homes first; an unhomed job must start again. On a
+    GRBL board stopped in this session it goes on from where GRBL kept its
+    position; else it homes with $H (or, with no switches, asks you to put
+    the pen back at work zero), then goes on after the last line GRBL
+    confirmed.
 
 [exit]
 exit

@@ -112,6 +112,7 @@ class Resumption:
     unsure: int = 0             # confirmed units that may not have run (drawn again)
     z_needs_hand: bool = False  # home_first without a Z end stop: the user sets the pen
     nothing_left: str = ""      # job None: the machine's words for it
+    lost: str = ""              # home_first: why the position was lost, for the user
 
 
 class Machine:

@@ -234,16 +234,18 @@ class GalileoMachine(Machine):
                                timing=timing(job, self.link.config) if timing else None)
         planned = _Resumed(job, point.program, point.artwork)
         return Resumption(self._job(planned, streamer, start), why, home_first=point.home,
-                          unsure=entry.confirmed + 1 - start,
-                          z_needs_hand=point.home and not z_has_end_stop(self.link.config))
+                          unsure=point.unsure,
+                          z_needs_hand=point.home and not z_has_end_stop(self.link.config),
+                          lost=point.lost)
 
     def find_position(self, resumption: Resumption, operator) -> bool:
         """Where a lost port or a stop left the machine, it stands already; after a
-        reset it is homed (Z without an end stop: the user sets the pen first)."""
+        reset (or, for a homed job, wherever else it stands) it is homed (Z without an
+        end stop: the user sets the pen first)."""
         if resumption.home_first:
-            operator.say(f"the machine was reset during the job: homing finds the job's "
-                         f"frame again; the last {resumption.unsure} commands it confirmed "
-                         f"may not have run, so they are drawn again")
+            unsure = (f"; the last {resumption.unsure} commands it confirmed may not have "
+                      f"run, so they are drawn again" if resumption.unsure > 0 else "")
+            operator.say(f"{resumption.lost}: homing finds the job's frame again{unsure}")
             if resumption.z_needs_hand and not operator.confirm(
                     "Z has no end stop, so the reset lost the pen's height: turn the pen "
                     "back to its Z origin (where Z 0 was set; with the default pen "

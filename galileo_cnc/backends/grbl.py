@@ -66,6 +66,8 @@ class GrblMachine(Machine):
         self.alarms_said = len(link.alarms)     # ALARM:N already printed
         self._last: MachineView | None = None
         self._job: GrblJob | None = None
+        #: a job this connection stopped: what shows GRBL kept its position since
+        self._kept: tuple | None = None
         #: why no job can run (steps/mm differ from the profile's), None when fine
         self.scale_problem: str | None = None
         try:
@@ -234,6 +236,7 @@ class GrblMachine(Machine):
         raise problem
 
     def home(self, say) -> None:
+        self._kept = None               # the frame a stopped job was in may move
         say("homing ($H)...")
         try:
             status = home(self.link)
@@ -243,6 +246,7 @@ class GrblMachine(Machine):
             f"{position_text(status.mpos_nm)}")
 
     def unlock(self, say) -> None:
+        self._kept = None
         before = self.link.alarms[-1] if self.link.alarms else None
         if self.view() is None:        # waiting for a reset after a limit alarm
             self.link.soft_reset()
@@ -268,6 +272,7 @@ class GrblMachine(Machine):
     def set_origin(self) -> str:
         """G10 L20 P0: the current coordinate system's zero is here (GRBL keeps G54-G59
         in its EEPROM)."""
+        self._kept = None
         self.wait_still()
         reply = self.link.command("G10 L20 P0 X0 Y0 Z0")
         if not reply.ok:
@@ -318,6 +323,7 @@ class GrblMachine(Machine):
         if engine.entry is None:                # a new job
             self._warn_g92(operator)
         engine.begin_journal(grbl_journal(), engine.entry)
+        self._kept = None
         self._job = engine
         try:
             result = engine.run(operator.progress, operator.pen_change)
@@ -329,10 +335,12 @@ class GrblMachine(Machine):
         if not result.completed:
             try:
                 where = stands_at(self.link.status())
+                self._kept = self._keeping()
             except GrblError:
                 where = "GRBL's position was not reported"
+            lifted = f"; {engine.lift_failed}" if engine.lift_failed else "; the pen lifted"
             return JobResult(False, result.confirmed, result.total, result.elapsed_s,
-                             result.reason, "G-code lines", where, HELD)
+                             result.reason, "G-code lines", where, HELD + lifted)
         return JobResult(True, result.total, result.total, result.elapsed_s,
                          unit="G-code lines", where=stands_at(self.link.tracker.last))
 
@@ -370,9 +378,35 @@ class GrblMachine(Machine):
         job.go_on_from(start)
         return Resumption(self._machine_job(job), why)
 
+    def _keeping(self) -> tuple:
+        """What shows GRBL kept its position since now: no banner (a reset) and no
+        alarm after this, the same work offset (no new origin)."""
+        link = self.link
+        banners = sum(1 for line in link.messages if banner_version(line))
+        return banners, len(link.alarms), tuple(link.tracker.wco_nm or ())
+
+    def kept_position(self) -> bool:
+        """GRBL stands where the job's stop left it, in the same work frame: this
+        connection stopped the job, and GRBL was not reset, alarmed, homed, unlocked
+        or given a new origin since (a jog is fine: the lead-in travels back)."""
+        if self._kept is None:
+            return False
+        try:
+            status = self.link.status()
+        except GrblError:
+            return False
+        return status.state == "Idle" and self._keeping() == self._kept
+
     def find_position(self, resumption: Resumption, operator) -> bool:
-        """Home ($H) or have the user re-zero: GRBL was reset since the job stopped."""
+        """Where this connection stopped the job and GRBL kept its position since, go
+        on from there; else home ($H) or have the user re-zero: GRBL was reset since
+        the job stopped."""
         engine: GrblJob = resumption.job.engine
+        if self.kept_position():
+            operator.say(f"GRBL kept its position since the job stopped: "
+                         f"{stands_at(self.link.status())}; the job goes on from there")
+            operator.say(resumption.job.estimate_line())
+            return True
         try:
             found = find_position(self.link, engine.scale, engine.pen, operator.say,
                                   lambda question: operator.confirm(f"{question}: move it "

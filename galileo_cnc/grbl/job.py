@@ -5,7 +5,8 @@ time estimate, the travel check on a homed machine before the first byte, then t
 job in pieces that end at the pen changes (grbl/session.py's `stream_job`: each piece
 runs to a stop, a refusal or an alarm is named with GRBL's text, the file line and
 its G-code line in the whole job). A stop holds the feed (GRBL decelerates on its
-path) and then soft-resets GRBL: its queue is dropped, its position kept.
+path) and then soft-resets GRBL: its queue is dropped, its position kept; then the pen
+is lifted (a pen left on the paper blots), and a resume's lead-in lowers it again.
 
 The journal: stream/journal.py's format and code in its own file, journal-grbl.json
 (docs/grbl.md, "Resume after a lost port"), counting G-code lines. A resume replans
@@ -32,7 +33,7 @@ from galileo_cnc.grbl.gcode import (AxisScale, GcodeLine, job_to_gcode, pen_from
 from galileo_cnc.grbl.link import FEED_HOLD
 from galileo_cnc.grbl.reports import GrblError
 from galileo_cnc.grbl.resume import GrblResumeError, lead_in, resume_start
-from galileo_cnc.grbl.session import hold_and_reset, source_line, stream_job
+from galileo_cnc.grbl.session import hold_and_reset, lift_pen, source_line, stream_job
 from galileo_cnc.grbl.stream import GrblStreamError
 from galileo_cnc.grbl.travel import applies, check_travel
 from galileo_cnc.plan.pipeline import PlannedFile
@@ -215,6 +216,7 @@ class GrblJob:
         self.journal: Journal | None = None
         self.port_name = ""                         # for a lost port's message
         self.entry: JournalEntry | None = None      # the interrupted job going on
+        self.lift_failed = ""                       # a stop left the pen down: why
         self.estimate_s = self._estimate()
 
     def go_on_from(self, start: int) -> None:
@@ -318,12 +320,12 @@ class GrblJob:
                        start=self.start, lead=self.lead, on_reply=on_reply, on_status=seen)
         except (JobInterrupted, StreamAborted):
             self._disarm()
-            hold_and_reset(self.link)      # decelerate, then drop GRBL's queue
+            self._stop_and_lift()
             end(ABORTED, STOPPED)
             return StreamResult(False, done, total, time.monotonic() - began, STOPPED)
         except KeyboardInterrupt:          # as our firmware's streamer: a stop
             self._disarm()
-            hold_and_reset(self.link)
+            self._stop_and_lift()
             end(ABORTED, "stopped with Ctrl-C")
             return StreamResult(False, done, total, time.monotonic() - began,
                                 "stopped with Ctrl-C")
@@ -342,6 +344,14 @@ class GrblJob:
             self._disarm()
         end(FINISHED)
         return StreamResult(True, total, total, time.monotonic() - began)
+
+    def _stop_and_lift(self) -> None:
+        """Decelerate, drop GRBL's queue (its position kept), then lift the pen."""
+        hold_and_reset(self.link)
+        try:
+            lift_pen(self.link, self.scale, self.pen)
+        except GrblError as problem:
+            self.lift_failed = f"the pen could not be lifted: {problem}"
 
     def _disarm(self) -> None:
         if self.port is not None:

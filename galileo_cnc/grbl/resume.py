@@ -72,6 +72,14 @@ def state_before(lines: list[GcodeLine], index: int) -> JobState:
     return JobState(tuple(axes), feed, spindle)
 
 
+def pen_up_texts(scale: AxisScale, pen: GrblPen) -> list[str]:
+    """The lines that lift the pen (Z to its up height, or the servo up and its dwell)."""
+    if pen.servo:
+        return ["M5" if pen.up_s is None else f"M3 S{pen.up_s}",
+                f"G4 P{pen.servo_dwell_ms / 1000:g}"]
+    return [f"G0 Z{scale.mm(2, pen.up_z_steps)}"]
+
+
 def lead_in(lines: list[GcodeLine], start: int, scale: AxisScale,
             pen: GrblPen) -> list[GcodeLine]:
     """The lines that take a just homed (or re-zeroed) GRBL to where the job stood
@@ -82,12 +90,7 @@ def lead_in(lines: list[GcodeLine], start: int, scale: AxisScale,
         return []
     state = state_before(lines, start)
     command = lines[start].command if start < len(lines) else lines[-1].command
-    out = [PREAMBLE_TEXT]
-    if pen.servo:
-        out += ["M5" if pen.up_s is None else f"M3 S{pen.up_s}",
-                f"G4 P{pen.servo_dwell_ms / 1000:g}"]
-    else:
-        out.append(f"G0 Z{scale.mm(2, pen.up_z_steps)}")
+    out = [PREAMBLE_TEXT, *pen_up_texts(scale, pen)]
     x, y, z = state.axes
     if x is not None and y is not None:
         out.append(f"G0 X{x} Y{y}")

@@ -5,7 +5,7 @@ The connection line, the steps/mm check against the profile, the job cut into
 pieces at its pen changes and streamed (`stream_job`, a resume's lead-in first),
 one piece streamed to a stop with refusals and alarms named by their line in the
 whole job, a stop on the user's word (feed hold, then soft reset, so no step is
-lost), and for a resume the position found again (`find_position`: $H, or the
+lost; then the pen up: `lift_pen`), and for a resume the position found again (`find_position`: $H, or the
 user re-zeroes); the job is planned again from its journal entry by
 stream/resume.py's `replan`, as for our firmware.
 The journal itself (stream/journal.py) is bound to a job in grbl/job.py.
@@ -23,6 +23,7 @@ from galileo_cnc.grbl.jog import home, unlock
 from galileo_cnc.grbl.link import FEED_HOLD, GrblLink
 from galileo_cnc.grbl.numbers import read_float, steps_per_mm_f32
 from galileo_cnc.grbl.reports import GrblError, alarm_text, error_text
+from galileo_cnc.grbl.resume import PREAMBLE_TEXT, pen_up_texts
 from galileo_cnc.grbl.stream import GrblStreamError, stream
 from galileo_cnc.plan.pipeline import PlannedFile
 from galileo_cnc.program.ops import NM_PER_MM
@@ -143,6 +144,14 @@ def hold_and_reset(link: GrblLink) -> None:
         link.soft_reset()
     except GrblError:
         pass        # the user already asked to stop; the message says what to do
+
+
+def lift_pen(link: GrblLink, scale: AxisScale, pen: GrblPen) -> None:
+    """After a stop (hold_and_reset: GRBL stands still, its modes reset): the pen up,
+    once it has come up. GrblError when GRBL refuses (locked in alarm)."""
+    for text in (PREAMBLE_TEXT, *pen_up_texts(scale, pen)):
+        link.command_checked(text)
+    link.wait_idle()
 
 
 def stream_job(link: GrblLink, lines: list[GcodeLine], pen_changes: dict[int, int], where,

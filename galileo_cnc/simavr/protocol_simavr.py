@@ -1,6 +1,6 @@
 """pyserial URL handler for `simavr://`: a real firmware, running in simavr, as a port.
 
-    simavr://[?firmware=galileo|grbl&elf=PATH&realtime=0|1&trace=0|1&$N=VALUE...]
+    simavr://[?firmware=galileo|grbl&elf=PATH&config=PATH&realtime=0|1&trace=0|1&$N=VALUE...]
 
 Opening the port starts the project's harness (galileo_cnc.simavr.board.SimulatedBoard,
 docs/harness.md; found by $GALILEO_SIMAVR, PATH or the checkout) on a firmware ELF and
@@ -17,6 +17,10 @@ opens the pseudo-terminal its UART0 is bridged to; closing the port stops the bo
   would have stored them in a real board's EEPROM:
   `simavr://?firmware=grbl&$100=160&$101=160&$102=160`.
 - `elf=PATH` runs that ELF instead (for either firmware).
+- `config=PATH` (our firmware): a machine profile TOML whose home pins and
+  `sim_x/y/z_endstop_steps` place the board's end-stops, as on `sim://`; without it
+  the default profile's (X and Y switches 400 steps below where the board powers
+  up), so `home` and `plot --home` find them.
 - `realtime=1` (the default) paces the simulated chip to wall time, as a board runs;
   `realtime=0` lets simavr run as fast as it can (about 5x).
 - `trace=1` records the step and direction pins' edges (`port.board.trace()`,
@@ -37,11 +41,13 @@ from pathlib import Path
 from serial.serialposix import Serial as PosixSerial
 from serial.serialutil import SerialException
 
+from galileo_cnc.config.machine import NO_PIN, MachineConfig, load_config
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.simavr.board import (SimulatedBoard, SimulatedBoardError, firmware_missing_message,
                                       firmware_path, harness_available, harness_missing_message)
 
-_FORM = "simavr://[?firmware=galileo|grbl&elf=PATH&realtime=0|1&trace=0|1&$N=VALUE]"
+_FORM = ("simavr://[?firmware=galileo|grbl&elf=PATH&config=PATH&realtime=0|1&trace=0|1"
+         "&$N=VALUE]")
 GALILEO, GRBL = "galileo", "grbl"
 _SETTING = re.compile(r"^\$(\d{1,3})$")
 _NUMBER = re.compile(r"^-?\d+(\.\d+)?$")
@@ -56,6 +62,7 @@ class SimavrUrl:
     realtime: bool = True
     trace: bool = False
     settings: tuple[tuple[int, str], ...] = ()     # GRBL's $N=VALUE, in URL order
+    config: Path | None = None          # the profile placing our firmware's end-stops
 
 
 def parse_url(url: str) -> SimavrUrl:
@@ -64,6 +71,7 @@ def parse_url(url: str) -> SimavrUrl:
     if parts.scheme != "simavr" or parts.netloc or parts.path:
         raise SerialException(f"expected a URL of the form {_FORM}, got {url!r}")
     firmware, elf, realtime, trace, settings = GALILEO, None, True, False, []
+    config = None
     try:
         pairs = urllib.parse.parse_qsl(parts.query, keep_blank_values=True,
                                        strict_parsing=bool(parts.query))
@@ -76,6 +84,8 @@ def parse_url(url: str) -> SimavrUrl:
             firmware = value
         elif option == "elf" and value:
             elf = Path(value)
+        elif option == "config" and value:
+            config = Path(value)
         elif option == "realtime" and value in ("0", "1"):
             realtime = value == "1"
         elif option == "trace" and value in ("0", "1"):
@@ -88,7 +98,17 @@ def parse_url(url: str) -> SimavrUrl:
     if settings and firmware != GRBL:
         raise SerialException(f"simavr://: ${settings[0][0]}={settings[0][1]} is a GRBL "
                               f"setting: add firmware=grbl")
-    return SimavrUrl(firmware, elf, realtime, trace, tuple(settings))
+    if config is not None and firmware != GALILEO:
+        raise SerialException("simavr://: config= places our firmware's end-stops; GRBL's "
+                              "limit switches come with firmware=grbl")
+    return SimavrUrl(firmware, elf, realtime, trace, tuple(settings), config)
+
+
+def endstops(config: MachineConfig) -> list[tuple[str, int, int]]:
+    """The harness's end-stops for a profile: each axis with a home pin closes its
+    switch at the profile's sim_*_endstop_steps from power-up, as sim:// does."""
+    return [(axis, pin, trip) for axis, pin, trip in
+            zip("XYZ", config.home_pins, config.sim_endstop_steps) if pin != NO_PIN]
 
 
 def _board_for(options: SimavrUrl) -> SimulatedBoard:
@@ -115,7 +135,12 @@ def _board_for(options: SimavrUrl) -> SimulatedBoard:
     if not elf.is_file():
         raise SerialException(f"simavr://: no firmware at {elf}: build it with "
                               f"`make -C firmware` (in a checkout) or pass ?elf=PATH")
-    return SimulatedBoard(elf, trace=options.trace, realtime=options.realtime)
+    try:
+        config = load_config(options.config)
+    except (OSError, GalileoError) as exc:
+        raise SerialException(f"simavr://?config={options.config}: {exc}") from None
+    return SimulatedBoard(elf, trace=options.trace, realtime=options.realtime,
+                          endstops=endstops(config))
 
 
 class Serial(PosixSerial):

@@ -76,6 +76,9 @@ class JournalEntry:
     #: offset (plan/transform.py); older journals: neither
     scale: str = "1"
     rotate_deg: int = 0
+    #: a stopped job (q, Ctrl-C): the work position (steps) where the machine stood
+    #: once it ramped down, before the pen was lifted there; None: not stopped so
+    stopped_at: tuple | None = None
 
     def index_of_seq(self, seq: int) -> int | None:
         """The command a sequence number of this session would belong to (the
@@ -130,10 +133,11 @@ _FIELD_CHECKS = {
     "scale": (lambda v: isinstance(v, str) and re.fullmatch(r"[1-9][0-9]*(/[1-9][0-9]*)?", v)
               is not None, "a fraction such as 4/5"),
     "rotate_deg": (lambda v: v in (0, 90, 180, 270), "0, 90, 180 or 270"),
+    "stopped_at": (lambda v: v is None or _integers(3)(v), "null or a list of 3 integers"),
 }
 _REQUIRED = ("source", "digest", "offset_nm", "profile", "group", "total", "confirmed",
              "first_index", "first_seq")
-_TUPLES = ("offset_nm", "start_position", "pens_nm", "layers")
+_TUPLES = ("offset_nm", "start_position", "pens_nm", "layers", "stopped_at")
 
 
 def _checked_fields(data: dict, damaged) -> dict:
@@ -148,7 +152,7 @@ def _checked_fields(data: dict, damaged) -> dict:
             raise damaged(f"unknown key {name!r}")
         if not check[0](value):
             raise damaged(f"{name} must be {check[1]}, got {json.dumps(value)[:40]}")
-        fields[name] = tuple(value) if name in _TUPLES else value
+        fields[name] = tuple(value) if name in _TUPLES and value is not None else value
     if not -1 <= fields["confirmed"] < max(fields["total"], 0) or fields["total"] < 0:
         raise damaged(f"confirmed command {fields['confirmed']} is outside the job's "
                       f"{fields['total']} commands")

@@ -13,11 +13,19 @@ left it:
   The part of the command drawn before the stop is drawn again, which a pen
   does not mind.
 
+  The stop lifted the pen where the machine stood (stream/streamer.py, journal
+  `stopped_at`): standing there pen up is standing where the job stopped, and the
+  lead-in lowers the pen again.
+
 - after a reset (journal `reset`) the position is lost. A job whose frame is the
   homed one (`plot --home`) is found again by homing; which commands ran is not
   exactly known (lines confirmed by `ok` may still have been queued), so it
   continues from the earliest command that may not have finished, after the same
   kind of lead-in. A job without a homed frame is refused: it must start again.
+- a homed job whose machine stands nowhere near where it stopped (reset since the
+  stop or the lost port: a new process opening an Uno's port resets it, and sim://
+  or simavr:// start a fresh machine) is found again by homing too: a stopped one
+  continues exactly at the command it stopped in, a lost one as after a reset.
 
 A changed file, another profile or a machine that was moved (it stands nowhere on
 the job's path near where it stopped) is refused, saying why.
@@ -35,7 +43,7 @@ import numpy as np
 from galileo_cnc import protocol as P
 from galileo_cnc.config.machine import MachineConfig, tomllib
 from galileo_cnc.errors import GalileoError
-from galileo_cnc.job import Command, Job, PenDown, Rapid, SetFeed
+from galileo_cnc.job import Command, Job, LineTo, PenDown, Rapid, SetFeed
 from galileo_cnc.machine import ReferenceMachine
 from galileo_cnc.plan.pipeline import Artwork, PlannedFile, PlanOptions, plan_file
 from galileo_cnc.plan.transform import Transform
@@ -70,6 +78,10 @@ class ResumePoint:
     #: the machine was reset: home it (home_after_reset) before the lead-in
     home: bool = False
     homed: bool = False                # the job's frame is the homed one
+    #: home: why the position was lost, as the user is told it
+    lost: str = ""
+    #: home: confirmed commands that may not have run (drawn again)
+    unsure: int = 0
 
     @property
     def program(self) -> Program:
@@ -131,8 +143,15 @@ def first_unfinished(job: Job, config: MachineConfig, confirmed: int, floor: int
     return start
 
 
+#: why a reset job's position is lost
+RESET_DURING_JOB = "the machine was reset during the job"
+#: why a homed job whose machine stands elsewhere is homed again
+NOT_WHERE_IT_STOPPED = ("the machine does not stand where the job stopped (it was reset "
+                        "or moved since: opening an Uno's port anew resets it)")
+
+
 def _after_reset(job: Job, artwork: Artwork, entry: JournalEntry, config: MachineConfig,
-                 plotted: Program | None) -> ResumePoint:
+                 plotted: Program | None, lost: str = RESET_DURING_JOB) -> ResumePoint:
     """A reset job continues, homed, from the first command that may not have finished."""
     if not entry.homed:
         raise ResumeError(f"the machine was reset during the job, and its frame was not the "
@@ -142,7 +161,8 @@ def _after_reset(job: Job, artwork: Artwork, entry: JournalEntry, config: Machin
     machine = ReferenceMachine(config, begun)
     machine.plan(job.commands[:start])
     lead_in = _lead_in(machine.work_position, machine.feed_steps_per_s, config)
-    return ResumePoint(job, artwork, start, lead_in, begun, plotted, home=True, homed=True)
+    return ResumePoint(job, artwork, start, lead_in, begun, plotted, home=True, homed=True,
+                       lost=lost, unsure=entry.confirmed + 1 - start)
 
 
 def _passes_through(trace, begin: tuple[int, int, int], here: tuple[int, int, int]) -> bool:
@@ -189,6 +209,12 @@ def plan_resume(link: MachineLink, entry: JournalEntry,
         return _after_reset(job, artwork, entry, config, planned.plotted)
     status = link.wait_idle()
     here = (status.x_steps, status.y_steps, status.z_steps)
+    stopped_at = tuple(entry.stopped_at) if entry.stopped_at is not None else None
+    lifted = stopped_at is not None and here == lifted_position(stopped_at, config)
+    if stopped_at is not None and not lifted:
+        return _moved_since_stop(job, artwork, entry, config, planned.plotted, here)
+    if lifted:
+        here = stopped_at                   # where it stopped, before the pen was lifted
     candidates = [entry.confirmed]
     before = link.initial_status
     if before is not None and (index := entry.index_of_seq(before.last_seq)) is not None:
@@ -196,20 +222,62 @@ def plan_resume(link: MachineLink, entry: JournalEntry,
     begun = entry.start_position
     for confirmed in candidates:
         if position_after(job, confirmed + 1, config, begun) == here:
-            return ResumePoint(job, artwork, confirmed + 1, (), begun, planned.plotted,
+            lead_in = _lower_again(here, config) if lifted else ()
+            return ResumePoint(job, artwork, confirmed + 1, lead_in, begun, planned.plotted,
                                homed=entry.homed)
     if entry.state == ABORTED:
-        first = max(entry.first_index, entry.confirmed - P.QUEUE_BLOCKS)
-        found = stopped_inside(job, config, here, first, entry.confirmed + _IN_FLIGHT_LINES,
-                               begun)
+        found = _stopped_in(job, config, entry, here)
         if found is not None:
             return ResumePoint(job, artwork, found[0], found[1], begun, planned.plotted,
                                homed=entry.homed)
+    if entry.homed:                         # homing finds the job's frame again
+        return _after_reset(job, artwork, entry, config, planned.plotted, NOT_WHERE_IT_STOPPED)
     expected = position_after(job, entry.confirmed + 1, config, begun)
-    raise ResumeError(
+    raise _moved(here, expected, entry, config)
+
+
+def _moved(here, expected, entry: JournalEntry, config: MachineConfig) -> ResumeError:
+    return ResumeError(
         f"the machine stands at {_mm_text(here, config)}, but the job stopped at "
         f"{_mm_text(expected, config)} (after command {entry.confirmed + 1} of "
         f"{entry.total}): the board was reset or moved since; start the job again")
+
+
+def _moved_since_stop(job: Job, artwork: Artwork, entry: JournalEntry, config: MachineConfig,
+                      plotted: Program | None, here: tuple[int, int, int]) -> ResumePoint:
+    """A stopped job whose machine no longer stands where the stop lifted the pen: a
+    homed one is homed and continues in the command it stopped in; others are refused."""
+    stopped_at = tuple(entry.stopped_at)
+    if not entry.homed:
+        raise _moved(here, lifted_position(stopped_at, config), entry, config)
+    found = _stopped_in(job, config, entry, stopped_at)
+    if found is None:
+        return _after_reset(job, artwork, entry, config, plotted, NOT_WHERE_IT_STOPPED)
+    return ResumePoint(job, artwork, found[0], found[1], entry.start_position, plotted,
+                       home=True, homed=True, lost=NOT_WHERE_IT_STOPPED)
+
+
+def lifted_position(stopped_at, config: MachineConfig) -> tuple[int, int, int]:
+    """Where a stop that lifted the pen at `stopped_at` leaves the machine."""
+    x, y, z = stopped_at
+    return (x, y, max(z, config.pen_up_z_steps))
+
+
+def _lower_again(here: tuple[int, int, int], config: MachineConfig) -> tuple[Command, ...]:
+    """The lead-in where the stop lifted the pen at the end of a command: Z back."""
+    if here[2] >= config.pen_up_z_steps:
+        return ()
+    if here[2] == config.pen_down_z_steps:
+        return (PenDown(),)
+    return (LineTo(here[0], here[1], here[2]),)
+
+
+def _stopped_in(job: Job, config: MachineConfig, entry: JournalEntry,
+                here: tuple[int, int, int]) -> tuple[int, tuple[Command, ...]] | None:
+    """The command a stopped job's machine ramped down in, standing at `here`."""
+    first = max(entry.first_index, entry.confirmed - P.QUEUE_BLOCKS)
+    return stopped_inside(job, config, here, first, entry.confirmed + _IN_FLIGHT_LINES,
+                          entry.start_position)
 
 
 def _mm_text(position: tuple[int, int, int], config: MachineConfig) -> str:

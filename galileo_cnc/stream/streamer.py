@@ -27,7 +27,9 @@
 - Pen changes: before the command where the planner put one, the streamer
   waits until the machine stands still (pen up), then asks (`on_pen_change`).
 - Abort (`abort()`, `q` in the console, Ctrl-C): the machine ramps down and
-  drops its queue; nothing more is sent.
+  drops its queue; once it stands still the pen is lifted (a pen left on the paper
+  blots), and the journal keeps where it stood before the lift (`stopped_at`), so a
+  resume lowers the pen there again.
 - The journal records every confirmation and where the job began, so a job whose
   port died or that was stopped resumes where the machine left it (stream/resume.py
   finds the command and the lead-in that goes back to it).
@@ -46,7 +48,7 @@ from typing import Callable, Sequence
 
 from galileo_cnc import protocol as P
 from galileo_cnc.errors import GalileoError, SourcePos
-from galileo_cnc.job import NO_OP, Command, Job
+from galileo_cnc.job import NO_OP, Command, Job, PenUp
 from galileo_cnc.machine.timing import JobTiming, job_timing
 from galileo_cnc.program.ops import COL, LINE, NM_PER_MM, Program
 from galileo_cnc.stream.journal import (ABORTED, FAILED, FINISHED, INTERRUPTED, RESET,
@@ -207,6 +209,7 @@ class JobStreamer:
         except (StreamAborted, KeyboardInterrupt) as stop:
             reason = str(stop) or "stopped by the user"
             self._stop_machine()
+            self._lift_pen()
             self._journal_end(ABORTED, reason)
             return result(False, reason)
         except MachineStopped as stopped:
@@ -451,6 +454,19 @@ class JobStreamer:
             self.link.abort()
         except LinkError as exc:
             self._message(f"could not stop the machine cleanly: {exc}")
+
+    def _lift_pen(self) -> None:
+        """The machine stands still after a stop: the pen up, where it stood kept in
+        the journal (the resume's lead-in lowers the pen there again)."""
+        try:
+            here = self.link.status()
+            if self.journal is not None and self.journal.entry is not None:
+                self.journal.entry.stopped_at = (here.x_steps, here.y_steps, here.z_steps)
+            if here.z_steps < self.link.config.pen_up_z_steps:
+                self.link.send(PenUp())
+                self.link.wait_idle()
+        except LinkError as exc:
+            self._message(f"could not lift the pen after the stop: {exc}")
 
     def _where(self, index: int) -> str:
         op = self.job.op_index[index]

@@ -6,6 +6,7 @@ the pen drew is taken in the simulated world's frame: the trace up to the reset 
 the first power-on's place, the rest from where the head stood when resuming.
 """
 
+import _thread
 import threading
 import time
 from pathlib import Path
@@ -100,3 +101,49 @@ def test_home_without_end_stops_is_refused_before_anything_moves(tmp_path, capsy
     assert "--home: the profile has no end-stop pin for X (x_home_pin" in err
     with pytest.raises(KeyError):
         named_machine("never")                  # the port was never opened
+
+
+def press_ctrl_c_while_drawing(name: str, after: int = 38) -> threading.Thread:
+    """Ctrl-C (SIGINT's KeyboardInterrupt in the main thread, where `plot` runs) once
+    sim://NAME has accepted line `after` and draws (its pen down)."""
+    def watch() -> None:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            try:
+                status = named_machine(name).status()
+            except KeyError:                # not opened yet
+                time.sleep(0.005)
+                continue
+            if status.last_seq >= after and status.z_steps == 0:
+                _thread.interrupt_main()
+                return
+            time.sleep(0.005)
+    thread = threading.Thread(target=watch, daemon=True)
+    thread.start()
+    return thread
+
+
+def test_a_homed_job_stopped_with_ctrl_c_resumes_in_a_new_process(capsys):
+    """`plot --home`, Ctrl-C, then `plot --resume` as a new process does it: on a fresh
+    machine (a new sim://, as an Uno resets when its port is opened anew), which the
+    resume homes, continuing in the command the stop ramped down in."""
+    assert main(["plot", SAMPLE, "--home", "--yes", "--port", "sim://whole?speed=0"]) == 0
+    whole = inked_points(named_machine("whole").trace())
+    capsys.readouterr()
+
+    ctrl_c = press_ctrl_c_while_drawing("first")
+    assert main(["plot", SAMPLE, "--home", "--yes", "--port", "sim://first?speed=20"]) == 130
+    ctrl_c.join(5)
+    said = capsys.readouterr().out
+    assert "stopped: stopped with Ctrl-C" in said or "stopped: stopped by the user" in said
+    first = named_machine("first")
+    assert first.status().z_steps == first.config.pen_up_z_steps     # the pen lifted
+
+    assert main(["plot", SAMPLE, "--resume", "--yes", "--port", "sim://second?speed=0"]) == 0
+    said = capsys.readouterr().out
+    assert "the machine does not stand where the job stopped" in said and "homed" in said
+    assert "may not have run" not in said           # it knows where it stopped
+    before = inked_points(first.trace())
+    after = inked_points(named_machine("second").trace())
+    assert before and after and not after >= whole
+    assert before | after == whole

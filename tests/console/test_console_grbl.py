@@ -324,8 +324,9 @@ def test_an_evening_on_grbl(home):  # noqa: F811  (the fixture)
 def test_a_job_stopped_with_q_resumes_in_the_same_session(home):  # noqa: F811
     """The user's machine is homed and its work zero stored in G54 (60 mm in, as
     test_grbl_resume.py sets it up). In one console session: getg, q while the fifth
-    pen draws, `resume` (homes, goes back over what GRBL may not have run, pen up,
-    asks for the pen in use), to "finished", then `status`. GRBL's pins: the two parts
+    pen draws (the pen lifted), `resume` (from where GRBL kept its position: goes back
+    over what GRBL may not have run, pen up, asks for the pen in use), to "finished",
+    then `status`. GRBL's pins: the two parts
     together draw the whole job."""
     job, lines = planned_lines(CONFIG)
     pen = pen_from_config(CONFIG)
@@ -344,7 +345,8 @@ def test_a_job_stopped_with_q_resumes_in_the_same_session(home):  # noqa: F811
             stopped = grbl_journal().load()
             assert stopped.state == ABORTED and stopped.reason == "stopped by the user"
             assert pieces[4][0] <= stopped.confirmed + 1 < len(lines)
-            assert status(user)[0] == "Idle"
+            state, stood, _ = status(user)
+            assert state == "Idle" and stood[2] == pen.up_z_steps    # the pen lifted
             cut = settled_trace(board)
 
             user.line("resume")
@@ -355,9 +357,9 @@ def test_a_job_stopped_with_q_resumes_in_the_same_session(home):  # noqa: F811
             assert pieces[3][0] < start <= stopped.confirmed + 1
             user.expect(r"continue the job\? \[Y/n\]")
             user.line("")
-            user.expect(r"homing \(\$H\)")
-            user.expect(r"homed; work offset \(G54, kept in GRBL's EEPROM\) -60\.000, "
-                        r"-60\.000, -10\.000 mm")
+            # GRBL kept its position: neither homed nor re-zeroed (issue 31, item 8)
+            user.expect(r"GRBL kept its position since the job stopped: GRBL stands at "
+                        r"X \S+ Y \S+ Z 1\.875 mm \(work\); the job goes on from there")
             answer_pens_of_the_rest(user, pieces, start)
             finished = user.expect(r"\aprocess has finished in \d+:\d\d \(\d+ G-code "
                                    r"lines\); GRBL stands at X (\S+) Y (\S+) Z (\S+) mm")
@@ -371,10 +373,10 @@ def test_a_job_stopped_with_q_resumes_in_the_same_session(home):  # noqa: F811
         board.stop()
     text = user.screen.text
     assert "Traceback" not in text and "error:" not in text and "ALARM" not in text
-    # the first part stopped where the hold ramped down; the second homed, went back
-    # pen up and drew from line `start`: together every motion of the job
-    check_resumed(board, setup_end, cut, lines, start, pen)
-    # homed twice, GRBL's machine position is its pins' less the switches' trip points
+    # the first part stopped where the hold ramped down and lifted the pen; the second
+    # went back from there pen up and drew from line `start`: together every motion
+    check_resumed(board, setup_end, cut, lines, start, pen, resumed_from=stood)
+    # homed once, GRBL's machine position is its pins' less the switches' trip points
     pins = tuple(int(v) for v in positions(board)[-1])
     assert tuple(p - m for p, m in zip(pins, machine)) == tuple(t for _, t in LIMITS)
     assert board.summary["overruns"] == "0" and board.summary["dropped"] == "0"

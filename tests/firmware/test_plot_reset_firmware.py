@@ -17,6 +17,7 @@ reset, the homed resume and the drawing put back together do not depend on the a
 
 from __future__ import annotations
 
+import _thread
 import re
 import threading
 import time
@@ -26,8 +27,10 @@ import numpy as np
 import pytest
 
 from galileo_cnc.cli.main import main
+from galileo_cnc.machine import Trace
 from galileo_cnc.simavr.board import SimulatedBoard, runs_between_resets, step_trace
 from galileo_cnc.sim.simulator import named_machine
+from galileo_cnc.stream.journal import RUNNING, Journal
 
 from firmware_support import ELF, build_firmware, build_harness
 from inked import inked_points
@@ -109,3 +112,43 @@ def test_a_homed_job_reset_on_the_firmware_resumes_to_the_uninterrupted_drawing(
     assert before | after == whole
     cycles = edges[0]
     assert np.all(np.diff(cycles) >= 0)                  # one clock from power-up
+
+
+def ctrl_c_once_confirmed(journal_path: Path, commands: int) -> threading.Thread:
+    """Ctrl-C (KeyboardInterrupt in the main thread, where `plot` runs) once the job's
+    journal says the machine confirmed `commands` commands."""
+    def watch():
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline:
+            entry = Journal(journal_path).load() if journal_path.exists() else None
+            if entry is not None and entry.state == RUNNING and entry.confirmed >= commands:
+                _thread.interrupt_main()
+                return
+            time.sleep(0.02)
+    thread = threading.Thread(target=watch, daemon=True)
+    thread.start()
+    return thread
+
+
+def test_a_homed_job_stopped_on_simavr_resumes_on_a_new_board(capsys, tmp_path):
+    """simavr:// has the profile's end-stops (as sim://), so `plot --home` homes there;
+    Ctrl-C, then `plot --resume` opens the port anew: a new board, as an Uno resets,
+    homed again, and it draws the rest of the job."""
+    drawing = meander(tmp_path, lines=24)
+    assert main(["plot", drawing, "--home", "--yes", "--port", "sim://whole?speed=0"]) == 0
+    whole = inked_points(named_machine("whole").trace())
+    capsys.readouterr()
+
+    ctrl_c = ctrl_c_once_confirmed(tmp_path / "journal.json", 16)
+    assert main(["plot", drawing, "--home", "--yes", "--port", "simavr://?realtime=0"]) == 130
+    ctrl_c.join(5)
+    said = capsys.readouterr().out
+    assert re.search(r"\nhomed: X \S+ Y \S+ mm\n", said), said
+    assert "stopped: stopped by the user; the machine ramped down" in said
+    trace = tmp_path / "rest.npz"
+    assert main(["plot", drawing, "--resume", "--yes", "--trace", str(trace),
+                 "--port", "simavr://?realtime=0"]) == 0
+    said = capsys.readouterr().out
+    assert "the machine does not stand where the job stopped" in said and "homed" in said
+    rest = inked_points(Trace.load(trace))
+    assert rest and rest < whole                    # the rest of the job, not all of it
