@@ -18,7 +18,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "galileo_cnc"
 #: stage, so neither may import the other.
 STAGES = {
     "errors": 0,
-    "config": 1, "job": 1, "program": 1,
+    "config": 1, "job": 1, "command_text": 1, "program": 1,
     "readers": 2, "machine": 2, "protocol": 2,
     "plan": 3, "transport": 3, "simavr": 3,
     "sim": 4, "stream": 4, "preview": 4, "firmware_headers": 4,

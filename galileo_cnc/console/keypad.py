@@ -18,7 +18,7 @@ from galileo_cnc.backends.galileo import GalileoMachine, position_mm_text
 from galileo_cnc.console.units import NM_PER_JOG_UNIT, jog_units_to_steps, refusal_text
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.job import AXIS_NAMES
-from galileo_cnc.machine.command_text import mm_text
+from galileo_cnc.command_text import mm_text
 from galileo_cnc.transport.link import LinkError, PortGone
 
 #: key -> direction (x, y, z); each key has a NumLock-off twin.

@@ -20,7 +20,7 @@ from galileo_cnc.job import (AXIS_NAMES, ArcTo, Command, Dwell, EndJob, Flash, H
                              SetOrigin)
 from galileo_cnc.machine import stepper as loop, vector
 from galileo_cnc.machine.arcs import MAX_ARC_COORD, arc_setup
-from galileo_cnc.machine.command_text import command_text, feed_text, mm_text
+from galileo_cnc.command_text import command_text, feed_text, mm_text
 from galileo_cnc.machine.blocks import ArcMove, Hold, Item, LineMove, Pause, SeekMove
 from galileo_cnc.machine.ramps import (FRAC_BITS, TICKS_PER_MS, axial_interval_sub,
                                        line_rho_q15, ramp_events, ramp_step_sub,

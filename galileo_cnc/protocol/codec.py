@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 from galileo_cnc.errors import GalileoError
-from galileo_cnc.machine.command_text import field_text
+from galileo_cnc.command_text import field_text, number_text
 from galileo_cnc.protocol.spec import (BANNER_NAME, BY_MNEMONIC, CHECK_BYTES, CHECK_SEPARATORS,
                                        COMMANDS, CRC16_INIT, ERROR_BY_CODE, FLAG, MAX_LINE_BYTES,
                                        PROTOCOL_VERSION, SEQ_MAX, STATES, CommandSpec, ErrorSpec)
@@ -105,13 +105,14 @@ def range_problem(cmd: object, steps_per_mm: float | None = None) -> str | None:
             if steps_per_mm is None:
                 return wire
             if field == "ms":               # a dwell: said in seconds, as G4 P is read
-                return (f"a dwell of {int(value) / 1000:g} s is longer than a machine command "
-                        f"carries ({kind.hi / 1000:g} s at most) [{wire}]")
+                return (f"a dwell of {number_text(int(value) / 1000)} s is longer than a "
+                        f"machine command carries ({number_text(kind.hi / 1000)} s at most) "
+                        f"[{wire}]")
             if not field.endswith(("_steps", "_steps_per_s")):
                 return wire
-            return (f"{field_text(field, int(value), steps_per_mm)} is more than a machine "
-                    f"command carries ({field_text(field, kind.hi, steps_per_mm)} at most) "
-                    f"[{wire}]")
+            return (f"{field_text(field, int(value), steps_per_mm)} is beyond what a machine "
+                    f"command carries ({field_text(field, kind.lo, steps_per_mm)} .. "
+                    f"{field_text(field, kind.hi, steps_per_mm)}) [{wire}]")
     return None
 
 

@@ -279,7 +279,7 @@ def test_info_sums_up_many_warnings_and_plans_only_on_request(tmp_path, capsys,
         return capsys.readouterr().out
 
     drawing = tmp_path / "mcodes.nc"
-    drawing.write_text("G21 G90\nG1 X0 Y0 F600\n" + "".join(
+    drawing.write_text("G21 G90\nG1 X0 Y0 F300\n" + "".join(
         f"M1{k:02d}\nG1 X{k} Y0\n" for k in range(1, 31)) + "M2\n")
     text = info(drawing).splitlines()
     assert "warnings    30" in text

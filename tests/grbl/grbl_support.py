@@ -378,9 +378,17 @@ def check_resumed(board, setup_end, cut, lines: list[GcodeLine], start: int, pen
     second = work[rows[1]:]
     there = np.nonzero(np.all(second == resumed_from, axis=1))[0]
     assert len(there), f"the resume never started from {resumed_from}"
-    resumed = second[there[-1]:]
     lead = lead_in(lines, start, SCALE, pen)
-    check_trace(resumed, lead + lines[start:], start=resumed_from)
+    # the head may stand at `resumed_from` more than once (homing passes its pull-off
+    # point; the job may travel over where it stopped): the resume began at one of them
+    for visit in reversed(there):
+        resumed = second[visit:]
+        try:
+            check_trace(resumed, lead + lines[start:], start=resumed_from)
+            break
+        except AssertionError:
+            if visit == there[0]:
+                raise
     begin = state_steps(lines, start)
     arrive = int(np.nonzero(np.all(resumed == begin, axis=1))[0][0])
     travel = resumed[:arrive + 1]

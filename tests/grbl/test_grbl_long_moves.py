@@ -45,9 +45,10 @@ STEP_NM = 6250          # 160 steps/mm
 #: the product's rule: a board that stops answering is reported within this
 REPORTED_WITHIN_S = 5.0
 #: stock GRBL as a user starts it in simavr, paced to the wall clock (realtime=1 is
-#: the URL's default); only the steps/mm are the profile's (GRBL's max rate 500
-#: mm/min, acceleration 10 mm/s^2 as shipped)
-REALTIME_URL = "simavr://?firmware=grbl&$100=160&$101=160&$102=160"
+#: the URL's default); the steps/mm are the profile's, and X and Y's max rates its
+#: travel feed (100 mm/s: plot refuses a feed above GRBL's $110/$111), acceleration
+#: 10 mm/s^2 as shipped
+REALTIME_URL = "simavr://?firmware=grbl&$100=160&$101=160&$102=160&$110=6000&$111=6000"
 EXIT_OK, EXIT_FAILED = 0, 1             # plot's exit codes (docs/grbl.md)
 
 

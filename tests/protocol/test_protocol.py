@@ -295,10 +295,11 @@ def test_what_the_wire_cannot_carry_is_said_in_mm_with_the_wire_form_in_brackets
     # issue 31 item 14: `Rapid: x_steps=-159999992640` reached the user
     steps_per_mm = MachineConfig().steps_per_mm
     assert first_range_problem([Rapid(1, 2), Rapid(-159999992640, 5)], steps_per_mm) == (
-        1, "X -999999954.000 mm is more than a machine command carries (X 62499.994 mm at "
-           "most) [x_steps=-159999992640 outside -9999999..9999999]")
+        1, "X -999999954.000 mm is beyond what a machine command carries (X -62499.994 mm .. "
+           "X 62499.994 mm) [x_steps=-159999992640 outside -9999999..9999999]")
     assert first_range_problem([SetFeed(160_000_000)], steps_per_mm) == (
-        0, "feed 1000000 mm/s is more than a machine command carries (feed 62499.99375 mm/s "
-           "at most) [feed_steps_per_s=160000000 outside 0..9999999]")
+        0, "feed 1000000 mm/s is beyond what a machine command carries (feed 0 mm/s .. feed "
+           "62499.99375 mm/s) [feed_steps_per_s=160000000 outside 0..9999999]")
     assert first_range_problem([Dwell(10**10)], steps_per_mm) == (
-        0, "ms=10000000000 outside 0..2000000")            # no length: as it was
+        0, "a dwell of 10000000 s is longer than a machine command carries (2000 s at most) "
+           "[ms=10000000000 outside 0..2000000]")          # a dwell in seconds, as G4 P
