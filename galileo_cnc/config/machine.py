@@ -141,9 +141,13 @@ class MachineConfig:
         for name in ("feed_mm_s", "rapid_feed_mm_s", "z_feed_mm_s", "home_feed_mm_s"):
             sps = self.feed_steps_per_s_of(getattr(self, name))
             if not MIN_FEED_STEPS_PER_S <= sps <= self.max_feed_steps_per_s:
+                low, high = (MIN_FEED_STEPS_PER_S / self.steps_per_mm,
+                             self.max_feed_steps_per_s / self.steps_per_mm)
                 raise ConfigError(
-                    f"config: {name} = {getattr(self, name)} mm/s is {sps} steps/s, outside "
-                    f"{MIN_FEED_STEPS_PER_S}..{self.max_feed_steps_per_s} steps/s")
+                    f"config: {name} = {getattr(self, name):g} mm/s "
+                    f"({getattr(self, name) * 60:g} mm/min) is outside what this machine "
+                    f"runs, {low:g} .. {high:g} mm/s ({low * 60:g} .. {high * 60:g} mm/min) "
+                    f"[{sps} steps/s, {MIN_FEED_STEPS_PER_S}..{self.max_feed_steps_per_s}]")
 
     def _check_pins(self) -> None:
         # D0/D1 are the serial line; the Uno has D2..D13 and A0..A5 (14..19) besides.

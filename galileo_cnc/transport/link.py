@@ -26,6 +26,7 @@ from typing import Callable
 import serial
 
 from galileo_cnc import protocol as P
+from galileo_cnc.command_text import command_text
 from galileo_cnc.config.hardware import BANNER_WAIT_S, DEFAULT_BAUD
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.errors import GalileoError
@@ -426,8 +427,7 @@ class MachineLink:
                 if reply.seq != seq:
                     continue                                # late, to a line sent before
                 self.seq = previous_seq(seq)               # expected again
-                raise LinkError(f"the machine refused {P.command_text(command)!r}: "
-                                f"error:{reply.code} {reply.text}", reply)
+                raise LinkError(self.refusal_text(command, reply), reply)
             if reply.kind == "rs":
                 if reply.seq == seq:
                     send_again(renumber=False)              # our line was garbled
@@ -442,6 +442,17 @@ class MachineLink:
         return self.send_protocol(command, timeout_s)
 
     # ---- real-time ----------------------------------------------------------------------
+    def refusal_text(self, command: Command, reply: P.Reply) -> str:
+        """A refused command as the user reads it: in mm, the wire's line in brackets
+        (a soft limit, which the machine says in steps, in mm of machine coordinates)."""
+        detail = reply.text
+        limit = P.parse_soft_limit(reply.text) \
+            if reply.code == P.ERROR_BY_NAME["SOFT_LIMIT"].code else None
+        if limit is not None:
+            detail = f"soft limit: {self.config.travel_refusal(*limit)} (machine coordinates)"
+        return (f"the machine refused {command_text(command, self.config.steps_per_mm)} "
+                f"[{P.command_text(command)}]: error:{reply.code} {detail}")
+
     def status(self, timeout_s: float = SILENT_S) -> P.Status:
         """A fresh status (real-time status byte, asked again after `status_retry_s`,
         then twice as long each time up to STATUS_RETRY_S, or as soon as a garbled

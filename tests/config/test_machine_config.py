@@ -95,7 +95,8 @@ def test_every_field_overridable():
     ("pen_lift_steps = 1.5\n", "pen_lift_steps"),
     ("no_such_thing = 1\n", "no_such_thing"),
     ("feed_mm_s = 0\n", "feed_mm_s"),
-    ("feed_mm_s = 1000\n", "feed_mm_s"),
+    ("feed_mm_s = 1000\n", r"feed_mm_s = 1000 mm/s \(60000 mm/min\) is outside what this "
+                           r"machine runs, 0\.0625 \.\. 250 mm/s \(3\.75 \.\. 15000 mm/min\)"),
     ("x_home_dir = 2\n", "x_home_dir"),
     ("= broken\n", "bad TOML"),
 ])

@@ -7,6 +7,8 @@ cuts what crosses it, as a noisy cable or a pulled USB plug would.
 
 from __future__ import annotations
 
+import re
+
 import threading
 from pathlib import Path
 
@@ -124,7 +126,11 @@ def test_a_refused_line_stops_the_job_naming_the_file_line(journal):
         JobStreamer(link, job, program, journal=journal).run()
     assert messages == []           # the stop that follows is ours: no "alarm:14 aborted"
     assert f"{SAMPLE}:" in str(refused.value) and "error:5" in str(refused.value)
-    assert "X would reach" in str(refused.value)
+    assert "X would reach 205.750 mm, beyond the travel's end at 200.000 mm [32920 steps] " \
+        "(machine coordinates)" in str(refused.value)
+    # in mm, work coordinates, the wire's line only in brackets (issue 31, item 14)
+    assert re.search(r"the machine refused \w+ to X -?\d+\.\d{3} mm .*\(work\) \[\w ",
+                     str(refused.value)), str(refused.value)
     status = link.status()
     assert status.state == "idle" and status.queue_blocks == 0
     link.close()
