@@ -12,6 +12,7 @@ from __future__ import annotations
 import threading
 from typing import Callable
 
+from prompt_toolkit.application.current import get_app_session
 from prompt_toolkit.key_binding import KeyBindings
 from prompt_toolkit.shortcuts import ProgressBar
 from prompt_toolkit.shortcuts.progress_bar import formatters
@@ -26,6 +27,19 @@ BELL = "\a"
 _WAIT_POLL_S = 0.1
 
 RunJob = Callable[["JobScreen"], JobResult]     # the machine's run_job, with this Operator
+STOP_HINT = "   (q or Ctrl-C stops, the machine ramps down)"
+SHORT_STOP_HINT = "  (q stops)"
+
+
+def fit_title(title: str, columns: int) -> str:
+    """The bar's title within the terminal's width: the hint shortened first, then the
+    file's path cut from the left (its name is what tells jobs apart)."""
+    if len(title) + len(STOP_HINT) < columns:
+        return title + STOP_HINT
+    room = columns - 1 - len(SHORT_STOP_HINT)
+    if len(title) > room:
+        title = "..." + title[len(title) - max(room - 3, 1):]
+    return title + SHORT_STOP_HINT
 
 
 class ConsoleOperator:
@@ -93,7 +107,8 @@ class JobScreen(ConsoleOperator):
         """`run_job(self)` with the bar showing; `abort_stream` is called (from the key
         thread) when the user stops the job."""
         self._abort_stream = abort_stream
-        bar = ProgressBar(title=f"{self.title}   (q or Ctrl-C stops, the machine ramps down)",
+        columns = get_app_session().output.get_size().columns
+        bar = ProgressBar(title=fit_title(self.title, columns),
                           formatters=self._formatters(), key_bindings=self._key_bindings(),
                           cancel_callback=self.request_stop)
         with bar:

@@ -37,7 +37,7 @@ from galileo_cnc.plan.order.apertures import DRAWING_KINDS
 from galileo_cnc.plan.pipeline import PlannedFile
 from galileo_cnc.plan.planner import plotting_order
 from galileo_cnc.program.ops import I, J, KIND, NM_PER_MM, NO_TOOL, TOOL, VALUE, X, Y, OpKind
-from galileo_cnc.readers.gcode.writer import mm
+from galileo_cnc.readers.gcode.writer import feed_text, mm
 from galileo_cnc.readers.gerber.numbers import round_div
 
 
@@ -187,7 +187,7 @@ def converted_gcode(planned: PlannedFile, config: MachineConfig,
         elif kind == OpKind.PEN_UP:
             yield from lift()
         elif kind == OpKind.FEED and row[VALUE] > 0:
-            draw_feed = f"F{mm(row[VALUE] * 60)}"
+            draw_feed = f"F{feed_text(row[VALUE])}"
         elif kind == OpKind.DWELL and row[VALUE] >= 0:
             yield pen.dwell(row[VALUE])
         # regions, polarity and markers draw nothing by themselves

@@ -84,4 +84,9 @@ def _convex_hull(points: np.ndarray) -> np.ndarray:
 
 
 def mm_text(nm: int) -> str:
-    return f"{nm / NM_PER_MM:.3f}".rstrip("0").rstrip(".")
+    """Nanometres as mm to 3 decimals, no trailing zeros: '0.25'; a length too short
+    for 3 decimals is '<0.001' (never '0' for something there), and never '-0'."""
+    text = f"{nm / NM_PER_MM:.3f}".rstrip("0").rstrip(".")
+    if text in ("0", "-0"):
+        return "<0.001" if nm > 0 else ">-0.001" if nm < 0 else "0"
+    return text

@@ -257,6 +257,18 @@ def test_every_command_has_a_section_in_the_shipped_help_file():
     assert sorted(sections) == sorted(build_registry().names)
 
 
+def test_the_progress_title_fits_the_terminal_and_keeps_the_file_name():
+    # issue 31, item 19: the bar's title (the whole path, then the key hint) was cut at
+    # the terminal's width, the file name and the hint lost
+    from galileo_cnc.console.job_screen import fit_title
+    path = "/home/user/boards/a/long/folder/name/led-blinker-top-copper.gbr"
+    assert fit_title(path, 120) == path + "   (q or Ctrl-C stops, the machine ramps down)"
+    for columns in (80, 60, 45):
+        title = fit_title(path, columns)
+        assert len(title) < columns and title.endswith("/led-blinker-top-copper.gbr  (q stops)")
+    assert len(fit_title(path, 30)) < 30 and fit_title(path, 30).startswith("...")
+
+
 def test_the_help_fits_80_columns_and_homes_z_only_with_a_switch():
     from galileo_cnc.console.commands import build_registry
 
@@ -745,7 +757,7 @@ def an_evening(user: ConsoleUser, path: Path, pens: int, pull_the_cable=None) ->
             user.expect(r"lines\s+\d")           # the bar is up and the head moves
             user.type("q")
             user.expect(r"job stopped after \d+ of \d+ commands: stopped by the user; "
-                        r"type resume to continue it")
+                        r"the machine ramped down; the pen lifted; type resume to continue it")
         else:
             user.expect(r"process has finished in")
             user.expect(r">>")

@@ -247,3 +247,10 @@ def test_before_a_job_only_the_first_bridges_are_named_and_the_rest_counted(tmp_
     said = out.getvalue().splitlines()[1:]
     assert [t for t in said if "would join" in t] == [open_traces(planned.ink).text()]
     assert said[0] == shown[0]                                # the narrow features' warning
+
+
+def test_a_length_too_short_for_three_decimals_is_not_said_as_zero():
+    # issue 31, item 19: "left out for 0 mm" for a piece of a few hundred nm
+    from galileo_cnc.plan.widths import mm_text
+    assert [mm_text(nm) for nm in (0, 300, -300, 1_000, 250_000, -1_000)] == \
+        ["0", "<0.001", ">-0.001", "0.001", "0.25", "-0.001"]

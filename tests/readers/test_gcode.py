@@ -542,6 +542,14 @@ def test_writer_numbers():
         "0", "0.000001", "-0.000001", "1.5", "-12", "123.456789"]
 
 
+def test_a_feed_is_written_as_the_file_wrote_it():
+    # issue 31, item 19: F100 (1666667 nm/s) was written back as F100.00002
+    for feed in ("100", "7.5", "0.00006", "6000", "333.3"):
+        text = write_gcode(read(f"G21\nG1 X1 F{feed}"))
+        assert f"F{feed}" in text.split(), text
+        assert same_ops(read_gcode("w.nc", text), read(f"G21\nG1 X1 F{feed}"))
+
+
 def _program(*rows):
     builder = ProgramBuilder("built")
     for row in rows:

@@ -13,6 +13,7 @@ from typing import Iterator
 
 from galileo_cnc.errors import GalileoError, SourcePos
 from galileo_cnc.program.describe import describe_op
+from galileo_cnc.readers.gcode.lexer import scaled
 from galileo_cnc.program.ops import (COL, I, J, KIND, LINE, NM_PER_MM, NO_TOOL, TOOL, VALUE,
                                      X, Y, OpKind, Program)
 
@@ -80,11 +81,21 @@ def gcode_lines(program: Program) -> Iterator[str]:
         elif kind == OpKind.FEED:
             if row[VALUE] <= 0:
                 raise _refuse(program, row, "a feed rate must be positive")
-            yield f"F{mm(row[VALUE] * 60)}"  # nm/s -> mm/min, exact
+            yield f"F{feed_text(row[VALUE])}"
         else:
             raise _refuse(program, row, f"{describe_op(program, index)}: G-code has no such "
                           "thing")
     yield "M2"
+
+
+def feed_text(nm_per_s: int) -> str:
+    """A feed (nm/s) as the shortest mm/min text this reader reads back to the same
+    nm/s: 1666667 nm/s (F100 read) -> '100', not '100.00002'."""
+    for decimals in range(7):
+        text = f"{nm_per_s * 60 / NM_PER_MM:.{decimals}f}"
+        if scaled(text, NM_PER_MM, 60) == nm_per_s:
+            return text
+    return mm(nm_per_s * 60)            # exact, when no shorter text reads back
 
 
 def mm(nm: int) -> str:
