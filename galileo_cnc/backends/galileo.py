@@ -196,7 +196,7 @@ class GalileoMachine(Machine):
         finally:
             self._streamer = None
         return JobResult(result.completed, result.confirmed, result.total, result.elapsed_s,
-                         result.reason, "commands")
+                         result.reason, "commands", held=result.held)
 
     def _refuse_if_locked(self) -> None:
         """A machine locked before the job (a failed `home`) takes none of it: said so,

@@ -73,8 +73,10 @@ class GrblPortLost(PortGone):
 
 class InterruptiblePort:
     """A pyserial port whose `readline` raises JobInterrupted (once) after `interrupt`:
-    GrblLink and grbl.stream read in short slices, so the streaming thread notices
-    within one slice (0.2 s) that another thread asked for a stop."""
+    a read under way is cut short (pyserial's cancel_read, where the port has it), else
+    GrblLink and grbl.stream read in short slices, so the streaming thread notices at
+    once (at most a slice, 0.2 s, later) that another thread asked for a stop: the pen
+    is lifted soon after the machine stands still."""
 
     def __init__(self, port):
         self._port = port
@@ -91,6 +93,9 @@ class InterruptiblePort:
 
     def interrupt(self) -> None:
         self._stop.set()
+        cancel_read = getattr(self._port, "cancel_read", None)
+        if cancel_read is not None:
+            cancel_read()               # the read returns what it has; GrblLink keeps it
 
     def arm(self) -> None:
         self._stop.clear()

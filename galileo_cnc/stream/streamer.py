@@ -42,7 +42,7 @@ from __future__ import annotations
 import threading
 import time
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -126,6 +126,7 @@ class StreamResult:
     total: int
     elapsed_s: float
     reason: str = ""
+    held: str = ""          # stopped: what the stop left the machine in
 
 
 @dataclass
@@ -209,9 +210,9 @@ class JobStreamer:
         except (StreamAborted, KeyboardInterrupt) as stop:
             reason = str(stop) or "stopped by the user"
             self._stop_machine()
-            self._lift_pen()
+            lifted = self._lift_pen()
             self._journal_end(ABORTED, reason)
-            return result(False, reason)
+            return replace(result(False, reason), held=f"the machine ramped down; {lifted}")
         except MachineStopped as stopped:
             # a hold or abort we did not send: drop the queue, unlock, resumable
             self._stop_machine()
@@ -399,8 +400,7 @@ class JobStreamer:
                 # nobody sent is resumable), not "refused"
                 self.link.standing(self.link.status())
             where = self._where(sent.index) if sent.index >= self.start else ""
-            raise LinkError(f"{where}the machine refused {P.command_text(sent.command)!r}: "
-                            f"error:{reply.code} {reply.text}", reply)
+            raise LinkError(f"{where}{self.link.refusal_text(sent.command, reply)}", reply)
 
     def _confirm_through(self, seq: int) -> None:
         """The machine accepts lines only in order: `ok N<seq>` confirms every
@@ -455,9 +455,9 @@ class JobStreamer:
         except LinkError as exc:
             self._message(f"could not stop the machine cleanly: {exc}")
 
-    def _lift_pen(self) -> None:
+    def _lift_pen(self) -> str:
         """The machine stands still after a stop: the pen up, where it stood kept in
-        the journal (the resume's lead-in lowers the pen there again)."""
+        the journal (the resume's lead-in lowers the pen there again). Says which."""
         try:
             here = self.link.status()
             if self.journal is not None and self.journal.entry is not None:
@@ -465,8 +465,10 @@ class JobStreamer:
             if here.z_steps < self.link.config.pen_up_z_steps:
                 self.link.send(PenUp())
                 self.link.wait_idle()
+            return "the pen lifted"
         except LinkError as exc:
             self._message(f"could not lift the pen after the stop: {exc}")
+            return "the pen could not be lifted"
 
     def _where(self, index: int) -> str:
         op = self.job.op_index[index]

@@ -29,7 +29,8 @@ from inked import inked_points
 from test_console import WAIT_S, console_in_thread, home  # noqa: F401  (the fixture)
 
 CONFIG = MachineConfig()
-STOPPED = r"job stopped after \d+ of \d+ commands: stopped by the user; type resume"
+STOPPED = (r"job stopped after \d+ of \d+ commands: stopped by the user; the machine "
+           r"ramped down; the pen lifted; type resume")
 
 
 @pytest.fixture

@@ -144,7 +144,7 @@ def test_a_homed_job_stopped_on_simavr_resumes_on_a_new_board(capsys, tmp_path):
     ctrl_c.join(5)
     said = capsys.readouterr().out
     assert re.search(r"\nhomed: X \S+ Y \S+ mm\n", said), said
-    assert "stopped: stopped by the user; the machine ramped down" in said
+    assert "stopped: stopped by the user; the machine ramped down; the pen lifted" in said
     trace = tmp_path / "rest.npz"
     assert main(["plot", drawing, "--resume", "--yes", "--trace", str(trace),
                  "--port", "simavr://?realtime=0"]) == 0
