@@ -54,7 +54,7 @@ def summarize(artwork: Artwork) -> dict:
     return {
         "file": program.source,
         "format": program.format,
-        "units": program.units,
+        "units": program.metadata.get("units") or program.units,   # a DXF may be in m, cm, ft
         "format_spec": program.metadata.get("format"),
         "line_count": program.line_count,
         "operations": len(program),

@@ -50,6 +50,20 @@ def test_info_text_of_a_gcode_drawing():
     assert "format      gcode" in result.stdout and "4 draws, 1 arcs" in result.stdout
 
 
+def test_info_names_the_units_a_drawing_is_in(tmp_path, capsys):
+    # a DXF in metres said "units mm" (issue 31, item 1): its own unit, read exactly
+    import ezdxf
+    from galileo_cnc.cli.main import main
+    drawing = ezdxf.new()
+    drawing.header["$INSUNITS"] = 6                       # metres
+    drawing.modelspace().add_line((0, 0), (0.04, 0.025))
+    drawing.saveas(tmp_path / "part.dxf")
+    assert main(["info", str(tmp_path / "part.dxf"), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["units"] == "m" and summary["bbox_mm"] == {
+        "min_x": 0.0, "min_y": 0.0, "max_x": 40.0, "max_y": 25.0}
+
+
 def test_bad_files_give_one_line_with_the_position_and_exit_1(tmp_path):
     broken = tmp_path / "broken.gbr"
     broken.write_text("%FSLAX46Y46*%\n%MOMM*%\n%ADD10C,0.1*%\nD11*\n")
