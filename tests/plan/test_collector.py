@@ -21,12 +21,17 @@ def square(x: int, y: int, side: int) -> list[list[int]]:
     return [[x, y], [x + side, y], [x + side, y + side], [x, y + side]]
 
 
-def cycles_left_by(work) -> int:
-    """Objects in cycles that `work()` made and dropped (the collector finds them)."""
-    gc.collect()
-    with collector_paused():
-        work()
-        return gc.collect()
+def cycles_left_by(work, runs: int = 3) -> int:
+    """Objects in cycles that `work()` made and dropped (the collector finds them): the
+    fewest of `runs` runs, as a thread a test before this one left running (a board's
+    reader) may drop cycles of its own meanwhile; cycles of `work` are in every run."""
+    found = []
+    for _ in range(runs):
+        gc.collect()
+        with collector_paused():
+            work()
+            found.append(gc.collect())
+    return min(found)
 
 
 def test_islands_and_gap_strokes_leave_no_cycles():
@@ -34,13 +39,14 @@ def test_islands_and_gap_strokes_leave_no_cycles():
     pads = [square(0, 0, 4 * MM), square(MM, MM, 2 * MM)[::-1],
             square(int(1.5 * MM), int(1.5 * MM), MM // 2), square(6 * MM, 0, MM)]
     found = []
-    assert cycles_left_by(lambda: found.extend(clip.components(pads))) == 0
+    assert cycles_left_by(lambda: found.__setitem__(slice(None), clip.components(pads))) == 0
     assert len(found) == 3 and sorted(len(holes) for _outer, holes in found) == [0, 0, 1]
     # the gap strokes clip open paths with a PolyTree too
     centre = clip.offset([square(0, 0, 3 * MM)], -150_000, 1_000)
     strokes = []
     gaps = [square(MM, MM, 40_000), square(2 * MM, MM, 40_000)]
-    assert cycles_left_by(lambda: strokes.extend(fill._gap_strokes(gaps, centre, 150_000))) == 0
+    assert cycles_left_by(lambda: strokes.__setitem__(
+        slice(None), fill._gap_strokes(gaps, centre, 150_000))) == 0
     assert len(strokes) == 2
 
 
