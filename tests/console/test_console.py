@@ -754,7 +754,9 @@ def an_evening(user: ConsoleUser, path: Path, pens: int, pull_the_cable=None) ->
             user.line(f"connect {port}")
             user.expect(r"connected to ")
         elif stop:
-            user.expect(r"lines\s+\d")           # the bar is up and the head moves
+            # the bar has counted a line: it reads the keys now (a q typed as it first
+            # draws may come before its keys are bound, and the job runs to its end)
+            user.expect(r"lines\s+[\d.]+%\s+\[[^\]]*\]\s+[1-9]\d*/")
             user.type("q")
             user.expect(r"job stopped after \d+ of \d+ commands: stopped by the user; "
                         r"the machine ramped down; the pen lifted; type resume to continue it")
@@ -860,6 +862,9 @@ def test_a_whole_evening_on_the_firmware_in_simavr(home):
         with console_in_thread(home, board.port) as user:
             an_evening(user, SQUARE, pens=0)
             state, *position = user.status()
+            user.line("G0 X10")         # a line for the machine, as a job of one line
+            user.expect(r"ok: the head stands at X 10\.000  Y \S+  Z \S+ mm \(work\)")
+            assert user.status()[1:3] == (1600, position[1])    # 160 steps/mm, Y kept
         board.stop()
         tick, axis, direction = step_trace(board.trace())
     assert state == "idle" and tuple(position) == whole.final_position
