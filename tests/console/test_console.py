@@ -754,9 +754,10 @@ def an_evening(user: ConsoleUser, path: Path, pens: int, pull_the_cable=None) ->
             user.line(f"connect {port}")
             user.expect(r"connected to ")
         elif stop:
-            # the bar has counted a line: it reads the keys now (a q typed as it first
-            # draws may come before its keys are bound, and the job runs to its end)
-            user.expect(r"lines\s+[\d.]+%\s+\[[^\]]*\]\s+[1-9]\d*/")
+            user.expect(r"lines\s+\d")           # the bar is up and the head moves
+            # a q typed as the bar first draws may come before it reads the keys (then
+            # it reaches the next prompt, the job run to its end): the head moves a while
+            time.sleep(0.5)
             user.type("q")
             user.expect(r"job stopped after \d+ of \d+ commands: stopped by the user; "
                         r"the machine ramped down; the pen lifted; type resume to continue it")

@@ -41,6 +41,8 @@ def test_servo_pen_pwm_and_dwells_seen_on_the_pins():
     # M5 comes after the line's last step (GRBL waits for its moves); the pause is
     # measured from that step, as the harness may write the PWM's last edges late
     assert after[0] - drawn[-1] >= dwell_cycles, (drawn[-1], off, after[0], board.summary)
-    # S500 of $30 = 1000: half duty
-    highs = np.diff(pwm_cycle)[pwm_level[:-1] == 1].sum()
-    assert abs(highs / (off - on) - 0.5) < 0.01
+    # S500 of $30 = 1000: half duty, while the line is drawn
+    starts = np.clip(pwm_cycle[:-1], drawn[0], drawn[-1])
+    ends = np.clip(pwm_cycle[1:], drawn[0], drawn[-1])
+    highs = (ends - starts)[pwm_level[:-1] == 1].sum()
+    assert abs(highs / (drawn[-1] - drawn[0]) - 0.5) < 0.01
