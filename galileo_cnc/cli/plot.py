@@ -303,6 +303,7 @@ def _run(machine, options: PlotOptions, operator: PlotOperator, run) -> JobResul
         how = result.held or "the machine ramped down"
         say(f"stopped: {result.reason}; {how} ({result.confirmed} of {result.total} "
             f"{result.unit} confirmed)")
+        say(again)                          # Ctrl-C: how to go on (issue 31, item 13)
         return EXIT_INTERRUPTED
     return result
 

@@ -136,6 +136,7 @@ def test_a_homed_job_stopped_with_ctrl_c_resumes_in_a_new_process(capsys):
     ctrl_c.join(5)
     said = capsys.readouterr().out
     assert "stopped: stopped with Ctrl-C" in said or "stopped: stopped by the user" in said
+    assert f"the job can continue: galileo-cnc plot {SAMPLE} --resume" in said
     first = named_machine("first")
     assert first.status().z_steps == first.config.pen_up_z_steps     # the pen lifted
 
