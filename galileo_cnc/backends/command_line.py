@@ -121,9 +121,9 @@ def run_galileo_line(machine, text: str, say: Callable[[str], None]) -> bool:
         raise GalileoError(f"{text.strip()}: not sent, the machine is locked (alarm): "
                            f"type unlock (or home), then send it again")
     where = (status.x_steps * config.nm_per_step, status.y_steps * config.nm_per_step)
-    lines = getattr(machine, "gcode_lines", None)
-    if lines is None:
-        lines = machine.gcode_lines = GcodeLines()
+    if machine.gcode_lines is None:             # the first line typed on this connection
+        machine.gcode_lines = GcodeLines()
+    lines = machine.gcode_lines
     program = lines.read(text, where)
     for warning in program.warnings:
         say(str(warning))

@@ -41,6 +41,7 @@ class GalileoMachine(Machine):
         self.link = link
         self._journal = journal
         self._streamer: JobStreamer | None = None
+        self.gcode_lines = None     # the command line's G-code modes (command_line.GcodeLines)
 
     @classmethod
     def open(cls, port: str | None, baud: int, config: MachineConfig, config_path=None,
