@@ -144,6 +144,6 @@ def resume_start(lines: list[GcodeLine], confirmed: int, first_index: int,
                        f"last line GRBL acknowledged")
     depth = (planner_blocks or PLANNER_BLOCKS) + STEPPER_BLOCKS
     start = rewind(lines, confirmed, first_index, depth)
+    queued = "the line" if acked - start == 1 else f"the {acked - start} lines"
     return start, (f"resuming at G-code line {start + 1} of {len(lines)}: {cut_short}, so "
-                   f"the {acked - start} lines before line {acked + 1} that GRBL had queued "
-                   f"may not have run")
+                   f"{queued} before line {acked + 1} that GRBL had queued may not have run")
