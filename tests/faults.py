@@ -1,8 +1,29 @@
-"""A pyserial port with faults: what a noisy cable or a pulled USB plug does to a link."""
+"""Faults a user meets: a pyserial port with a noisy cable or a pulled USB plug, and a
+Ctrl-C pressed while a job runs."""
 
 from __future__ import annotations
 
+import _thread
+import threading
+import time
+from typing import Callable
+
 import serial
+
+
+def ctrl_c_when(ready: Callable[[], bool], timeout_s: float, poll_s: float) -> threading.Thread:
+    """Ctrl-C (KeyboardInterrupt in the main thread, where `plot` runs) as soon as
+    `ready()` holds, asked every `poll_s` for at most `timeout_s`."""
+    def watch() -> None:
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            if ready():
+                _thread.interrupt_main()
+                return
+            time.sleep(poll_s)
+    thread = threading.Thread(target=watch, daemon=True)
+    thread.start()
+    return thread
 
 
 class FaultyPort:

@@ -6,7 +6,6 @@ the pen drew is taken in the simulated world's frame: the trace up to the reset 
 the first power-on's place, the rest from where the head stood when resuming.
 """
 
-import _thread
 import threading
 import time
 from pathlib import Path
@@ -16,6 +15,7 @@ import pytest
 from galileo_cnc.cli.main import main
 from galileo_cnc.sim.simulator import named_machine
 
+from faults import ctrl_c_when
 from inked import inked_points
 
 SAMPLE = str(Path(__file__).resolve().parents[2] / "samples" / "led-blinker.gbr")
@@ -106,21 +106,13 @@ def test_home_without_end_stops_is_refused_before_anything_moves(tmp_path, capsy
 def press_ctrl_c_while_drawing(name: str, after: int = 38) -> threading.Thread:
     """Ctrl-C (SIGINT's KeyboardInterrupt in the main thread, where `plot` runs) once
     sim://NAME has accepted line `after` and draws (its pen down)."""
-    def watch() -> None:
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline:
-            try:
-                status = named_machine(name).status()
-            except KeyError:                # not opened yet
-                time.sleep(0.005)
-                continue
-            if status.last_seq >= after and status.z_steps == 0:
-                _thread.interrupt_main()
-                return
-            time.sleep(0.005)
-    thread = threading.Thread(target=watch, daemon=True)
-    thread.start()
-    return thread
+    def drawing() -> bool:
+        try:
+            status = named_machine(name).status()
+        except KeyError:                    # not opened yet
+            return False
+        return status.last_seq >= after and status.z_steps == 0
+    return ctrl_c_when(drawing, timeout_s=60, poll_s=0.005)
 
 
 def test_a_homed_job_stopped_with_ctrl_c_resumes_in_a_new_process(capsys):

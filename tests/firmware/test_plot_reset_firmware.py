@@ -17,7 +17,6 @@ reset, the homed resume and the drawing put back together do not depend on the a
 
 from __future__ import annotations
 
-import _thread
 import re
 import threading
 import time
@@ -33,6 +32,7 @@ from galileo_cnc.sim.simulator import named_machine
 from galileo_cnc.stream.journal import RUNNING, Journal
 
 from firmware_support import ELF, build_firmware, build_harness
+from faults import ctrl_c_when
 from inked import inked_points
 
 pytestmark = pytest.mark.usefixtures("fresh_sim")     # tests/conftest.py
@@ -117,17 +117,10 @@ def test_a_homed_job_reset_on_the_firmware_resumes_to_the_uninterrupted_drawing(
 def ctrl_c_once_confirmed(journal_path: Path, commands: int) -> threading.Thread:
     """Ctrl-C (KeyboardInterrupt in the main thread, where `plot` runs) once the job's
     journal says the machine confirmed `commands` commands."""
-    def watch():
-        deadline = time.monotonic() + 120
-        while time.monotonic() < deadline:
-            entry = Journal(journal_path).load() if journal_path.exists() else None
-            if entry is not None and entry.state == RUNNING and entry.confirmed >= commands:
-                _thread.interrupt_main()
-                return
-            time.sleep(0.02)
-    thread = threading.Thread(target=watch, daemon=True)
-    thread.start()
-    return thread
+    def confirmed() -> bool:
+        entry = Journal(journal_path).load() if journal_path.exists() else None
+        return entry is not None and entry.state == RUNNING and entry.confirmed >= commands
+    return ctrl_c_when(confirmed, timeout_s=120, poll_s=0.02)
 
 
 def test_a_homed_job_stopped_on_simavr_resumes_on_a_new_board(capsys, tmp_path):
