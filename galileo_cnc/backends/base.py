@@ -31,6 +31,13 @@ def position_text(nm: tuple[int, ...]) -> str:
     return f"X {mm3(nm[0])}  Y {mm3(nm[1])}  Z {mm3(nm[2])} mm"
 
 
+def position_mm_text(status, config: MachineConfig) -> str:
+    """Our firmware's status position (steps) as position_text prints it."""
+    return (f"X {status.x_steps / config.steps_per_mm:.3f}  "
+            f"Y {status.y_steps / config.steps_per_mm:.3f}  "
+            f"Z {status.z_steps / config.steps_per_mm:.3f} mm")
+
+
 @dataclass(frozen=True, slots=True)
 class MachineView:
     """A status report as a front end shows it (toolbar, alarm check)."""

@@ -15,7 +15,7 @@ from __future__ import annotations
 import re
 from typing import Callable
 
-from galileo_cnc.backends.base import position_text
+from galileo_cnc.backends.base import position_mm_text, position_text
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.program.ops import ProgramBuilder
 
@@ -134,13 +134,11 @@ def run_galileo_line(machine, text: str, say: Callable[[str], None]) -> bool:
                         options=PlanOptions(mode="centre", file_order=True))
     streamer = JobStreamer(link, planned.job, planned.plotted, journal=None)
     result = streamer.run()
-    status = link.status()
-    here = tuple(steps * config.nm_per_step
-                 for steps in (status.x_steps, status.y_steps, status.z_steps))
+    here = position_mm_text(link.status(), config)
     if not result.completed:
-        say(f"stopped ({result.reason}); the head stands at {position_text(here)} (work)")
+        say(f"stopped ({result.reason}); the head stands at {here} (work)")
         return False
-    say(f"ok: the head stands at {position_text(here)} (work)")
+    say(f"ok: the head stands at {here} (work)")
     return True
 
 

@@ -11,7 +11,8 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
-from galileo_cnc.backends.base import JobResult, Machine, MachineJob, MachineView, Resumption
+from galileo_cnc.backends.base import (JobResult, Machine, MachineJob, MachineView, Resumption,
+                                       position_mm_text)
 from galileo_cnc.config.machine import MIN_FEED_STEPS_PER_S, MachineConfig
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.job import Home, Jog, SetFeed, SetOrigin
@@ -26,12 +27,6 @@ from galileo_cnc.transport.link import LinkError, MachineLink
 
 #: States in which the head may be moving: a command interrupted there must stop it.
 MOVING_STATES = ("run", "hold", "homing")
-
-
-def position_mm_text(status: Status, config: MachineConfig) -> str:
-    return (f"X {status.x_steps / config.steps_per_mm:.3f}  "
-            f"Y {status.y_steps / config.steps_per_mm:.3f}  "
-            f"Z {status.z_steps / config.steps_per_mm:.3f} mm")
 
 
 class GalileoMachine(Machine):

@@ -70,10 +70,19 @@ class GrblMachine(Machine):
         self._kept: tuple | None = None
         #: why no job can run (steps/mm differ from the profile's), None when fine
         self.scale_problem: str | None = None
+        self._check_scale()
+
+    def _check_scale(self) -> None:
+        """scale_problem from GRBL's steps/mm (as last read) against the profile's."""
         try:
-            refuse_other_scale(link, config.steps_per_mm, config_path, name)
+            refuse_other_scale(self.link, self.profile_config.steps_per_mm,
+                               self.config_path, self.port_name)
+            self.scale_problem = None
         except GalileoError as problem:
             self.scale_problem = str(problem)
+
+    def _scale_warning(self) -> str:
+        return f"warning: {self.scale_problem}; jobs are refused until they agree"
 
     @classmethod
     def open(cls, name: str, baud: int, config: MachineConfig, config_path=None,
@@ -107,7 +116,7 @@ class GrblMachine(Machine):
     def describe(self) -> str:
         line = f"connected to {describe(self.link, self.port_name)}"
         if self.scale_problem:
-            line += f"\nwarning: {self.scale_problem}; jobs are refused until they agree"
+            line += f"\n{self._scale_warning()}"
         return line
 
     def check_profile(self) -> None:
@@ -431,13 +440,9 @@ class GrblMachine(Machine):
             self._alarm_settled(problem)
         if taken and changes_grbl_settings(text):
             self.link.read_info()           # steps/mm, max rates: what jobs are checked by
-            try:
-                refuse_other_scale(self.link, self.profile_config.steps_per_mm,
-                                   self.config_path, self.port_name)
-                self.scale_problem = None
-            except GalileoError as problem:
-                self.scale_problem = str(problem)
-                say(f"warning: {problem}; jobs are refused until they agree")
+            self._check_scale()
+            if self.scale_problem:
+                say(self._scale_warning())
         return taken
 
     def origin_after_home(self) -> str:

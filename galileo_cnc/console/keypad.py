@@ -14,7 +14,8 @@ from prompt_toolkit.layout import Layout, Window
 from prompt_toolkit.layout.controls import FormattedTextControl
 
 from galileo_cnc import protocol as P
-from galileo_cnc.backends.galileo import GalileoMachine, position_mm_text
+from galileo_cnc.backends.base import position_mm_text
+from galileo_cnc.backends.galileo import GalileoMachine
 from galileo_cnc.console.units import NM_PER_JOG_UNIT, jog_units_to_steps, refusal_text
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.job import AXIS_NAMES
