@@ -35,6 +35,7 @@ from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
 from galileo_cnc.plan.open_traces import ink_warnings, open_traces
 from galileo_cnc.plan.widths import mm_text
 from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, PlanOptions, plan_file
+from galileo_cnc.preview.formats import is_svg
 from galileo_cnc.program.ops import NM_PER_MM
 from galileo_cnc.stream.homing import check_homeable
 from galileo_cnc.stream.streamer import (MachineReset, PenChange, Progress,
@@ -352,7 +353,8 @@ def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO)
     if job is None or not (options.trace or options.preview):
         return
     planned, config = job.planned, job.config
-    if options.preview and options.preview.lower().endswith(".svg"):
+    svg = options.preview is not None and is_svg(options.preview)
+    if svg:
         from galileo_cnc.preview.svg import render_svg      # from the commands: no trace
         info = render_svg(planned.program, planned.job, config, planned.offset_nm,
                           options.preview, copper=planned.copper)
@@ -371,7 +373,7 @@ def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO)
             trace.save(options.trace)
             out.write(f"step trace: {options.trace} ({len(trace)} steps): the reference "
                       f"machine's, since {machine.port_name} cannot report its steps\n")
-    if options.preview and not options.preview.lower().endswith(".svg"):
+    if options.preview and not svg:
         from galileo_cnc.preview.render import render_preview
         info = render_preview(planned.program, trace, config, planned.offset_nm,
                               options.preview, job=planned.job, copper=planned.copper)

@@ -22,12 +22,17 @@ def raster_extensions() -> tuple[str, ...]:
     return tuple(ext for ext in _RASTER if registered.get(ext) in Image.SAVE)
 
 
+def is_svg(path: str) -> bool:
+    """Whether the preview file `path` is the vector preview (preview/svg.py)."""
+    return os.path.splitext(path)[1].lower() == SVG
+
+
 def preview_kind(path: str, option: str) -> str:
     """"svg" or "raster" for the preview file `path`; GalileoError naming `option`
     and the names that work when its extension is none of them."""
-    ext = os.path.splitext(path)[1].lower()
-    if ext == SVG:
+    if is_svg(path):
         return "svg"
+    ext = os.path.splitext(path)[1].lower()
     pictures = raster_extensions()
     if ext in pictures:
         return "raster"
