@@ -183,7 +183,7 @@ def _run_plot(args: argparse.Namespace) -> int:
 
 
 def _run_preview(args: argparse.Namespace) -> int:
-    from galileo_cnc.machine.planner import JobSteps
+    from galileo_cnc.preview.job_path import JobPath
     from galileo_cnc.preview.render import render_preview
 
     check_output(args.output, "--output")
@@ -197,9 +197,10 @@ def _run_preview(args: argparse.Namespace) -> int:
             info = render_svg(planned.program, planned.job, config, planned.offset_nm,
                               args.output, copper=planned.copper)
         else:
-            # stepped piece by piece as the preview reads it: no whole trace in memory
-            steps = JobSteps(planned.job.commands, config)
-            info = render_preview(planned.program, steps, config, planned.offset_nm,
+            # the job's path from its commands: the reference machine's steps to
+            # within one, without planning or stepping them (docs/preview.md, "Cost")
+            path = JobPath(planned.job.commands, config)
+            info = render_preview(planned.program, path, config, planned.offset_nm,
                                   args.output, job=planned.job, copper=planned.copper)
     except OSError as problem:
         raise GalileoError(f"--output {args.output}: cannot write: {problem.strerror}") from None

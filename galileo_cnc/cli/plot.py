@@ -348,8 +348,9 @@ def refuse_open_traces(ink) -> None:
 
 
 def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO) -> None:
-    """The step trace and the preview; the preview draws the reference's trace (the
-    plan), `copper` (ink mode) colouring what the ink left bare and drew outside."""
+    """The step trace and the preview; the preview draws the plan (the job's path
+    from its commands, preview/job_path.py: nothing stepped), `copper` (ink mode)
+    colouring what the ink left bare and drew outside."""
     if job is None or not (options.trace or options.preview):
         return
     planned, config = job.planned, job.config
@@ -359,10 +360,6 @@ def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO)
         info = render_svg(planned.program, planned.job, config, planned.offset_nm,
                           options.preview, copper=planned.copper)
         out.write(f"preview: {options.preview}: {info.summary()}\n")
-        if not options.trace:
-            return
-    from galileo_cnc.machine import simulate
-    trace = simulate(planned.job.commands, config)
     if options.trace:
         reported = recorder.trace()
         if reported is not None:
@@ -370,11 +367,15 @@ def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO)
             out.write(f"step trace: {options.trace} ({len(reported)} steps, as "
                       f"{recorder.source} reported them)\n")
         else:
+            from galileo_cnc.machine import simulate
+            trace = simulate(planned.job.commands, config)
             trace.save(options.trace)
             out.write(f"step trace: {options.trace} ({len(trace)} steps): the reference "
                       f"machine's, since {machine.port_name} cannot report its steps\n")
     if options.preview and not svg:
+        from galileo_cnc.preview.job_path import JobPath
         from galileo_cnc.preview.render import render_preview
-        info = render_preview(planned.program, trace, config, planned.offset_nm,
-                              options.preview, job=planned.job, copper=planned.copper)
+        info = render_preview(planned.program, JobPath(planned.job.commands, config), config,
+                              planned.offset_nm, options.preview, job=planned.job,
+                              copper=planned.copper)
         out.write(f"preview: {options.preview}: {info.summary()}{machine.preview_note}\n")

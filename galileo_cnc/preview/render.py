@@ -38,10 +38,12 @@ from galileo_cnc.job import ArcTo, Flash, Job, LineTo, PenDown
 from galileo_cnc.machine.blocks import Pause
 from galileo_cnc.machine.planner import JobSteps, ReferenceMachine
 from galileo_cnc.machine.trace import Trace
+from galileo_cnc.preview.job_path import JobPath
 from galileo_cnc.program.ops import NM_PER_MM, Program
 
-#: a step trace in memory, or one stepped piece by piece as it is read
-Steps = Union[Trace, JobSteps]
+#: a step trace in memory, one stepped piece by piece as it is read, or the job's
+#: path from its commands (JobPath: no stepping)
+Steps = Union[Trace, JobSteps, JobPath]
 
 # Colours (RGB): strong strokes over the light artwork (artwork.ART), so both stay readable.
 STROKE = (20, 40, 160)          # dark blue
@@ -123,6 +125,7 @@ def render_preview(program: Program, trace: Steps, config: MachineConfig,
         raise ValueError("pen_widths_nm needs the job: it says which pen draws when")
     as_inked = job is not None or copper is not None
     notes: list[str] = []
+    sample = getattr(trace, "length_sample", _LENGTH_SAMPLE)
     runs = _scan_runs(trace, start, config)
     # The artwork's box and the head path decide the view and the scale.
     parsed, art_box = (artwork_box(program, offset_nm, pygerber_limit, notes)
@@ -154,16 +157,18 @@ def render_preview(program: Program, trace: Steps, config: MachineConfig,
         default_nm = round(pen_width_mm * NM_PER_MM)
         widths = np.full(len(runs.strokes), default_nm, dtype=np.int64) if job is None else \
             _stroke_widths_nm(runs.strokes, job, config, start, default_nm,
-                              job.pen_widths_nm if pen_widths_nm is None else pen_widths_nm)
+                              job.pen_widths_nm if pen_widths_nm is None else pen_widths_nm,
+                              trace)
         strokes = [_SweepPainter(runs.strokes[widths == w], ink, w / 2 / NM_PER_MM * scale,
-                                 to_px, spm)
+                                 to_px, spm, sample)
                    for w in (np.unique(widths).tolist() or [default_nm])]
     else:
         stroke_mask = Image.new("L", size, 0)
         pen_px = max(1, round(pen_width_mm * scale))
         strokes = [_RunPainter(runs.strokes, ImageDraw.Draw(stroke_mask), 255, pen_px,
-                               box=True)]
-    travels = _RunPainter(runs.travel, ImageDraw.Draw(canvas) if travel else None, TRAVEL, 1)
+                               box=True, length_sample=sample)]
+    travels = _RunPainter(runs.travel, ImageDraw.Draw(canvas) if travel else None, TRAVEL, 1,
+                          length_sample=sample)
     previous = None                         # pixel of the event before the chunk
     for first, x, y in _events(trace, start, axes=2):
         col, row = to_px.xy(x / spm, y / spm)
@@ -217,8 +222,8 @@ class PenStretches:
 _DRAWING = (PenDown, LineTo, ArcTo, Flash)
 
 
-def pen_stretches(job: Job, config: MachineConfig,
-                  start: tuple[int, int, int] = (0, 0, 0)) -> PenStretches:
+def pen_stretches(job: Job, config: MachineConfig, start: tuple[int, int, int] = (0, 0, 0),
+                  path=None) -> PenStretches:
     """Which pen is in the holder at which trace event, for the trace of `job` stepped
     from work position `start` by the reference machine.
 
@@ -231,12 +236,19 @@ def pen_stretches(job: Job, config: MachineConfig,
     on a reference machine from one change to the next, up to the last change (no
     stepping: memory is one stretch's planned moves). Before the first change, the
     pen is the aperture of the first drawing command (a job with one pen has no
-    change at all)."""
+    change at all).
+
+    Given the job's `path` as a JobPath, its own count of events is used instead:
+    it knows each command's first event without planning."""
     changes = sorted(job.pen_changes.items())
     first_change = changes[0][0] if changes else len(job.commands)
     initial = next((job.aperture[k] for k in range(min(first_change, len(job.commands)))
                     if isinstance(job.commands[k], _DRAWING)), None)
     firsts, keys = [0], [initial]
+    if isinstance(path, JobPath):
+        at = path.stretch_firsts([command for command, _ in changes])
+        return PenStretches(np.asarray(firsts + at.tolist(), dtype=np.int64),
+                            keys + [key for _, key in changes])
     machine = ReferenceMachine(config, start)
     done, events = 0, 0
     for command, key in changes:
@@ -250,10 +262,10 @@ def pen_stretches(job: Job, config: MachineConfig,
 
 def _stroke_widths_nm(strokes: np.ndarray, job: Job, config: MachineConfig,
                       start: tuple[int, int, int], default_nm: int,
-                      widths_nm: dict[int, int]) -> np.ndarray:
+                      widths_nm: dict[int, int], trace: Steps) -> np.ndarray:
     """Pen width (nm) of each stroke run (first, last events): the pen in the holder
     at its first event; `default_nm` for a pen of width 0 or unknown."""
-    keys = pen_stretches(job, config, start).key_at(strokes[:, 0])
+    keys = pen_stretches(job, config, start, trace).key_at(strokes[:, 0])
     width = {key: int(widths_nm.get(key) or 0) for key in set(keys)}
     return np.array([width[key] if width[key] > 0 else default_nm for key in keys],
                     dtype=np.int64)
@@ -306,9 +318,9 @@ def _copper_outlines(copper, to_px, offset_nm, tolerance_nm: int):
     if tolerance_nm <= 0:
         edges = _copper_edges(rings, to_px, offset_nm)
         return edges, edges
-    arc = max(1, tolerance_nm // 8)          # round corners within 1/8 of the tolerance
-    return (_copper_edges(clip.offset(rings, -tolerance_nm, arc), to_px, offset_nm),
-            _copper_edges(clip.offset(rings, tolerance_nm, arc), to_px, offset_nm))
+    rings = clip.clean(rings, tolerance_nm)
+    return (_copper_edges(clip.offset_mitred(rings, -tolerance_nm), to_px, offset_nm),
+            _copper_edges(clip.offset_mitred(rings, tolerance_nm), to_px, offset_nm))
 
 
 def copper_rings(copper) -> list:
@@ -384,6 +396,9 @@ _LENGTH_SAMPLE = 16
 def _events(trace: Steps, start: tuple[int, int, int], axes: int = 3):
     """(index of the first event, x, y[, z]) per chunk of events, positions in
     int32 steps; the first chunk is event 0 (the start) alone. `axes=2` leaves Z out."""
+    if isinstance(trace, JobPath):
+        yield from trace.events(start, axes)
+        return
     at = [int(v) for v in start[:axes]]
     yield 0, *(np.array([v], dtype=np.int32) for v in at)
     count = 1
@@ -491,8 +506,9 @@ class _RunPainter:
     """
 
     def __init__(self, runs: np.ndarray, draw: ImageDraw.ImageDraw | None, colour, width: int,
-                 box: bool = False):
+                 box: bool = False, length_sample: int = _LENGTH_SAMPLE):
         self.first, self.last = runs[:, 0], runs[:, 1]
+        self.length_sample = length_sample
         self.draw, self.colour, self.width = draw, colour, width
         # squared segment length (integer steps^2) -> count: the sum is taken once, in
         # key order, so the length does not depend on how the trace was chunked
@@ -542,9 +558,10 @@ class _RunPainter:
                          for value, count in sorted(self._squared_lengths.items()))
 
     def _length(self, x, y, index, run, event, stops) -> None:
-        """Length over samples every _LENGTH_SAMPLE events from each run's first,
-        and its last, so step staircases do not count as extra length."""
-        take = ((event - self.first[run]) % _LENGTH_SAMPLE == 0) | stops
+        """Length over samples every `length_sample` events from each run's first,
+        and its last, so step staircases do not count as extra length (a JobPath's
+        events are its vertices: all of them count)."""
+        take = ((event - self.first[run]) % self.length_sample == 0) | stops
         pick = index[take]
         xs, ys, ids = x[pick].astype(np.int64), y[pick].astype(np.int64), run[take]
         if self._sample is not None:
@@ -597,8 +614,8 @@ class _SweepPainter(_RunPainter):
     the pen's disc."""
 
     def __init__(self, runs: np.ndarray, ink: np.ndarray, radius_px: float,
-                 to_px: PixelFrame, steps_per_mm: float):
-        super().__init__(runs, ink, 255, 0, box=True)
+                 to_px: PixelFrame, steps_per_mm: float, length_sample: int = _LENGTH_SAMPLE):
+        super().__init__(runs, ink, 255, 0, box=True, length_sample=length_sample)
         self.radius, self.to_px, self.spm = float(radius_px), to_px, steps_per_mm
 
     def _points(self, x, y, col, row, kept) -> np.ndarray:
@@ -622,7 +639,25 @@ class _SweepPainter(_RunPainter):
                 starts.append(piece)
                 ends.append(piece)
             self._open = None if self.last[r] < end else (r, piece[-1:].copy())
-        _sweep(self.draw, np.concatenate(starts), np.concatenate(ends), self.radius)
+        _sweep(self.draw, *_short_segments(np.concatenate(starts), np.concatenate(ends)),
+               self.radius)
+
+
+#: _sweep tests a box of pixels around each segment: a longer one (a JobPath's
+#: vertices, not a trace's steps) is cut into pieces at most this long (pixels).
+_SWEEP_PIECE_PX = 2.0
+
+
+def _short_segments(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Segments a[k]-b[k] cut into pieces of at most _SWEEP_PIECE_PX."""
+    pieces = np.maximum(1, np.ceil(np.hypot(*(b - a).T) / _SWEEP_PIECE_PX)).astype(np.int64)
+    if np.all(pieces == 1):
+        return a, b
+    which = np.repeat(np.arange(len(a)), pieces)
+    k = np.arange(len(which)) - np.repeat(np.cumsum(pieces) - pieces, pieces)
+    step = (b - a)[which] / pieces[which, None]
+    start = a[which] + step * k[:, None]
+    return start, start + step
 
 
 # Candidate pixels tested at once by _sweep: some 20 MB of temporaries.

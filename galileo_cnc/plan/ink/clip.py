@@ -39,6 +39,17 @@ def offset(polygons: PolygonSet, delta_nm: int, tolerance_nm: int, *,
     return clean(engine.Execute(float(delta_nm)), tolerance_nm)
 
 
+def offset_mitred(polygons: PolygonSet, delta_nm: int) -> PolygonSet:
+    """Grow or shrink an already clean set by |delta| with mitred corners (limit
+    2), not cleaned after: for measuring against a tolerance a few um wide, where a
+    corner's shape moves nothing that counts, at 3/4 of a round offset's cost."""
+    if not polygons or delta_nm == 0:
+        return list(polygons)
+    engine = pc.PyclipperOffset(2.0)
+    engine.AddPaths(polygons, pc.JT_MITER, pc.ET_CLOSEDPOLYGON)
+    return engine.Execute(float(delta_nm))
+
+
 def clean(polygons: PolygonSet, tolerance_nm: int) -> PolygonSet:
     """The set without vertices that move the outline by less than tolerance / 4
     (Clipper's CleanPolygons); rings left with fewer than three points are dropped.
