@@ -232,7 +232,8 @@ def _unzip(archive: Path, into: Path) -> None:
         with zipfile.ZipFile(archive) as zipped:
             members = [m for m in zipped.infolist() if not m.is_dir()]
             if len(members) > MAX_FILES:
-                raise BoardError(f"{archive}: more than {MAX_FILES} members; a board has a few dozen")
+                raise BoardError(f"{archive}: more than {MAX_FILES} members; a board has a "
+                                 "few dozen")
             for member in members:
                 name = member.filename.replace("\\", "/")
                 parts = PurePosixPath(name).parts
@@ -241,8 +242,9 @@ def _unzip(archive: Path, into: Path) -> None:
                     raise BoardError(f"{archive}: member '{member.filename}' would be written "
                                      "outside the board's folder; refused")
                 if member.file_size > per_file:
-                    raise BoardError(f"{archive}: member '{name}' has {member.file_size / 2**20:,.0f}"
-                                     f" MB, more than the {per_file // 2**20:,} MB limit (set "
+                    size_mb = member.file_size / 2**20
+                    raise BoardError(f"{archive}: member '{name}' has {size_mb:,.0f} MB, more "
+                                     f"than the {per_file // 2**20:,} MB limit (set "
                                      f"{limits.MAX_FILE_MB_ENV}=<MB> to raise it)")
                 with zipped.open(member) as handle:
                     data = handle.read(per_file + 1)

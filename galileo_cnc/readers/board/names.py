@@ -110,7 +110,8 @@ _PATTERN_CODES = [
     (re.compile(r"gp(\d+)"), "inner-copper", "Protel/Altium internal plane {0}"),
     (re.compile(r"ly(\d+)"), "inner-copper", "Eagle inner layer {0}"),
     (re.compile(r"pow\d*"), "inner-copper", "power plane"),
-    (re.compile(r"group(\d+)"), "inner-copper", "gEDA pcb copper group {0}, neither top nor bottom"),
+    (re.compile(r"group(\d+)"), "inner-copper",
+     "gEDA pcb copper group {0}, neither top nor bottom"),
     (re.compile(r"gm(\d+)"), "other", "Protel/Altium mechanical layer {0}"),
     (re.compile(r"g[dg](\d+)"), "other", "Protel/Altium drill drawing {0}"),
 ]
@@ -218,7 +219,11 @@ def _word_role(text: str, original: str) -> Placement | None:
     letter = _SIDE_LETTER.search(text)
     if not side and letter:
         side = "top" if letter.group(1) == "a" else "bottom"
-    said = lambda kind: f"name: the words '{' '.join(words(original))}' ({kind})"  # noqa: E731
+    shown = " ".join(words(original))
+
+    def said(kind: str) -> str:
+        return f"name: the words '{shown}' ({kind})"
+
     if found & _OTHER:
         return Placement("other", said("a drawing"))
     if found & _OUTLINE:

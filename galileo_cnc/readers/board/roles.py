@@ -105,5 +105,6 @@ def place(name: str, head: str, kind: str, job: dict[str, str] | None = None) ->
     if placed is not None and placed.why.startswith("X2"):
         by_name = gerber_name_role(name)
         if by_name and by_name.role != placed.role:
-            return Placement(placed.role, f"{placed.why} (over the name, which says {by_name.role})")
+            return Placement(placed.role,
+                             f"{placed.why} (over the name, which says {by_name.role})")
     return placed
