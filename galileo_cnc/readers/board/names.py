@@ -66,6 +66,15 @@ _CODES = {
     "gml": ("outline", "Eagle milling layer"),
     "mil": ("outline", "Eagle milling layer"),
     "gpt": ("other", "Protel/Altium top pad master"),
+    # two-letter names (FAB 3000, CAM tools writing Protel's letters as the whole name)
+    "tl": ("top-copper", "top layer"),
+    "bl": ("bottom-copper", "bottom layer"),
+    "to": ("top-silk", "top overlay"),
+    "bo": ("bottom-silk", "bottom overlay"),
+    "ts": ("top-mask", "top solder mask"),
+    "bs": ("bottom-mask", "bottom solder mask"),
+    "tp": ("top-paste", "top paste"),
+    "bp": ("bottom-paste", "bottom paste"),
     "gpb": ("other", "Protel/Altium bottom pad master"),
     # Eagle's classic CAM job
     "cmp": ("top-copper", "Eagle component side"),
@@ -136,8 +145,9 @@ _MASK = {"mask", "soldermask", "stop", "stopmask", "resist", "solderresist"}
 _SILK = {"silk", "silks", "silkscreen", "legend", "overlay", "posi", "symbol", "screen"}
 _OUTLINE = {"outline", "boardoutline", "edge", "edges", "cuts", "profile", "dimension",
             "mill", "milling", "contour", "border"}
-_OTHER = {"assembly", "assy", "asm", "fab", "fabrication", "drawing", "drill", "drills",
-          "dwg", "notes", "courtyard", "adhesive", "glue", "map", "keepout", "document"}
+_OTHER = {"assembly", "assy", "asm", "fab", "fabrication", "drawing", "drawings", "drill",
+          "drills", "dwg", "notes", "courtyard", "adhesive", "glue", "map", "keepout",
+          "document", "pads"}   # pads: Altium's pad master, not the copper
 _COPPER = {"copper", "cu", "etch", "signal", "conductive", "layer", "mixed"}
 _PLANE = {"gnd", "ground", "pwr", "power", "vcc", "plane"}
 _NUMBERED = re.compile(r"(?<![a-z0-9])(?:l|lyr|layer|conductive|etch|signal|sig)"
@@ -185,8 +195,8 @@ def gerber_name_role(name: str) -> Placement | None:
     for pattern, role, layer in _KICAD:
         if pattern.search(lowered):
             return Placement(role, f"name: KiCad layer {layer}")
-    if ext in DRILL_EXTENSIONS:
-        return Placement("other", f"name: a Gerber file named .{ext.upper()}, as drill "
+    if ext in DRILL_EXTENSIONS or (not ext and stem in DRILL_EXTENSIONS):
+        return Placement("other", f"name: a Gerber file named '{ext or stem}', as drill "
                          "files are: a drawing of the holes")
     if ext and ext not in GENERIC_EXTENSIONS:
         coded = _code(ext)
