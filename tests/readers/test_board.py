@@ -160,7 +160,8 @@ EXPECTED: dict[str, dict[str, str]] = {
         "IRNASIoTbank1.2.PosiTop": TS, "IRNASIoTbank1.2.StopBot": BM,
         "IRNASIoTbank1.2.Top": TC, "IRNASIoTbank1.2.Drill": DR},
     # EKF's German names; side 1 carries the SMD pads (its flashes coincide with stp1's
-    # and sieb1's), side 0 is the solder side as in ekf-ccgr0's stp0 (SoldermaskBottom)
+    # and sieb1's) and d1's legend reads unmirrored (the title block, the references):
+    # the top; side 0 is the solder side, as in ekf-ccgr0's stp0 (SoldermaskBottom)
     "unknown/ekf2": {
         "d1.grb": TS, "l0.grb": BC, "l1.grb": TC, "l3.grb": IC, "l4.grb": IC, "pow.grb": IC,
         "pow3.grb": IC, "sieb0.grb": BP, "sieb1.grb": TP, "stp0.grb": BM, "stp1.grb": TM,
@@ -278,10 +279,13 @@ def test_a_job_file_places_files_whose_names_say_nothing(tmp_path):
 
 def test_x2_wins_over_the_name_and_says_so(tmp_path):
     folder = _write(tmp_path / "b", {"board-F_Cu.gbr": X2_HEAD.format("Copper,L2,Bot") + "M02*\n",
-                                     "board.GTO": X2_HEAD.format("Legend,Bot") + "M02*\n"})
+                                     "board.GTO": X2_HEAD.format("Legend,Bot") + "M02*\n",
+                                     "board-PTH.gbr": X2_HEAD.format("Plated,1,2,PTH") + "M02*\n"})
     board = open_board(folder)
     got = {layer.file: layer for layer in board.layers}
     assert got["board-F_Cu.gbr"].role == BC and got["board.GTO"].role == BS
+    # a drill layer in Gerber form is a drawing to the Excellon reader's eyes
+    assert got["board-PTH.gbr"].role == OTHER and "not an Excellon" in got["board-PTH.gbr"].why
     assert "X2 FileFunction Copper,L2,Bot" in got["board-F_Cu.gbr"].why
     assert "name, which says top-copper" in got["board-F_Cu.gbr"].why
 

@@ -33,8 +33,6 @@ class Placement:
     layer: int = 0
 
 
-SIDES = {"top": "top", "bottom": "bottom"}
-
 # 1. KiCad: <project>-<layer>.<ext>, the layer's dot written as '_' since KiCad 5.
 _KICAD = [
     (re.compile(r"(?:^|[-_.])f[._]cu(?:$|[-_.])"), "top-copper", "F.Cu"),
@@ -148,7 +146,6 @@ _OUTLINE = {"outline", "boardoutline", "edge", "edges", "cuts", "profile", "dime
 _OTHER = {"assembly", "assy", "asm", "fab", "fabrication", "drawing", "drawings", "drill",
           "drills", "dwg", "notes", "courtyard", "adhesive", "glue", "map", "keepout",
           "document", "pads"}   # pads: Altium's pad master, not the copper
-_COPPER = {"copper", "cu", "etch", "signal", "conductive", "layer", "mixed"}
 _PLANE = {"gnd", "ground", "pwr", "power", "vcc", "plane"}
 _NUMBERED = re.compile(r"(?<![a-z0-9])(?:l|lyr|layer|conductive|etch|signal|sig)"
                        r"[-_ ]?0*(\d{1,2})(?![0-9])")

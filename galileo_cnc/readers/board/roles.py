@@ -82,9 +82,13 @@ def x2_role(head: str, kind: str) -> Placement | None:
     if not found:
         return None
     role = function_role(found.group(1))
+    said = f"X2 FileFunction {found.group(1).strip()}"
+    if role in DRILL_ROLES and kind == "gerber":
+        return Placement("other", f"{said}, in a Gerber file: the holes drawn, not an "
+                         "Excellon drill file")
     if role is None or (role in DRILL_ROLES) != (kind == "excellon"):
         return None
-    return Placement(role, f"X2 FileFunction {found.group(1).strip()}")
+    return Placement(role, said)
 
 
 def place(name: str, head: str, kind: str, job: dict[str, str] | None = None) -> Placement | None:
