@@ -363,7 +363,13 @@ def test_info_gives_the_size_from_the_outline_and_holes_per_diameter(tmp_path):
                                 {"diameter_mm": 1.0, "holes": 2, "slots": 2}]
     assert {"file": "Flashpads-PTH.drl", "role": DP, "why": "X2 FileFunction Plated,1,2,PTH"} \
         in summary["layers"]
+    assert summary["holes_bbox_mm"] == {"min_x": -0.5, "min_y": -0.5, "max_x": 0.5, "max_y": 0.5}
     assert describe_board(folder)[1]["board"]["holes"] is None
+    for path in folder.iterdir():   # drill files alone: the size is the holes' box
+        if path.suffix != ".drl":
+            path.unlink()
+    alone = describe_board(folder, read_drill=read_drill)[1]["board"]
+    assert alone["size_from"] == "holes" and alone["size_mm"] == {"x": 1.0, "y": 1.0}
 
 
 def test_header_and_name_rules_agree_with_x2_wherever_both_speak():

@@ -2,9 +2,9 @@
 and its holes per diameter (text, and the same as data for `--json`).
 
 The size is the outline's extent (its centre lines: where the board is cut), else the
-copper's with the apertures, read by the Gerber reader in nm. Holes are counted only when
-a drill reader is given (`read_drill`: path -> program.drills.DrillFile), so this module
-does not depend on which one.
+copper's with the apertures, read by the Gerber reader in nm, else the holes' box. Holes
+are counted only when a drill reader is given (`read_drill`: path ->
+program.drills.DrillFile), so this module does not depend on which one.
 """
 
 from __future__ import annotations
@@ -49,26 +49,43 @@ def board_box_nm(board: Board, problems: list[str]) -> tuple[tuple[int, int, int
     return None, ""
 
 
-def hole_counts(board: Board, read_drill: Callable[[str], DrillFile],
-                problems: list[str]) -> tuple[Counter, Counter]:
-    """Holes and slots per diameter (nm) over every drill file of the board."""
-    holes: Counter = Counter()
-    slots: Counter = Counter()
+def read_drills(board: Board, read_drill: Callable[[str], DrillFile],
+                problems: list[str]) -> list[DrillFile]:
+    """Every drill file of the board that reads (the others named in `problems`)."""
+    drills = []
     for layer in board.drills():
         try:
-            drill = read_drill(str(layer.path))
+            drills.append(read_drill(str(layer.path)))
         except GalileoError as problem:
             problems.append(str(problem))
-            continue
+    return drills
+
+
+def hole_counts(drills: list[DrillFile]) -> tuple[Counter, Counter]:
+    """Holes and slots per diameter (nm) over the drill files."""
+    holes: Counter = Counter()
+    slots: Counter = Counter()
+    for drill in drills:
         holes.update(h.diameter_nm for h in drill.holes)
         slots.update(s.diameter_nm for s in drill.slots)
     return holes, slots
+
+
+def _box_mm(box) -> dict | None:
+    if box is None:
+        return None
+    return {"min_x": _mm(box[0]), "min_y": _mm(box[1]), "max_x": _mm(box[2]),
+            "max_y": _mm(box[3])}
 
 
 def board_summary(board: Board, read_drill: Callable[[str], DrillFile] | None = None) -> dict:
     """The board as plain data (lengths in mm): `info --json`'s "board"."""
     problems: list[str] = []
     box, measured = board_box_nm(board, problems)
+    drills = read_drills(board, read_drill, problems) if read_drill is not None else []
+    holes_box = _union([drill.box_nm() for drill in drills])
+    if box is None and holes_box is not None:
+        box, measured = holes_box, "holes"
     summary = {
         "source": board.source,
         "job_file": board.job or None,
@@ -78,12 +95,12 @@ def board_summary(board: Board, read_drill: Callable[[str], DrillFile] | None = 
         "ignored": [{"file": u.file, "why": u.why} for u in board.ignored],
         "size_mm": None if box is None else {"x": _mm(box[2] - box[0]), "y": _mm(box[3] - box[1])},
         "size_from": measured or None,
-        "bbox_mm": None if box is None else {"min_x": _mm(box[0]), "min_y": _mm(box[1]),
-                                             "max_x": _mm(box[2]), "max_y": _mm(box[3])},
+        "bbox_mm": _box_mm(box),
+        "holes_bbox_mm": _box_mm(holes_box),
         "holes": None,
     }
     if read_drill is not None:
-        holes, slots = hole_counts(board, read_drill, problems)
+        holes, slots = hole_counts(drills)
         summary["holes"] = [
             {"diameter_mm": _mm(d), "holes": holes.get(d, 0), "slots": slots.get(d, 0)}
             for d in sorted(set(holes) | set(slots))]
@@ -104,7 +121,7 @@ def board_text(summary: dict) -> str:
     if summary["ignored"]:
         lines.append("  not board files: " + ", ".join(e["file"] for e in summary["ignored"]))
     size = summary["size_mm"]
-    lines.append("size: unknown (no outline or copper read)" if size is None else
+    lines.append("size: unknown (no outline, copper or holes read)" if size is None else
                  f"size: {size['x']:g} x {size['y']:g} mm (from the {summary['size_from']})")
     if summary["holes"] is not None:
         total = sum(h["holes"] for h in summary["holes"])
