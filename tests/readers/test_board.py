@@ -358,6 +358,7 @@ def test_info_gives_the_size_from_the_outline_and_holes_per_diameter(tmp_path):
     assert summary["size_mm"] == {"x": 80.0, "y": 50.0}
     assert summary["bbox_mm"] == {"min_x": 20.0, "min_y": -70.0, "max_x": 100.0, "max_y": -20.0}
     assert "size: 80 x 50 mm (from the outline)" in text
+    assert "holes: 6, slots: 2\n  0.8 mm: 4 holes\n  1 mm: 2 holes, 2 slots" in text
     assert sorted(read) == ["Flashpads-NPTH.drl", "Flashpads-PTH.drl"]
     assert summary["holes"] == [{"diameter_mm": 0.8, "holes": 4, "slots": 0},
                                 {"diameter_mm": 1.0, "holes": 2, "slots": 2}]

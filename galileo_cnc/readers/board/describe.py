@@ -108,6 +108,10 @@ def board_summary(board: Board, read_drill: Callable[[str], DrillFile] | None = 
     return summary
 
 
+def _count(n: int, what: str) -> str:
+    return "" if not n else f"{n} {what}" + ("s" if n > 1 else "")
+
+
 def board_text(summary: dict) -> str:
     """`info BOARD` as a user reads it."""
     lines = [f"board {summary['source']}"
@@ -129,8 +133,8 @@ def board_text(summary: dict) -> str:
         lines.append(f"holes: {total}" + (f", slots: {slots}" if slots else "")
                      + (" (none)" if not summary["holes"] else ""))
         for h in summary["holes"]:
-            lines.append(f"  {h['diameter_mm']:g} mm: {h['holes']} holes"
-                         + (f", {h['slots']} slots" if h["slots"] else ""))
+            counts = [_count(h["holes"], "hole"), _count(h["slots"], "slot")]
+            lines.append(f"  {h['diameter_mm']:g} mm: " + ", ".join(c for c in counts if c))
     for problem in summary["problems"]:
         lines.append(f"warning: {problem}")
     return "\n".join(lines)
