@@ -22,6 +22,7 @@ from galileo_cnc.machine import stepper as loop, vector
 from galileo_cnc.machine.arcs import MAX_ARC_COORD, arc_setup
 from galileo_cnc.command_text import command_text, feed_text, mm_text
 from galileo_cnc.machine.blocks import ArcMove, Hold, Item, LineMove, Pause, SeekMove
+from galileo_cnc.machine.junctions import JunctionLimits, plan_junctions
 from galileo_cnc.machine.ramps import (FRAC_BITS, TICKS_PER_MS, axial_interval_sub,
                                        line_rho_q15, ramp_events, ramp_step_sub,
                                        weighted_interval_sub)
@@ -81,6 +82,12 @@ class ReferenceMachine:
             raise
         return items
 
+    def plan_speeds(self, items: list[Item]) -> list[Item]:
+        """The planned moves with their junction speeds (junctions.py), when the config
+        asks for them (junction_deviation_mm > 0); else every move starts and ends at
+        rest, as the firmware runs them."""
+        return plan_junctions(items, JunctionLimits.of(self.config))
+
     def _state(self) -> tuple:
         return (list(self.position), list(self.origin), list(self.phys_offset),
                 self.feed_steps_per_s, self.motors_on, self.ended, list(self.z_seen))
@@ -94,7 +101,7 @@ class ReferenceMachine:
         """Plan and step `commands`; ticks continue from this machine's clock."""
         commands = list(commands)
         start_state = self._state()
-        items = self.plan(commands)
+        items = self.plan_speeds(self.plan(commands))
         tick, axis, direction, end, aborted = BACKENDS[backend](
             items, self.clock_ticks, holds, abort_at_tick)
         self.clock_ticks = end
@@ -340,7 +347,8 @@ class JobSteps:
                  position: tuple[int, int, int] = (0, 0, 0)):
         self.config = config or MachineConfig()
         self.position = position
-        self.items = ReferenceMachine(self.config, position).plan(list(commands))
+        machine = ReferenceMachine(self.config, position)
+        self.items = machine.plan_speeds(machine.plan(list(commands)))
 
     def pieces(self, size: int = 0):
         """(tick, axis, dir) of whole items in time order (`size` is the Trace's hint;

@@ -31,7 +31,8 @@ def build_events(items: Sequence[Item]) -> tuple[np.ndarray, np.ndarray, list[Ru
         if item.n == 0:
             continue
         motions.append((offset, item))
-        runs.append(Run(offset, offset + item.n - 1, item.ramp, item.step_sub, pause))
+        runs.append(Run(offset, offset + item.n - 1, item.ramp, item.step_sub, pause,
+                        item.entry, item.exit))
         pause = 0
         offset += item.n
     n_events = offset
@@ -129,7 +130,7 @@ def last_event_ticks(items: Sequence[Item], t0: int = 0) -> tuple[np.ndarray, in
         else:
             bases = item.n * item.base_sub
         moving.append(index)
-        sums.append(bases + item.step_sub * ramp_sum(item.n, item.ramp))
+        sums.append(bases + item.step_sub * ramp_sum(item.n, item.ramp, item.entry, item.exit))
         pauses.append(pause)
         pause = 0
     if not moving:
@@ -164,20 +165,30 @@ def apply_holds(base: np.ndarray, runs: list[Run], tail: int, t0: int,
             continue
         seg = ticks[run.first:run.last + 1]
         k = run.first + int(np.searchsorted(seg, at_tick, side="left"))
-        m = min(k - run.first, run.last - k, run.ramp)
-        j = k + m
-        if j >= run.last:  # the run's own deceleration ends first
-            if is_abort:
-                return _abort(base, runs[:r + 1], t0, int(ticks[run.last]))
-            if r + 1 < len(runs):
-                nxt = runs[r + 1]
-                runs[r + 1] = replace(nxt, pause_ticks=nxt.pause_ticks + resume)
-            continue
-        head = replace(run, last=j)
+        stop = k + min(run.entry + k - run.first, run.exit + run.last - k, run.ramp)
+        # Brake: a run ending at a junction speed carries the braking into the next
+        # ones; every event stays at most its distance to the stop (§6, §5.7).
+        q = r
+        while runs[q].last < stop:
+            braking = runs[q]
+            runs[q] = replace(braking, exit=min(braking.exit, stop - braking.last),
+                              entry=braking.entry if q == r
+                              else min(braking.entry, stop - braking.first))
+            q += 1
+        run = runs[q]
+        head = replace(run, last=stop, exit=0,
+                       entry=run.entry if q == r else min(run.entry, stop - run.first))
         if is_abort:
-            t2, _s, _e = run_ticks(base, runs[:r] + [head], t0, 0)
-            return _abort(base, runs[:r] + [head], t0, int(t2[j]))
-        runs[r:r + 1] = [head, Run(j + 1, run.last, run.ramp, run.step_sub, resume)]
+            t2, _s, _e = run_ticks(base, runs[:q] + [head], t0, 0)
+            return _abort(base, runs[:q] + [head], t0, int(t2[stop]))
+        if stop == run.last:    # the run's own end: the resume delays the next run
+            runs[q] = head
+            if q + 1 < len(runs):
+                nxt = runs[q + 1]
+                runs[q + 1] = replace(nxt, pause_ticks=nxt.pause_ticks + resume)
+            continue
+        runs[q:q + 1] = [head, Run(stop + 1, run.last, run.ramp, run.step_sub, resume,
+                                   0, run.exit)]
     ticks, _starts, end = run_ticks(base, runs, t0, tail)
     return ticks, runs, end, len(base)
 
