@@ -51,16 +51,10 @@ SAMPLES = ("samples/led-blinker.gbr", "samples/square-and-circle.nc")
 
 
 def copper_layers() -> list[Path]:
-    from galileo_cnc.plan.ink.copper import looks_like_copper
+    """The corpus's Gerber copper layers, as bench_ink_union.py picks them."""
+    from bench_ink_union import copper_layers as relative_paths
 
-    found = []
-    for row in manifest():
-        if row["kind"] not in ("real", "derived"):
-            continue
-        head = (CORPUS / row["path"]).read_bytes()[:4000].decode("latin-1")
-        if looks_like_copper(row["path"], head):
-            found.append(CORPUS / row["path"])
-    return found
+    return [CORPUS / path for path in relative_paths()]
 
 
 def dxf_drawings() -> list[Path]:
