@@ -140,6 +140,7 @@ def execute(items: Sequence[Item], t0: int = 0, holds: Sequence[Hold] = (),
     offset = 0       # job-wide index of the item's first event
     stop_at = None   # job-wide index of the event a hold stops at
     stop_aborts, stop_resume = False, 0
+    m_left = 0       # ramp index of the last event: the next run enters no higher
     for item in items:
         if isinstance(item, Pause):
             pause += item.ticks
@@ -160,6 +161,7 @@ def execute(items: Sequence[Item], t0: int = 0, holds: Sequence[Hold] = (),
             last, exit_ = st.last, item.exit
             if stop_at is not None:   # still braking for a hold seen in a move before
                 last, exit_, entry = _brake(stop_at - offset, last, exit_, entry, first)
+            entry = min(entry, m_left)
             m = min(entry, exit_ + last - first, ramp)
             ramp_sub, frac, tt = (ramp - m) * step_sub, 0, start
             while True:
@@ -189,7 +191,7 @@ def execute(items: Sequence[Item], t0: int = 0, holds: Sequence[Hold] = (),
                 elif m_next < m:
                     ramp_sub += step_sub
                 m = m_next
-            t = tt
+            t, m_left = tt, m
             if stop_at is not None and offset + k == stop_at:
                 stop_at = None
                 if stop_aborts:

@@ -183,14 +183,27 @@ def apply_holds(base: np.ndarray, runs: list[Run], tail: int, t0: int,
             return _abort(base, runs[:q] + [head], t0, int(t2[stop]))
         if stop == run.last:    # the run's own end: the resume delays the next run
             runs[q] = head
+            _enter_at_most_the_exit(runs)
             if q + 1 < len(runs):
                 nxt = runs[q + 1]
                 runs[q + 1] = replace(nxt, pause_ticks=nxt.pause_ticks + resume)
             continue
         runs[q:q + 1] = [head, Run(stop + 1, run.last, run.ramp, run.step_sub, resume,
                                    0, run.exit)]
+        _enter_at_most_the_exit(runs)
     ticks, _starts, end = run_ticks(base, runs, t0, tail)
     return ticks, runs, end, len(base)
+
+
+def _enter_at_most_the_exit(runs: list[Run]) -> None:
+    """A run enters at no higher index than the run before it left at (§5.7): after a
+    stop the rest of a move starts from rest and may not reach its planned exit, so the
+    moves after it enter lower. The index then still changes by at most one per event."""
+    for i in range(1, len(runs)):
+        before = runs[i - 1]
+        left = min(before.entry + before.last - before.first, before.exit, before.ramp)
+        if runs[i].entry > left:
+            runs[i] = replace(runs[i], entry=left)
 
 
 def _abort(base, runs, t0, stop_tick):

@@ -160,3 +160,25 @@ def test_the_timing_follows_the_junction_speeds():
     assert timing.end_ticks[-1] < job_timing(commands, OFF).end_ticks[-1]
     for k in (10, 40, 62, 66):
         assert timing.end_ticks[k] in set(trace.tick.tolist())
+
+
+def test_after_a_stop_the_next_move_enters_no_faster_than_the_rest_left():
+    """Two collinear lines blended at full speed; a hold stops the first one 8 events
+    before its end. The rest (from rest) cannot reach the planned exit, so the second
+    line enters at the index the rest reached: no jump in speed at the vertex."""
+    commands = [Jog(4000, 4000, 0), SetOrigin(), PenDown(), LineTo(2000, 0), LineTo(4000, 0)]
+    full = simulate(commands, ON)
+    ticks = np.unique(full.tick)
+    before = len(ticks) - 4000              # the jog's events
+    hold_at = int(ticks[before + 1959])     # event 1960 of the first line, at index R
+    for backend in ("numpy", "loop"):
+        held = simulate(commands, ON, holds=[Hold(hold_at, 5000)], backend=backend)
+        t = np.unique(held.tick)[before:]
+        gaps = np.diff(t)
+        vertex = 1999                       # the first line's last event
+        step = ReferenceMachine(ON).plan(commands)[-1].step_sub
+        assert gaps[vertex - 1] - gaps[vertex] <= step / 256 + 1, backend  # no jump
+        assert gaps[vertex] < gaps[vertex - 8]     # still speeding up after the rest
+    # without the hold both lines run through the vertex at the feed
+    g = np.diff(ticks[before:])
+    assert g[1998] == g[1999] == g[1000]
