@@ -77,5 +77,16 @@ class Hold:
     resume_after_ticks: int = 0
 
 
+@dataclass(frozen=True, slots=True)
+class Starved:
+    """Command `command` (its index in the run) reaches the machine late: the link
+    starved. The machine brakes where it must to stop at the end of the moves before
+    it (never overrunning what it has), stands `wait_ticks`, then starts the command
+    from rest (docs/motion.md §5.7)."""
+
+    command: int
+    wait_ticks: int = 0
+
+
 Motion = Union[LineMove, ArcMove, SeekMove]
 Item = Union[LineMove, ArcMove, SeekMove, Pause]

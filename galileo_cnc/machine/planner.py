@@ -21,7 +21,8 @@ from galileo_cnc.job import (AXIS_NAMES, ArcTo, Command, Dwell, EndJob, Flash, H
 from galileo_cnc.machine import stepper as loop, vector
 from galileo_cnc.machine.arcs import MAX_ARC_COORD, arc_setup
 from galileo_cnc.command_text import command_text, feed_text, mm_text
-from galileo_cnc.machine.blocks import ArcMove, Hold, Item, LineMove, Pause, SeekMove
+from galileo_cnc.machine.blocks import (ArcMove, Hold, Item, LineMove, Pause, SeekMove,
+                                        Starved)
 from galileo_cnc.machine.junctions import JunctionLimits, plan_junctions
 from galileo_cnc.machine.ramps import (FRAC_BITS, TICKS_PER_MS, axial_interval_sub,
                                        line_rho_q15, ramp_events, ramp_step_sub,
@@ -97,13 +98,15 @@ class ReferenceMachine:
          self.motors_on, self.ended, self.z_seen) = state
 
     def run(self, commands: Iterable[Command], holds: Sequence[Hold] = (),
-            abort_at_tick: int | None = None, backend: str = "numpy") -> Trace:
+            abort_at_tick: int | None = None, backend: str = "numpy",
+            starved: Sequence[Starved] = ()) -> Trace:
         """Plan and step `commands`; ticks continue from this machine's clock."""
         commands = list(commands)
         start_state = self._state()
         items = self.plan_speeds(self.plan(commands))
+        stops = self._starved_events(commands, start_state, starved) if starved else ()
         tick, axis, direction, end, aborted = BACKENDS[backend](
-            items, self.clock_ticks, holds, abort_at_tick)
+            items, self.clock_ticks, holds, abort_at_tick, stops)
         self.clock_ticks = end
         if aborted:
             moved = np.bincount(axis, weights=direction, minlength=3).astype(int)
@@ -111,6 +114,18 @@ class ReferenceMachine:
                                                     events_done=len(np.unique(tick)))
             self.position = [start_state[0][a] + int(moved[a]) for a in range(3)]
         return Trace(tick, axis, direction, self.work_position, end)
+
+    def _starved_events(self, commands: list[Command], start_state: tuple,
+                        starved: Sequence[Starved]) -> list[tuple[int, int]]:
+        """(event, wait) of each late command: the last event before its first one."""
+        probe = ReferenceMachine(self.config)
+        probe._restore(tuple(list(v) if isinstance(v, list) else v for v in start_state))
+        before = [0]
+        for command in commands:
+            before.append(before[-1] + sum(item.n for item in probe.plan([command])
+                                           if not isinstance(item, Pause)))
+        return [(before[late.command] - 1, late.wait_ticks) for late in starved
+                if 0 < before[late.command] < before[-1]]
 
     def _origin_when_stopped(self, commands: list[Command], start_state: tuple,
                              events_done: int) -> list[int]:
@@ -333,9 +348,11 @@ _HANDLERS = {
 
 def simulate(commands: Iterable[Command], config: MachineConfig | None = None,
              holds: Sequence[Hold] = (), abort_at_tick: int | None = None,
-             backend: str = "numpy", position: tuple[int, int, int] = (0, 0, 0)) -> Trace:
+             backend: str = "numpy", position: tuple[int, int, int] = (0, 0, 0),
+             starved: Sequence[Starved] = ()) -> Trace:
     """Run a job on a fresh reference machine and return its step trace."""
-    return ReferenceMachine(config, position).run(commands, holds, abort_at_tick, backend)
+    return ReferenceMachine(config, position).run(commands, holds, abort_at_tick, backend,
+                                                  starved)
 
 
 class JobSteps:

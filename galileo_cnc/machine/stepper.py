@@ -122,13 +122,15 @@ def _stepper(item):
 
 
 def execute(items: Sequence[Item], t0: int = 0, holds: Sequence[Hold] = (),
-            abort_at_tick: int | None = None):
+            abort_at_tick: int | None = None, starved: Sequence[tuple[int, int]] = ()):
     """Step planned items one event at a time; same result tuple as vector.execute.
 
     A hold seen at an event with ramp index m stops the machine m events later
     (§6), in this move or, when it ends at a junction speed, in the moves after it:
     `stop_at` is that event's index over the whole job; until it, every event's
-    index stays at most its distance to the stop."""
+    index stays at most its distance to the stop. A starved link (`starved`: the
+    event a move ends at, the wait after it) is a stop known in advance: every event
+    keeps an index at most its distance to the next such end."""
     pending = sorted([(h.at_tick, 0, h.resume_after_ticks) for h in holds]
                      + ([(abort_at_tick, 1, 0)] if abort_at_tick is not None else []))
     out_tick: list[int] = []
@@ -141,6 +143,12 @@ def execute(items: Sequence[Item], t0: int = 0, holds: Sequence[Hold] = (),
     stop_at = None   # job-wide index of the event a hold stops at
     stop_aborts, stop_resume = False, 0
     m_left = 0       # ramp index of the last event: the next run enters no higher
+    ends, total = set(), 0
+    for item in items:
+        if not isinstance(item, Pause) and item.n:
+            total += item.n
+            ends.add(total - 1)
+    starving = sorted(s for s in starved if s[0] in ends) + [(1 << 62, 0)]
     for item in items:
         if isinstance(item, Pause):
             pause += item.ticks
@@ -162,7 +170,7 @@ def execute(items: Sequence[Item], t0: int = 0, holds: Sequence[Hold] = (),
             if stop_at is not None:   # still braking for a hold seen in a move before
                 last, exit_, entry = _brake(stop_at - offset, last, exit_, entry, first)
             entry = min(entry, m_left)
-            m = min(entry, exit_ + last - first, ramp)
+            m = min(entry, exit_ + last - first, ramp, starving[0][0] - offset - first)
             ramp_sub, frac, tt = (ramp - m) * step_sub, 0, start
             while True:
                 steps, base = st.event()
@@ -185,13 +193,16 @@ def execute(items: Sequence[Item], t0: int = 0, holds: Sequence[Hold] = (),
                 if k == last:
                     break
                 k += 1
-                m_next = min(entry + k - first, exit_ + last - k, ramp)
+                m_next = min(entry + k - first, exit_ + last - k, ramp,
+                             starving[0][0] - offset - k)
                 if m_next > m:
                     ramp_sub -= step_sub
                 elif m_next < m:
                     ramp_sub += step_sub
                 m = m_next
             t, m_left = tt, m
+            if offset + k == starving[0][0]:    # the end of what the machine had
+                pause += starving.pop(0)[1]
             if stop_at is not None and offset + k == stop_at:
                 stop_at = None
                 if stop_aborts:

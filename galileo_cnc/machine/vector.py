@@ -6,6 +6,7 @@ separate: a feed hold only changes the timing, never the steps (§6).
 
 from __future__ import annotations
 
+from bisect import bisect_left
 from dataclasses import replace
 from functools import lru_cache
 from typing import Sequence
@@ -141,6 +142,29 @@ def last_event_ticks(items: Sequence[Item], t0: int = 0) -> tuple[np.ndarray, in
     return last, int(starts[-1] + duration[-1]) + pause
 
 
+def apply_starving(runs: list[Run], stops: Sequence[tuple[int, int]]) -> list[Run]:
+    """The runs when the link starves (§5.7): for each (event, wait), the machine stops
+    at that event, the end of what it has, and waits. Every event before it keeps an
+    index at most its distance to the stop (the braking starts where it must), the
+    run that ends there leaves at rest, the next one starts `wait` ticks later."""
+    runs = list(runs)
+    lasts = [r.last for r in runs]
+    for stop, wait in stops:
+        q = bisect_left(lasts, stop)
+        if q == len(runs) or runs[q].last != stop:
+            continue              # not the end of a move: nothing to stop for
+        while q >= 0 and stop - runs[q].last <= runs[q].ramp:   # within a ramp of it
+            braking = runs[q]
+            runs[q] = replace(braking, exit=min(braking.exit, stop - braking.last),
+                              entry=min(braking.entry, stop - braking.first))
+            q -= 1
+        after = bisect_left(lasts, stop + 1)
+        if after < len(runs):
+            runs[after] = replace(runs[after], pause_ticks=runs[after].pause_ticks + wait)
+    _enter_at_most_the_exit(runs)
+    return runs
+
+
 def apply_holds(base: np.ndarray, runs: list[Run], tail: int, t0: int,
                 holds: Sequence[Hold], abort_at_tick: int | None):
     """Timing with holds and an abort (§6). Returns ticks, runs, end, stop event."""
@@ -217,10 +241,12 @@ CHUNK_EVENTS = 1 << 20
 
 
 def execute(items: Sequence[Item], t0: int = 0, holds: Sequence[Hold] = (),
-            abort_at_tick: int | None = None):
-    """Run planned items; returns (tick, axis, dir, end_tick, aborted_early)."""
-    if holds or abort_at_tick is not None:
+            abort_at_tick: int | None = None, starved: Sequence[tuple[int, int]] = ()):
+    """Run planned items; returns (tick, axis, dir, end_tick, aborted_early).
+    `starved`: (event, wait) pairs, apply_starving's."""
+    if holds or abort_at_tick is not None or starved:
         table, base, runs, tail = build_events(items)
+        runs = apply_starving(runs, starved)
         ticks, runs, end, n_done = apply_holds(base, runs, tail, t0, holds, abort_at_tick)
         tick, axis, direction = step_rows(table[:n_done], ticks[:n_done])
         return tick, axis, direction, end, n_done < len(base)

@@ -11,7 +11,7 @@ from hypothesis import given, settings, strategies as st
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.job import ArcTo, Dwell, EndJob, Jog, LineTo, PenDown, PenUp, Rapid, SetOrigin
-from galileo_cnc.machine import Hold, ReferenceMachine, simulate
+from galileo_cnc.machine import Hold, ReferenceMachine, Starved, simulate
 from galileo_cnc.machine.analysis import min_step_gap_ticks
 from galileo_cnc.machine.blocks import LineMove, Pause
 from galileo_cnc.machine.junctions import JunctionLimits, plan_indices, vertex_speed
@@ -182,3 +182,32 @@ def test_after_a_stop_the_next_move_enters_no_faster_than_the_rest_left():
     # without the hold both lines run through the vertex at the feed
     g = np.diff(ticks[before:])
     assert g[1998] == g[1999] == g[1000]
+
+
+def test_a_starved_link_brakes_in_time_to_stop_where_the_moves_end():
+    """Ten-step moves along X blend at the feed. Command 60 comes late: the machine
+    brakes along its ramp (one step of the ramp per event, over the moves before it)
+    to stand still at the end of command 59, waits, then goes on from rest."""
+    commands = [Jog(4000, 4000, 0), SetOrigin(), PenDown()]
+    commands += [LineTo(10 * k, 0) for k in range(1, 100)]
+    full = simulate(commands, ON)
+    wait = 30000
+    for backend in ("numpy", "loop"):
+        late = simulate(commands, ON, backend=backend, starved=[Starved(61, wait)])
+        assert np.array_equal(late.axis, full.axis) and late.final_position == full.final_position
+        t = np.unique(late.tick)[-990:]                 # the hundred lines' events
+        gaps = np.diff(t)
+        stop = 58 * 10 - 1                              # command 60's last event
+        assert gaps[stop] >= wait
+        line = ReferenceMachine(ON).plan(commands)[-1]
+        cruise, ramp = line.base_sub // 256, line.ramp
+        braking = gaps[stop - ramp:stop] * 256          # in front of its last R events
+        assert np.all(np.diff(braking) > 0)             # slowing down at every event
+        assert abs(int(braking[-1]) - (line.base_sub + ramp * line.step_sub)) < 512
+        assert gaps[stop - ramp - 5] in (cruise, cruise + 1)   # at the feed before it
+        assert late.total_ticks > full.total_ticks + wait
+    a = simulate(commands, ON, starved=[Starved(61, wait), Starved(90, 0)],
+                 holds=[Hold(int(full.tick[-300]), 7000)])
+    b = simulate(commands, ON, starved=[Starved(61, wait), Starved(90, 0)],
+                 holds=[Hold(int(full.tick[-300]), 7000)], backend="loop")
+    assert a.same_steps(b) and a.total_ticks == b.total_ticks
