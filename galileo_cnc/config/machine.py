@@ -54,6 +54,13 @@ class MachineConfig:
     # approach 1x; the ramp length follows from the axis acceleration bound.
     accel_mm_s2: float = 250.0
     ramp_start_factor: int = 3
+    # Junction speeds (docs/motion.md §5.7): 0 stops at every vertex, as the firmware
+    # does; > 0 (GRBL's $11, 0.01 mm) plans speed through corners on the reference
+    # machine only (its traces, estimates, bench_motion.py): the firmware does not run
+    # them yet, so leave 0 to plot. Every axis changes speed at a vertex by at most
+    # vertex_speed_change_mm_s, about the speed a move already starts at from rest (F/3).
+    junction_deviation_mm: float = 0.0
+    vertex_speed_change_mm_s: float = 1.6
     # Fastest step rate the firmware supports on one axis: 50 ticks = 25 us = 40 kHz.
     min_step_period_ticks: int = 50
     # Pen: Z = pen_down_z_steps draws, pen_lift_steps above it is "up".
@@ -128,6 +135,9 @@ class MachineConfig:
         if not 0 <= self.servo_dwell_ms <= MAX_SERVO_DWELL_MS:
             raise ConfigError(f"config: servo_dwell_ms must be 0..{MAX_SERVO_DWELL_MS}, "
                               f"got {self.servo_dwell_ms!r}")
+        for name in ("junction_deviation_mm", "vertex_speed_change_mm_s"):
+            if getattr(self, name) < 0:
+                raise ConfigError(f"config: {name} must be >= 0, got {getattr(self, name)!r}")
         for name in ("pen_lift_steps", "flash_dwell_ms", "home_pulloff_steps"):
             if getattr(self, name) < 0:
                 raise ConfigError(f"config: {name} must be >= 0, got {getattr(self, name)!r}")
@@ -254,6 +264,15 @@ class MachineConfig:
     @property
     def accel_steps_per_s2(self) -> int:
         return max(1, round(self.accel_mm_s2 * self.steps_per_mm))
+
+    @property
+    def junction_deviation_nm(self) -> int:
+        """0: a stop at every vertex (junction speeds off)."""
+        return round(self.junction_deviation_mm * 1_000_000)
+
+    @property
+    def vertex_speed_change_steps_per_s(self) -> int:
+        return round(self.vertex_speed_change_mm_s * self.steps_per_mm)
 
     @property
     def max_feed_steps_per_s(self) -> int:

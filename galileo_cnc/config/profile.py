@@ -4,6 +4,8 @@
 [machine]            # any MachineConfig field (galileo_cnc/config.py); the seed's machine by default
 steps_per_rev = 200
 pitch_mm = 1.25
+junction_deviation_mm = 0.0      # > 0: speed through corners (docs/motion.md §5.7)
+vertex_speed_change_mm_s = 1.6   # the largest per-axis speed change at a vertex
 
 [serial]
 port = "/dev/ttyACM0"   # COMx, /dev/tty..., a pty path or a pyserial URL; absent: auto-detect

@@ -5,7 +5,9 @@ the job's step (numbers.mm_text), so the machine lands on exactly the steps the
 planner chose. The pen is a Z axis (the profile's pen heights, in steps) or a
 servo on the spindle output (M3 S<n> / M5 and a dwell after each change: GRBL
 does not wait for a servo). Each line remembers the job command it came from,
-so a GRBL error can name the source file's line.
+so a GRBL error can name the source file's line. A stroke (pen down to pen up) is
+G1/G2/G3 lines only: nothing in it makes GRBL's planner sync (M3/M5/S/G4 come only
+at pen changes and job dwells), so GRBL blends its corners (docs/grbl.md, $11).
 """
 
 from __future__ import annotations

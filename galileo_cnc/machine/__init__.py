@@ -9,10 +9,10 @@ Commands in steps go in; the step trace (tick, axis, dir per step) comes out.
 per-step form the firmware implements, for cross-checks and benchmarks.
 """
 
-from galileo_cnc.machine.blocks import Hold
+from galileo_cnc.machine.blocks import Hold, Starved
 from galileo_cnc.machine.planner import ReferenceMachine, estimate_seconds, simulate
 from galileo_cnc.machine.ramps import SUBTICKS_PER_TICK
 from galileo_cnc.machine.trace import TRACE_KEYS, Trace
 
-__all__ = ["Hold", "ReferenceMachine", "SUBTICKS_PER_TICK", "TRACE_KEYS", "Trace",
+__all__ = ["Hold", "ReferenceMachine", "SUBTICKS_PER_TICK", "Starved", "TRACE_KEYS", "Trace",
            "estimate_seconds", "simulate"]

@@ -24,6 +24,8 @@ class LineMove:
     base_sub: int                    # subticks per event at cruise
     ramp: int                        # R, events
     step_sub: int                    # interval change per ramp event, subticks
+    entry: int = 0                   # ramp index of the first event (0: from rest, §5.7)
+    exit: int = 0                    # ramp index of the last event (0: to rest)
 
 
 @dataclass(frozen=True, slots=True)
@@ -37,6 +39,8 @@ class ArcMove:
     n: int
     ramp: int
     step_sub: int
+    entry: int = 0
+    exit: int = 0
 
 
 @dataclass(frozen=True, slots=True)
@@ -54,6 +58,8 @@ class SeekMove:
     max_steps: int
     ramp: int = 0
     step_sub: int = 0
+    entry: int = 0
+    exit: int = 0
 
 
 @dataclass(frozen=True, slots=True)
@@ -69,6 +75,17 @@ class Hold:
 
     at_tick: int
     resume_after_ticks: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class Starved:
+    """Command `command` (its index in the run) reaches the machine late: the link
+    starved. The machine brakes where it must to stop at the end of the moves before
+    it (never overrunning what it has), stands `wait_ticks`, then starts the command
+    from rest (docs/motion.md §5.7)."""
+
+    command: int
+    wait_ticks: int = 0
 
 
 Motion = Union[LineMove, ArcMove, SeekMove]

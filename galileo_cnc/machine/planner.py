@@ -21,7 +21,9 @@ from galileo_cnc.job import (AXIS_NAMES, ArcTo, Command, Dwell, EndJob, Flash, H
 from galileo_cnc.machine import stepper as loop, vector
 from galileo_cnc.machine.arcs import MAX_ARC_COORD, arc_setup
 from galileo_cnc.command_text import command_text, feed_text, mm_text
-from galileo_cnc.machine.blocks import ArcMove, Hold, Item, LineMove, Pause, SeekMove
+from galileo_cnc.machine.blocks import (ArcMove, Hold, Item, LineMove, Pause, SeekMove,
+                                        Starved)
+from galileo_cnc.machine.junctions import JunctionLimits, plan_junctions
 from galileo_cnc.machine.ramps import (FRAC_BITS, TICKS_PER_MS, axial_interval_sub,
                                        line_rho_q15, ramp_events, ramp_step_sub,
                                        weighted_interval_sub)
@@ -81,6 +83,12 @@ class ReferenceMachine:
             raise
         return items
 
+    def plan_speeds(self, items: list[Item]) -> list[Item]:
+        """The planned moves with their junction speeds (junctions.py), when the config
+        asks for them (junction_deviation_mm > 0); else every move starts and ends at
+        rest, as the firmware runs them."""
+        return plan_junctions(items, JunctionLimits.of(self.config))
+
     def _state(self) -> tuple:
         return (list(self.position), list(self.origin), list(self.phys_offset),
                 self.feed_steps_per_s, self.motors_on, self.ended, list(self.z_seen))
@@ -90,13 +98,15 @@ class ReferenceMachine:
          self.motors_on, self.ended, self.z_seen) = state
 
     def run(self, commands: Iterable[Command], holds: Sequence[Hold] = (),
-            abort_at_tick: int | None = None, backend: str = "numpy") -> Trace:
+            abort_at_tick: int | None = None, backend: str = "numpy",
+            starved: Sequence[Starved] = ()) -> Trace:
         """Plan and step `commands`; ticks continue from this machine's clock."""
         commands = list(commands)
         start_state = self._state()
-        items = self.plan(commands)
+        items = self.plan_speeds(self.plan(commands))
+        stops = self._starved_events(commands, start_state, starved) if starved else ()
         tick, axis, direction, end, aborted = BACKENDS[backend](
-            items, self.clock_ticks, holds, abort_at_tick)
+            items, self.clock_ticks, holds, abort_at_tick, stops)
         self.clock_ticks = end
         if aborted:
             moved = np.bincount(axis, weights=direction, minlength=3).astype(int)
@@ -104,6 +114,18 @@ class ReferenceMachine:
                                                     events_done=len(np.unique(tick)))
             self.position = [start_state[0][a] + int(moved[a]) for a in range(3)]
         return Trace(tick, axis, direction, self.work_position, end)
+
+    def _starved_events(self, commands: list[Command], start_state: tuple,
+                        starved: Sequence[Starved]) -> list[tuple[int, int]]:
+        """(event, wait) of each late command: the last event before its first one."""
+        probe = ReferenceMachine(self.config)
+        probe._restore(tuple(list(v) if isinstance(v, list) else v for v in start_state))
+        before = [0]
+        for command in commands:
+            before.append(before[-1] + sum(item.n for item in probe.plan([command])
+                                           if not isinstance(item, Pause)))
+        return [(before[late.command] - 1, late.wait_ticks) for late in starved
+                if 0 < before[late.command] < before[-1]]
 
     def _origin_when_stopped(self, commands: list[Command], start_state: tuple,
                              events_done: int) -> list[int]:
@@ -326,9 +348,11 @@ _HANDLERS = {
 
 def simulate(commands: Iterable[Command], config: MachineConfig | None = None,
              holds: Sequence[Hold] = (), abort_at_tick: int | None = None,
-             backend: str = "numpy", position: tuple[int, int, int] = (0, 0, 0)) -> Trace:
+             backend: str = "numpy", position: tuple[int, int, int] = (0, 0, 0),
+             starved: Sequence[Starved] = ()) -> Trace:
     """Run a job on a fresh reference machine and return its step trace."""
-    return ReferenceMachine(config, position).run(commands, holds, abort_at_tick, backend)
+    return ReferenceMachine(config, position).run(commands, holds, abort_at_tick, backend,
+                                                  starved)
 
 
 class JobSteps:
@@ -340,7 +364,8 @@ class JobSteps:
                  position: tuple[int, int, int] = (0, 0, 0)):
         self.config = config or MachineConfig()
         self.position = position
-        self.items = ReferenceMachine(self.config, position).plan(list(commands))
+        machine = ReferenceMachine(self.config, position)
+        self.items = machine.plan_speeds(machine.plan(list(commands)))
 
     def pieces(self, size: int = 0):
         """(tick, axis, dir) of whole items in time order (`size` is the Trace's hint;

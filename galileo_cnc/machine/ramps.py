@@ -9,14 +9,16 @@ compares only.
 A *run* is a contiguous range of step events [first, last] of one move that is
 executed without stopping. Its ramp index is
 
-    m_k = min(k - first, last - k, R)
+    m_k = min(entry + k - first, exit + last - k, R)
 
 and the interval (in subticks) in front of event k is
 
     interval_k = base_k + (R - m_k) * step_sub
 
-so the run starts at base + R*step_sub (about 3x base), reaches base after R
-events, and slows down symmetrically; runs shorter than 2R+1 events get a triangle.
+so a run from rest (entry 0) starts at base + R*step_sub (about 3x base), reaches
+base after R events, and slows down symmetrically to its exit index; runs shorter
+than 2R+1 events get a triangle. Entry and exit are 0 unless the host planned
+junction speeds (junctions.py, docs/motion.md §5.7).
 """
 
 from __future__ import annotations
@@ -77,6 +79,8 @@ class Run:
     ramp: int
     step_sub: int
     pause_ticks: int
+    entry: int = 0       # ramp index of the first event
+    exit: int = 0        # ramp index of the last event
 
 
 def run_ticks(base_sub: np.ndarray, runs: list[Run], t0: int = 0, tail_ticks: int = 0,
@@ -101,6 +105,8 @@ def run_ticks(base_sub: np.ndarray, runs: list[Run], t0: int = 0, tail_ticks: in
     ramp = np.fromiter((r.ramp for r in runs), np.int64, count)
     step = np.fromiter((r.step_sub for r in runs), np.int64, count)
     pause = np.fromiter((r.pause_ticks for r in runs), np.int64, count)
+    entry = np.fromiter((r.entry for r in runs), np.int64, count)
+    exit_ = np.fromiter((r.exit for r in runs), np.int64, count)
     length = last - first + 1
     contiguous = bool(first[0] == 0 and last[-1] == n_events - 1
                       and np.all(first[1:] == last[:-1] + 1))
@@ -115,12 +121,14 @@ def run_ticks(base_sub: np.ndarray, runs: list[Run], t0: int = 0, tail_ticks: in
     if has_ramp.any():
         rr = np.flatnonzero(has_ramp)
         r_len, r_ramp, r_step, r_offs = length[rr], ramp[rr], step[rr], offs[rr]
-        head = np.minimum(r_ramp, r_len)                       # local 0..R-1
-        tail = np.minimum(r_ramp, np.maximum(r_len - head, 0))  # local len-R..len-1
+        r_in, r_out = entry[rr], exit_[rr]
+        head = np.minimum(r_ramp - r_in, r_len)                          # m < R at the start
+        tail = np.minimum(r_ramp - r_out, np.maximum(r_len - head, 0))   # and at the end
         for starts_local, counts in ((np.zeros_like(head), head), (r_len - tail, tail)):
             k = _ranges(starts_local, counts)
             grp = np.repeat(np.arange(len(rr)), counts)
-            m = np.minimum(np.minimum(k, r_len[grp] - 1 - k), r_ramp[grp])
+            m = np.minimum(np.minimum(r_in[grp] + k, r_out[grp] + r_len[grp] - 1 - k),
+                           r_ramp[grp])
             interval[r_offs[grp] + k] += (r_ramp[grp] - m) * r_step[grp]
     sums = np.add.reduceat(interval, offs)
     duration = sums >> FRAC_BITS
@@ -139,14 +147,16 @@ def run_ticks(base_sub: np.ndarray, runs: list[Run], t0: int = 0, tail_ticks: in
     return ticks, starts, end
 
 
-def ramp_sum(length: int, ramp: int) -> int:
+def ramp_sum(length: int, ramp: int, entry: int = 0, exit: int = 0) -> int:
     """sum over a run's events k of (R - m_k): what the ramps add to its intervals, in
-    steps of step_sub. In a run of at most 2R + 2 events m_k = min(k, L-1-k) (it never
-    exceeds R there), and those sum to floor((L-1)^2 / 4); a longer run adds R (R + 1),
-    half on each ramp."""
-    if length <= 2 * ramp + 2:
-        return length * ramp - (length - 1) ** 2 // 4
-    return ramp * (ramp + 1)
+    steps of step_sub. R - m_k = max(0, p - k, q - (L-1-k)) with p = R - entry,
+    q = R - exit: the falling term wins up to the crossing c, the rising one after;
+    each part is a clipped arithmetic series."""
+    p, q = ramp - entry, ramp - exit
+    c = min(max((p - q + length - 1) // 2 + 1, 0), length)
+    t1 = min(c, max(p, 0))
+    t2 = min(length - c, max(q, 0))
+    return t1 * p - t1 * (t1 - 1) // 2 + t2 * q - t2 * (t2 - 1) // 2
 
 
 def _ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
@@ -166,6 +176,6 @@ def _ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
     return np.cumsum(out)
 
 
-def ramp_index(k: int, first: int, last: int, ramp: int) -> int:
+def ramp_index(k: int, first: int, last: int, ramp: int, entry: int = 0, exit: int = 0) -> int:
     """m_k for one event (used by the per-step loop and by hold handling)."""
-    return min(k - first, last - k, ramp)
+    return min(entry + k - first, exit + last - k, ramp)

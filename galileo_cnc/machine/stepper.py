@@ -122,8 +122,15 @@ def _stepper(item):
 
 
 def execute(items: Sequence[Item], t0: int = 0, holds: Sequence[Hold] = (),
-            abort_at_tick: int | None = None):
-    """Step planned items one event at a time; same result tuple as vector.execute."""
+            abort_at_tick: int | None = None, starved: Sequence[tuple[int, int]] = ()):
+    """Step planned items one event at a time; same result tuple as vector.execute.
+
+    A hold seen at an event with ramp index m stops the machine m events later
+    (§6), in this move or, when it ends at a junction speed, in the moves after it:
+    `stop_at` is that event's index over the whole job; until it, every event's
+    index stays at most its distance to the stop. A starved link (`starved`: the
+    event a move ends at, the wait after it) is a stop known in advance: every event
+    keeps an index at most its distance to the next such end."""
     pending = sorted([(h.at_tick, 0, h.resume_after_ticks) for h in holds]
                      + ([(abort_at_tick, 1, 0)] if abort_at_tick is not None else []))
     out_tick: list[int] = []
@@ -132,6 +139,16 @@ def execute(items: Sequence[Item], t0: int = 0, holds: Sequence[Hold] = (),
     t = t0           # tick of the last event (or the job start)
     pause = 0        # idle time queued before the next run
     aborted = False
+    offset = 0       # job-wide index of the item's first event
+    stop_at = None   # job-wide index of the event a hold stops at
+    stop_aborts, stop_resume = False, 0
+    m_left = 0       # ramp index of the last event: the next run enters no higher
+    ends, total = set(), 0
+    for item in items:
+        if not isinstance(item, Pause) and item.n:
+            total += item.n
+            ends.add(total - 1)
+    starving = sorted(s for s in starved if s[0] in ends) + [(1 << 62, 0)]
     for item in items:
         if isinstance(item, Pause):
             pause += item.ticks
@@ -140,7 +157,7 @@ def execute(items: Sequence[Item], t0: int = 0, holds: Sequence[Hold] = (),
             continue
         st = _stepper(item)
         first, k = 0, 0
-        ramp, step_sub = item.ramp, item.step_sub
+        ramp, step_sub, entry = item.ramp, item.step_sub, item.entry
         while True:  # one run per iteration; a hold splits the move into runs
             start = t + pause
             pause = 0
@@ -149,9 +166,12 @@ def execute(items: Sequence[Item], t0: int = 0, holds: Sequence[Hold] = (),
                 if is_abort:
                     return _result(out_tick, out_axis, out_dir, start, True)
                 start += resume
-            last = st.last
-            m, ramp_sub, frac, tt = 0, ramp * step_sub, 0, start
-            stop_after_run = False
+            last, exit_ = st.last, item.exit
+            if stop_at is not None:   # still braking for a hold seen in a move before
+                last, exit_, entry = _brake(stop_at - offset, last, exit_, entry, first)
+            entry = min(entry, m_left)
+            m = min(entry, exit_ + last - first, ramp, starving[0][0] - offset - first)
+            ramp_sub, frac, tt = (ramp - m) * step_sub, 0, start
             while True:
                 steps, base = st.event()
                 if last == UNKNOWN_LAST:
@@ -165,30 +185,46 @@ def execute(items: Sequence[Item], t0: int = 0, holds: Sequence[Hold] = (),
                     out_dir.append(d)
                 while pending and pending[0][0] <= tt:
                     _at, is_abort, resume = pending.pop(0)
-                    if k + m < last:
-                        last = k + m
-                    if is_abort:
-                        stop_after_run = True
-                    else:
-                        pause += resume
+                    if stop_at is None or offset + k + m < stop_at:
+                        stop_at = offset + k + m
+                    last, exit_, entry = _brake(stop_at - offset, last, exit_, entry, first)
+                    stop_aborts = stop_aborts or bool(is_abort)
+                    stop_resume += resume
                 if k == last:
                     break
                 k += 1
-                m_next = min(k - first, last - k, ramp)
+                m_next = min(entry + k - first, exit_ + last - k, ramp,
+                             starving[0][0] - offset - k)
                 if m_next > m:
                     ramp_sub -= step_sub
                 elif m_next < m:
                     ramp_sub += step_sub
                 m = m_next
-            t = tt
-            if stop_after_run:
-                aborted = k < st.last or _more_motion(items, item)
-                return _result(out_tick, out_axis, out_dir, t, aborted)
+            t, m_left = tt, m
+            if offset + k == starving[0][0]:    # the end of what the machine had
+                pause += starving.pop(0)[1]
+            if stop_at is not None and offset + k == stop_at:
+                stop_at = None
+                if stop_aborts:
+                    aborted = k < st.last or _more_motion(items, item)
+                    return _result(out_tick, out_axis, out_dir, t, aborted)
+                pause += stop_resume
+                stop_resume = 0
             if k == st.last:
                 break
             k += 1
-            first = k
+            first, entry = k, 0     # a resumed run starts from rest
+        offset += st.last + 1
     return _result(out_tick, out_axis, out_dir, t + _tail(items), aborted)
+
+
+def _brake(stop: int, last: int, exit_: int, entry: int, first: int) -> tuple[int, int, int]:
+    """A run's last event, exit and entry index once a hold stops the machine at its
+    event `stop` (local index): the run ends there from rest if the stop is in it,
+    else its indices stay at most their distance to the stop."""
+    if stop <= last:
+        return stop, 0, entry
+    return last, min(exit_, stop - last), min(entry, stop - first)
 
 
 def _more_motion(items: Sequence[Item], current: Item) -> bool:

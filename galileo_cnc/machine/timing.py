@@ -2,7 +2,8 @@
 
 The times are those of the trace itself (docs/motion.md): the job is planned and
 stepped on the reference machine, so `end_ticks[k]` is the machine clock when
-command k has finished on a machine that never waits for the host.
+command k has finished on a machine that never waits for the host, with the junction
+speeds the config asks for planned over the whole job (junctions.py).
 """
 
 from __future__ import annotations
@@ -50,7 +51,7 @@ def job_timing(commands, config: MachineConfig | None = None,
         planned = machine.plan([command])
         items.extend(planned)
         owner.extend([k] * len(planned))
-    last, end = vector.last_event_ticks(items, 0)
+    last, end = vector.last_event_ticks(machine.plan_speeds(items), 0)
     ends = np.zeros(len(commands), dtype=np.int64)
     np.maximum.at(ends, np.asarray(owner, dtype=np.int64), last)   # no steps: 0
     np.maximum.accumulate(ends, out=ends)      # ticks only grow: the last event so far

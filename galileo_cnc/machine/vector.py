@@ -6,6 +6,7 @@ separate: a feed hold only changes the timing, never the steps (§6).
 
 from __future__ import annotations
 
+from bisect import bisect_left
 from dataclasses import replace
 from functools import lru_cache
 from typing import Sequence
@@ -31,7 +32,8 @@ def build_events(items: Sequence[Item]) -> tuple[np.ndarray, np.ndarray, list[Ru
         if item.n == 0:
             continue
         motions.append((offset, item))
-        runs.append(Run(offset, offset + item.n - 1, item.ramp, item.step_sub, pause))
+        runs.append(Run(offset, offset + item.n - 1, item.ramp, item.step_sub, pause,
+                        item.entry, item.exit))
         pause = 0
         offset += item.n
     n_events = offset
@@ -129,7 +131,7 @@ def last_event_ticks(items: Sequence[Item], t0: int = 0) -> tuple[np.ndarray, in
         else:
             bases = item.n * item.base_sub
         moving.append(index)
-        sums.append(bases + item.step_sub * ramp_sum(item.n, item.ramp))
+        sums.append(bases + item.step_sub * ramp_sum(item.n, item.ramp, item.entry, item.exit))
         pauses.append(pause)
         pause = 0
     if not moving:
@@ -138,6 +140,29 @@ def last_event_ticks(items: Sequence[Item], t0: int = 0) -> tuple[np.ndarray, in
     starts = t0 + np.cumsum(pauses) + np.concatenate(([0], np.cumsum(duration)[:-1]))
     last[moving] = starts + duration
     return last, int(starts[-1] + duration[-1]) + pause
+
+
+def apply_starving(runs: list[Run], stops: Sequence[tuple[int, int]]) -> list[Run]:
+    """The runs when the link starves (§5.7): for each (event, wait), the machine stops
+    at that event, the end of what it has, and waits. Every event before it keeps an
+    index at most its distance to the stop (the braking starts where it must), the
+    run that ends there leaves at rest, the next one starts `wait` ticks later."""
+    runs = list(runs)
+    lasts = [r.last for r in runs]
+    for stop, wait in stops:
+        q = bisect_left(lasts, stop)
+        if q == len(runs) or runs[q].last != stop:
+            continue              # not the end of a move: nothing to stop for
+        while q >= 0 and stop - runs[q].last <= runs[q].ramp:   # within a ramp of it
+            braking = runs[q]
+            runs[q] = replace(braking, exit=min(braking.exit, stop - braking.last),
+                              entry=min(braking.entry, stop - braking.first))
+            q -= 1
+        after = bisect_left(lasts, stop + 1)
+        if after < len(runs):
+            runs[after] = replace(runs[after], pause_ticks=runs[after].pause_ticks + wait)
+    _enter_at_most_the_exit(runs)
+    return runs
 
 
 def apply_holds(base: np.ndarray, runs: list[Run], tail: int, t0: int,
@@ -164,22 +189,45 @@ def apply_holds(base: np.ndarray, runs: list[Run], tail: int, t0: int,
             continue
         seg = ticks[run.first:run.last + 1]
         k = run.first + int(np.searchsorted(seg, at_tick, side="left"))
-        m = min(k - run.first, run.last - k, run.ramp)
-        j = k + m
-        if j >= run.last:  # the run's own deceleration ends first
-            if is_abort:
-                return _abort(base, runs[:r + 1], t0, int(ticks[run.last]))
-            if r + 1 < len(runs):
-                nxt = runs[r + 1]
-                runs[r + 1] = replace(nxt, pause_ticks=nxt.pause_ticks + resume)
-            continue
-        head = replace(run, last=j)
+        stop = k + min(run.entry + k - run.first, run.exit + run.last - k, run.ramp)
+        # Brake: a run ending at a junction speed carries the braking into the next
+        # ones; every event stays at most its distance to the stop (§6, §5.7).
+        q = r
+        while runs[q].last < stop:
+            braking = runs[q]
+            runs[q] = replace(braking, exit=min(braking.exit, stop - braking.last),
+                              entry=braking.entry if q == r
+                              else min(braking.entry, stop - braking.first))
+            q += 1
+        run = runs[q]
+        head = replace(run, last=stop, exit=0,
+                       entry=run.entry if q == r else min(run.entry, stop - run.first))
         if is_abort:
-            t2, _s, _e = run_ticks(base, runs[:r] + [head], t0, 0)
-            return _abort(base, runs[:r] + [head], t0, int(t2[j]))
-        runs[r:r + 1] = [head, Run(j + 1, run.last, run.ramp, run.step_sub, resume)]
+            t2, _s, _e = run_ticks(base, runs[:q] + [head], t0, 0)
+            return _abort(base, runs[:q] + [head], t0, int(t2[stop]))
+        if stop == run.last:    # the run's own end: the resume delays the next run
+            runs[q] = head
+            _enter_at_most_the_exit(runs)
+            if q + 1 < len(runs):
+                nxt = runs[q + 1]
+                runs[q + 1] = replace(nxt, pause_ticks=nxt.pause_ticks + resume)
+            continue
+        runs[q:q + 1] = [head, Run(stop + 1, run.last, run.ramp, run.step_sub, resume,
+                                   0, run.exit)]
+        _enter_at_most_the_exit(runs)
     ticks, _starts, end = run_ticks(base, runs, t0, tail)
     return ticks, runs, end, len(base)
+
+
+def _enter_at_most_the_exit(runs: list[Run]) -> None:
+    """A run enters at no higher index than the run before it left at (§5.7): after a
+    stop the rest of a move starts from rest and may not reach its planned exit, so the
+    moves after it enter lower. The index then still changes by at most one per event."""
+    for i in range(1, len(runs)):
+        before = runs[i - 1]
+        left = min(before.entry + before.last - before.first, before.exit, before.ramp)
+        if runs[i].entry > left:
+            runs[i] = replace(runs[i], entry=left)
 
 
 def _abort(base, runs, t0, stop_tick):
@@ -193,10 +241,12 @@ CHUNK_EVENTS = 1 << 20
 
 
 def execute(items: Sequence[Item], t0: int = 0, holds: Sequence[Hold] = (),
-            abort_at_tick: int | None = None):
-    """Run planned items; returns (tick, axis, dir, end_tick, aborted_early)."""
-    if holds or abort_at_tick is not None:
+            abort_at_tick: int | None = None, starved: Sequence[tuple[int, int]] = ()):
+    """Run planned items; returns (tick, axis, dir, end_tick, aborted_early).
+    `starved`: (event, wait) pairs, apply_starving's."""
+    if holds or abort_at_tick is not None or starved:
         table, base, runs, tail = build_events(items)
+        runs = apply_starving(runs, starved)
         ticks, runs, end, n_done = apply_holds(base, runs, tail, t0, holds, abort_at_tick)
         tick, axis, direction = step_rows(table[:n_done], ticks[:n_done])
         return tick, axis, direction, end, n_done < len(base)
