@@ -49,7 +49,10 @@ def check_output(path: str | None, option: str) -> None:
 def _run_info(args: argparse.Namespace) -> int:
     from galileo_cnc.cli.info import format_summary, summarize
     from galileo_cnc.plan.pipeline import load_artwork
+    from galileo_cnc.readers.board import is_board
 
+    if is_board(args.file):
+        return _run_board_info(args)
     config = _profile(args).config
     options = _plan_options(args)
     artwork = load_artwork(args.file, margin_nm=round(args.margin * NM_PER_MM),
@@ -77,6 +80,14 @@ def _run_info(args: argparse.Namespace) -> int:
             print(f"transform   {summary['transform']}")
         for note in summary["feeds"]:
             print(note)
+    return 0
+
+
+def _run_board_info(args: argparse.Namespace) -> int:
+    """info BOARD: every file with its role and why, the board's size, holes per diameter."""
+    from galileo_cnc.readers.board import describe_board
+    text, summary = describe_board(args.file, tuple(args.layer or ()))
+    print(json.dumps(summary, indent=2) if args.json else text)
     return 0
 
 
@@ -121,6 +132,12 @@ def _plan_options(args: argparse.Namespace):
     return PlanOptions(mode=args.mode, file_order=getattr(args, "file_order", False),
                        layers=_layers(args), units=args.units, optimize=args.optimize,
                        transform=_transform(args))
+
+
+def _add_layer_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--layer", action="append", metavar="FILE=ROLE",
+                        help="a board: give FILE this role (top-copper, bottom-copper, "
+                        "outline, drill-plated, ...; see info BOARD); repeatable")
 
 
 def _transform(args: argparse.Namespace):
@@ -368,8 +385,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"galileo-cnc {__version__}")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND")
 
-    info = commands.add_parser("info", help="describe a Gerber, G-code or DXF file")
-    info.add_argument("file", help="Gerber (RS-274X), G-code or DXF file")
+    info = commands.add_parser("info", help="describe a Gerber, G-code, DXF or drill file, "
+                               "or a board (a folder, .zip or .gbrjob: its files' roles)")
+    info.add_argument("file", help="Gerber (RS-274X), G-code, DXF or Excellon file, or a board")
+    _add_layer_option(info)
     info.add_argument("--json", action="store_true", help="print machine-readable JSON")
     info.add_argument("--margin", type=margin_mm, default=1.0, metavar="MM",
                       help="margin kept from the origin by the proposed offset (default 1 mm)")

@@ -5,8 +5,8 @@ board.py opens a folder, .zip or .gbrjob as a Board, describe.py says what `info
 prints.
 """
 
-from galileo_cnc.readers.board.board import Board, BoardError, Layer, open_board
+from galileo_cnc.readers.board.board import Board, BoardError, Layer, is_board, open_board
 from galileo_cnc.readers.board.describe import describe_board
 from galileo_cnc.readers.board.roles import ROLES
 
-__all__ = ["Board", "BoardError", "Layer", "ROLES", "describe_board", "open_board"]
+__all__ = ["Board", "BoardError", "Layer", "ROLES", "describe_board", "is_board", "open_board"]

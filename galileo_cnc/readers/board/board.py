@@ -95,6 +95,12 @@ def _check_role(role: str, file: str) -> None:
         raise BoardError(f"{what}no role '{role}'; the roles are {', '.join(ROLES)}")
 
 
+def is_board(path: str | os.PathLike) -> bool:
+    """A folder, a .zip or a .gbrjob: what open_board opens (a file is read alone)."""
+    where = Path(os.fsdecode(path))
+    return where.is_dir() or (where.is_file() and where.suffix.lower() in (".zip", ".gbrjob"))
+
+
 def open_board(path: str | os.PathLike, overrides: tuple[str, ...] | list[str] = ()) -> Board:
     """The board in a folder, a .zip or beside a .gbrjob, with `FILE=ROLE` overrides applied."""
     source = os.fsdecode(path)
