@@ -355,7 +355,7 @@ class _Reader:
         try:
             return coordinate_nm(word[0], self.fmt)
         except ValueError as problem:
-            raise self.error(word[1], str(problem)) from None
+            raise self.error(word[1] + 1, str(problem)) from None   # at the number
 
     def point(self, words: dict, from_x: int, from_y: int) -> tuple[int, int]:
         """The point the X/Y words name: absolute (after G93), or from (from_x, from_y)."""
