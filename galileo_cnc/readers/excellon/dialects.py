@@ -20,7 +20,7 @@ import os
 import re
 from dataclasses import dataclass
 
-from galileo_cnc.readers.excellon.numbers import DEFAULT_DIGITS
+from galileo_cnc.readers.excellon.numbers import DEFAULT_DIGITS, MAX_FORMAT_DIGITS
 
 _FILE_FORMAT = re.compile(r";\s*FILE_FORMAT\s*=\s*(\d+)\s*:\s*(\d+)", re.I)
 _KICAD_FORMAT = re.compile(r";\s*FORMAT\s*=\s*\{([^}]*)\}", re.I)
@@ -134,6 +134,7 @@ def coordinate_widths(lines: list[str]) -> tuple[int, int, int]:
         if line.startswith(";") or "." in line:
             continue
         numbers.extend(_NUMBER.findall(line))
+    numbers = [n for n in numbers if len(n) <= MAX_FORMAT_DIGITS]   # longer: an error later
     if not numbers:
         return 0, 0, 0
     widest = max(len(n) for n in numbers)

@@ -19,6 +19,10 @@ from galileo_cnc.readers.limits import MAX_GERBER_COORD_NM, MAX_NUMBER_CHARS
 # (Eagle, Protel, gEDA, DipTrace, PADS) and 3.3 mm (Eagle metric, Mentor, OrCAD).
 DEFAULT_DIGITS = {"in": (2, 4), "mm": (3, 3)}
 
+# Digits of a coordinate format (integer and decimal together): 4.4 is the most any
+# tool writes; past this a stated format is broken.
+MAX_FORMAT_DIGITS = 16
+
 # Coordinates further than this from the origin are a broken file (10 m, as Gerber).
 MAX_DRILL_COORD_NM = MAX_GERBER_COORD_NM
 
@@ -51,6 +55,9 @@ def coordinate_nm(text: str, fmt: NumberFormat) -> int:
         if not digits.isdigit() or not digits.isascii() or len(text) - len(digits) > 1:
             raise ValueError(f"not a number: {text!r}")
         width = fmt.integer_digits + fmt.decimal_digits
+        if width > MAX_FORMAT_DIGITS:
+            raise ValueError(f"the format {fmt.integer_digits}.{fmt.decimal_digits} has more "
+                             f"than {MAX_FORMAT_DIGITS} digits")
         if fmt.zeros == "LZ":
             if len(digits) > width:
                 raise ValueError(f"{text!r} has {len(digits)} digits, more than the "

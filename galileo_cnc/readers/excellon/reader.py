@@ -36,12 +36,14 @@ _FMAT = re.compile(r"FMAT\s*,\s*([12])\s*$")
 _ICI = re.compile(r"ICI\s*,\s*(ON|OFF)\s*$")
 _TEXT_CODE = re.compile(r"M(?:47|97|98)\s*,")  # operator message, canned text
 _WORD = re.compile(r"([A-Z])([+-]?[0-9]*\.?[0-9]*)")
+_XY_ONLY = re.compile(r"(?:X([+-]?[\d.]+))?(?:Y([+-]?[\d.]+))?")  # the common line: a hole
 _BODY_START = re.compile(r"(?:G0\d|G85|R\d|[XY][+-]?[\d.])")
 _GEDA_MIL_TOOL = re.compile(r"T\d+F00S00C\d\.\d{3}\s*$")
 _ENDS = {0, 2, 30}              # M00, M02 (FMAT 1), M30: end of program
 _IGNORED_G = {4, 40, 41, 42, 45, 46, 47, 48}     # dwell, cutter compensation
 _IGNORED_M = {1, 6, 9, 8, 18, 25, 31, 45, 50, 51, 52, 60, 61, 62, 63}
 _MIL_NM = 25_400
+MAX_WORDS = 64          # words on one line: a real one has at most a dozen
 
 
 def read_excellon(path: str | os.PathLike, text: str | None = None, *,
@@ -78,7 +80,7 @@ def looks_like_excellon(text: str) -> bool:
 class _Reader:
     def __init__(self, name: str, text: str, max_items: int):
         self.name = name
-        self.lines = text.splitlines()
+        self.lines = text.removeprefix("\ufeff").splitlines()
         self.max_items = max_items
         self.stated = Stated()
         self.fmt = NumberFormat()
@@ -164,6 +166,9 @@ class _Reader:
         if not stripped:
             return False
         col0 = raw.index(stripped[0]) + 1
+        if self.drilling and not self.in_header and not self.incremental \
+                and (m := _XY_ONLY.fullmatch(stripped)) and m.lastindex:
+            return self.fast_hole(m, col0)
         if stripped.startswith(";") or stripped.startswith("("):
             self.comment(stripped)
             return False
@@ -197,6 +202,15 @@ class _Reader:
             return False
         return self.words(code, col0)
 
+    def fast_hole(self, m: re.Match, col0: int) -> bool:
+        """A line of only X and Y while drilling absolute: `words` does the same, slower."""
+        x = self.x if m.group(1) is None else self.value((m.group(1), col0), 0) + self.zero[0]
+        y = self.y if m.group(2) is None else \
+            self.value((m.group(2), col0 + m.start(2) - 1), 0) + self.zero[1]
+        self.hole(x, y, col0)
+        self.x, self.y = x, y
+        return False
+
     def comment(self, text: str) -> None:
         group = read_comment(text, Stated()) if re.match(r";\s*TYPE", text, re.I) else None
         if group is not None:
@@ -229,6 +243,8 @@ class _Reader:
                 raise self.error(col0 + at, f"{m.group(1)} without a number")
             words.append((m.group(1), m.group(2), col0 + at))
             at = m.end()
+            if len(words) > MAX_WORDS:
+                raise self.error(col0 + at, f"more than {MAX_WORDS} words on one line")
         first: dict[str, tuple[str, int]] = {}
         second: dict[str, tuple[str, int]] = {}
         extra: dict[str, tuple[str, int]] = {}
