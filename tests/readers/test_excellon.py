@@ -316,3 +316,20 @@ def test_the_box_of_an_arc_slot_holds_its_bulge():
     assert DrillFile("x", slots=[other]).box_nm() == (-11_000, -11_000, 11_000, 1_000)
     full = Slot(10_000, 0, 10_000, 0, 0, arc="cw")
     assert DrillFile("x", slots=[full]).box_nm() == (-10_000, -10_000, 10_000, 10_000)
+
+
+def test_kicad_mixed_plating_marks_each_tool(tmp_path):
+    drill = read_text(tmp_path, "M48\n; #@! TF.FileFunction,MixedPlating,1,2\nFMAT,2\nMETRIC\n"
+                      "; #@! TA.AperFunction,Plated,PTH,ViaDrill\nT1C0.400\n"
+                      "; #@! TA.AperFunction,NonPlated,NPTH,ComponentDrill\nT2C3.000\n%\nG90\n"
+                      "G05\nT1\nX1.Y1.\nT2\nX5.Y5.\nT0\nM30\n", "board.drl")
+    assert [h.plated for h in drill.holes] == [True, False] and drill.plated is None
+
+
+def test_patterns_are_refused_not_misread(tmp_path):
+    for body, where in (("M25\nX1.Y1.\nM01\nM02X10.Y0.\nM08\n", "6:1"),
+                        ("X1.Y1.\nM02X10.Y0.\n", "7:1"), ("M70\n", "6:1")):
+        path = tmp_path / "pattern.drl"
+        path.write_text(f"M48\nMETRIC\nT1C1.0\n%\nT1\n{body}M30\n")
+        with pytest.raises(ExcellonError, match=rf"pattern.drl:{where}: M\d+.*not read"):
+            read_drill(path)

@@ -4,7 +4,9 @@ means when a file states nothing.
 
 Comments read here:
   KiCad    `; DRILL file {KiCad ...}`, `;FORMAT={-:-/ absolute / inch / decimal}`,
-           `; #@! TF.FileFunction,Plated,1,2,PTH` (X2 attributes as comments)
+           `; #@! TF.FileFunction,Plated,1,2,PTH` (X2 attributes as comments), and in a
+           file of both kinds `; #@! TA.AperFunction,NonPlated,NPTH,ComponentDrill`
+           before each tool
   Altium, P-CAD, EasyEDA `;FILE_FORMAT=2:4`, `;TYPE=PLATED` / `;TYPE=NON_PLATED`
            before the tools they cover
   Eagle    `;GenerationSoftware,Autodesk,EAGLE,9.5.1*%`
@@ -26,7 +28,8 @@ _FILE_FORMAT = re.compile(r";\s*FILE_FORMAT\s*=\s*(\d+)\s*:\s*(\d+)", re.I)
 _KICAD_FORMAT = re.compile(r";\s*FORMAT\s*=\s*\{([^}]*)\}", re.I)
 _MENTOR_FORMAT = re.compile(r";\s*Format\s*:\s*(\d+)\.(\d+)\s*/\s*(\w+)\s*/\s*(\w+)\s*/\s*(\w+)", re.I)
 _TYPE = re.compile(r";\s*TYPE\s*=\s*(NON[_-]?PLATED|PLATED)", re.I)
-_FILE_FUNCTION = re.compile(r"TF\.FileFunction\s*,\s*(NonPlated|Plated)", re.I)
+_FILE_FUNCTION = re.compile(r"TF\.FileFunction\s*,\s*(NonPlated|Plated|MixedPlating)", re.I)
+_APER_FUNCTION = re.compile(r";\s*#@!\s*TA\.AperFunction\s*,\s*(NonPlated|Plated)", re.I)
 _CONTENTS = re.compile(r";\s*Contents\s*:.*?(Non-?Plated|Plated)", re.I)
 _HOLESIZE = re.compile(
     r";\s*T(\d+)\s+Holesize\s+[\d.]+\s*=\s*([\d.]+)\s+Tolerance.*?\b(NON_PLATED|PLATED)?"
@@ -73,13 +76,16 @@ def read_comment(comment: str, stated: Stated) -> bool | None:
         # Mentor names the zeros it leaves out
         stated.zeros = {"leading": "TZ", "trailing": "LZ"}.get(zeros, stated.zeros)
     elif m := _FILE_FUNCTION.search(comment):
-        stated.plated = m.group(1).lower() == "plated"
-        stated.plated_from = "X2 comment"
+        if m.group(1).lower() != "mixedplating":       # mixed: each tool says (TA below)
+            stated.plated = m.group(1).lower() == "plated"
+            stated.plated_from = "X2 comment"
     elif m := _CONTENTS.match(comment):
         stated.plated = not m.group(1).lower().startswith("non")
         stated.plated_from = "header comment"
     elif m := _TYPE.match(comment):
         return not m.group(1).upper().startswith("NON")
+    elif m := _APER_FUNCTION.match(comment):          # KiCad: the next tool's plating
+        return m.group(1).lower() == "plated"
     return None
 
 

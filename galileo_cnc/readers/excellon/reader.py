@@ -41,7 +41,8 @@ _BODY_START = re.compile(r"(?:G0\d|G85|R\d|[XY][+-]?[\d.])")
 _GEDA_MIL_TOOL = re.compile(r"T\d+F00S00C\d\.\d{3}\s*$")
 _ENDS = {0, 2, 30}              # M00, M02 (FMAT 1), M30: end of program
 _IGNORED_G = {4, 40, 41, 42, 45, 46, 47, 48}     # dwell, cutter compensation
-_IGNORED_M = {1, 6, 9, 8, 18, 25, 31, 45, 50, 51, 52, 60, 61, 62, 63}
+_IGNORED_M = {1, 6, 9, 18, 31, 45, 50, 51, 52, 60, 61, 62, 63}
+_PATTERN_M = {8, 25, 70, 80, 90}  # patterns, their repeats, swaps and mirrors: not read
 _MIL_NM = 25_400
 MAX_WORDS = 64          # words on one line: a real one has at most a dozen
 
@@ -212,7 +213,8 @@ class _Reader:
         return False
 
     def comment(self, text: str) -> None:
-        group = read_comment(text, Stated()) if re.match(r";\s*TYPE", text, re.I) else None
+        group = read_comment(text, Stated()) \
+            if re.match(r";\s*(TYPE|#@!\s*TA\.AperFunction)", text, re.I) else None
         if group is not None:
             self.group_plated = group
             return
@@ -280,6 +282,8 @@ class _Reader:
                                      "G90/G91, G93)")
             elif letter == "M":
                 code_number = self.small_int(number, col)
+                if code_number == 2 and any(w[0] in "XY" for w in words):
+                    raise self.error(col, "M02 X Y: a pattern repeat; patterns are not read")
                 if code_number in _ENDS:
                     ended = True
                 elif code_number == 15:
@@ -292,6 +296,9 @@ class _Reader:
                     self.in_header = True
                 elif code_number == 95:
                     self.in_header = False
+                elif code_number in _PATTERN_M:
+                    raise self.error(col, f"M{code_number}: patterns (M25 .. M01, M02 X Y "
+                                     "repeats, M70/M80/M90 swaps and mirrors) are not read")
                 elif code_number not in _IGNORED_M:
                     self.warn(col, f"M{code_number} ignored")
             elif letter == "T":
