@@ -333,3 +333,18 @@ def test_patterns_are_refused_not_misread(tmp_path):
         path.write_text(f"M48\nMETRIC\nT1C1.0\n%\nT1\n{body}M30\n")
         with pytest.raises(ExcellonError, match=rf"pattern.drl:{where}: M\d+.*not read"):
             read_drill(path)
+
+
+def test_galileo_cnc_info_on_a_corpus_drill_file():
+    import os
+    import subprocess
+    import sys
+    path = DRILL / "kicad/flashpads-x2ap/Flashpads-PTH.drl"
+    env = dict(os.environ, GALILEO_CNC_NO_PROBE="1")
+    run = subprocess.run([sys.executable, "-m", "galileo_cnc", "info", "--json", str(path)],
+                         env=env, capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    data = json.loads(run.stdout)
+    assert data["counts"] == {"holes": 60, "slots": 16} and data["plated"] is True
+    assert len(data["holes"]) == 60 and len(data["slots"]) == 16
+    assert data["tools"][0] == {"tool": "T01", "diameter_mm": 0.6, "holes": 0, "slots": 10}

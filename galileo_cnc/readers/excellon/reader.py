@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 import re
+from dataclasses import replace
 from math import isqrt
 
 from galileo_cnc.errors import ReaderError, SourcePos
@@ -492,5 +493,4 @@ class _Reader:
 
 
 def _with_plating(item, plated: bool):
-    from dataclasses import replace
     return replace(item, plated=plated)
