@@ -135,13 +135,13 @@ class _Reader:
             elif _BODY_START.match(line):
                 break
         stated = self.stated
-        units = units or stated.units or "in"
+        notes = []
+        units = units or stated.units
+        if units is None:
+            units = "in"
+            notes.append("unit not stated: inch (Excellon's default)")
         zeros = zeros or stated.zeros
         digits = digits or stated.digits
-        notes = []
-        if units == "in" and not any(_UNITS.match(l.strip().upper()) or _UNIT_CODE.match(l.strip().upper())
-                                     for l in self.lines[:200]) and not stated.units:
-            notes.append("unit not stated: inch (Excellon's default)")
         if not stated.generator and geda_mils and units == "in" and zeros == "TZ" and digits is None \
                 and any(_GEDA_MIL_TOOL.match(l.strip()) for l in self.lines[:50]):
             stated.generator = "gEDA PCB (mils)"
