@@ -281,6 +281,12 @@ def test_hostile_repeats_and_coordinates_are_refused_early(tmp_path, monkeypatch
     path.write_text("M48\nMETRIC,TZ\nT1C1.0\n%\nT1\nX" + "9" * 30 + "Y0\nM30\n")
     with pytest.raises(ExcellonError, match=r"huge.drl:6:2: .* from the origin"):
         read_drill(path)
+    # sums: incremental steps, a zero set, a repeat, each within the bound on its own
+    for body, where in (("G91\n" + "X9000000\n" * 3, "8:1"), ("G93X9000000\nX9000000\n", "7:1"),
+                        ("X0Y0\nR3X4000000\n", "7:1")):
+        path.write_text(f"M48\nMETRIC,TZ\nT1C1.0\n%\nT1\n{body}M30\n")
+        with pytest.raises(ExcellonError, match=rf"huge.drl:{where}: the point .* more than 10 m"):
+            read_drill(path)
 
 
 def test_read_file_names_a_drill_file_and_info_lists_it(tmp_path):

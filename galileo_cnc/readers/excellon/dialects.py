@@ -24,15 +24,17 @@ from dataclasses import dataclass
 
 from galileo_cnc.readers.excellon.numbers import DEFAULT_DIGITS, MAX_FORMAT_DIGITS
 
-_FILE_FORMAT = re.compile(r";\s*FILE_FORMAT\s*=\s*(\d+)\s*:\s*(\d+)", re.I)
+# Digit counts and tool numbers of at most a few digits: longer is no format (and
+# int() of thousands of digits is refused by Python itself).
+_FILE_FORMAT = re.compile(r";\s*FILE_FORMAT\s*=\s*(\d{1,3})\s*:\s*(\d{1,3})(?!\d)", re.I)
 _KICAD_FORMAT = re.compile(r";\s*FORMAT\s*=\s*\{([^}]*)\}", re.I)
-_MENTOR_FORMAT = re.compile(r";\s*Format\s*:\s*(\d+)\.(\d+)\s*/\s*(\w+)\s*/\s*(\w+)\s*/\s*(\w+)", re.I)
+_MENTOR_FORMAT = re.compile(r";\s*Format\s*:\s*(\d{1,3})\.(\d{1,3})\s*/\s*(\w+)\s*/\s*(\w+)\s*/\s*(\w+)", re.I)
 _TYPE = re.compile(r";\s*TYPE\s*=\s*(NON[_-]?PLATED|PLATED)", re.I)
 _FILE_FUNCTION = re.compile(r"TF\.FileFunction\s*,\s*(NonPlated|Plated|MixedPlating)", re.I)
 _APER_FUNCTION = re.compile(r";\s*#@!\s*TA\.AperFunction\s*,\s*(NonPlated|Plated)", re.I)
 _CONTENTS = re.compile(r";\s*Contents\s*:.*?(Non-?Plated|Plated)", re.I)
 _HOLESIZE = re.compile(
-    r";\s*T(\d+)\s+Holesize\s+[\d.]+\s*=\s*([\d.]+)\s+Tolerance.*?\b(NON_PLATED|PLATED)?"
+    r";\s*T(\d{1,9})\s+Holesize\s+[\d.]+\s*=\s*([\d.]+)\s+Tolerance.*?\b(NON_PLATED|PLATED)?"
     r"\s*\b(MILS|MM|INCH|INCHES)\b", re.I)
 _GENERATORS = (
     (re.compile(r"KiCad", re.I), "KiCad"),
@@ -91,7 +93,7 @@ def read_comment(comment: str, stated: Stated) -> bool | None:
 
 def _kicad_format(body: str, stated: Stated) -> None:
     parts = [p.strip().lower() for p in body.split("/")]
-    if parts and (m := re.match(r"(\d+):(\d+)", parts[0])):
+    if parts and (m := re.match(r"(\d{1,3}):(\d{1,3})(?!\d)", parts[0])):
         stated.digits = (int(m.group(1)), int(m.group(2)))
     for part in parts[1:]:
         if part in ("inch", "metric"):

@@ -22,7 +22,8 @@ from galileo_cnc.readers import limits
 from galileo_cnc.readers.excellon.dialects import (Stated, holesize_comment, infer_format,
                                                     plating_from_name, read_comment)
 from galileo_cnc.readers.excellon.numbers import NumberFormat, coordinate_nm, size_nm
-from galileo_cnc.readers.gerber.numbers import parse_decimal, round_div, to_nm
+from galileo_cnc.readers.excellon.numbers import MAX_DRILL_COORD_NM
+from galileo_cnc.readers.gerber.numbers import checked_nm, parse_decimal, round_div, to_nm
 from galileo_cnc.readers.source import read_text
 
 
@@ -209,6 +210,8 @@ class _Reader:
         x = self.x if m.group(1) is None else self.value((m.group(1), col0), 0) + self.zero[0]
         y = self.y if m.group(2) is None else \
             self.value((m.group(2), col0 + m.start(2) - 1), 0) + self.zero[1]
+        if self.zero != (0, 0):
+            x, y = self.bounded(x, y, col0)
         self.hole(x, y, col0)
         self.x, self.y = x, y
         return False
@@ -224,10 +227,10 @@ class _Reader:
             number, size, unit, plated = sized
             try:
                 value = parse_decimal(size)
+                nm = checked_nm(round_div(value.numerator * _MIL_NM, value.denominator)) \
+                    if unit == "mil" else to_nm(value, unit)
             except ValueError:
-                return
-            nm = round_div(value.numerator * _MIL_NM, value.denominator) if unit == "mil" \
-                else to_nm(value, unit)
+                return                  # a legend comment we cannot use: no size from it
             self.tool_size.setdefault(number, nm)
             self.tool_plated.setdefault(number, plated)
 
@@ -320,7 +323,8 @@ class _Reader:
         elif "C" in extra:
             raise self.error(extra["C"][1], "C (a tool size) without its T")
         if g93:
-            self.zero = (self.value(first.get("X"), 0), self.value(first.get("Y"), 0))
+            self.zero = self.bounded(self.value(first.get("X"), 0), self.value(first.get("Y"), 0),
+                                     min((c for _, c in first.values()), default=1))
         elif repeat is not None:
             self.repeat(repeat, first)
         elif g85:
@@ -384,9 +388,17 @@ class _Reader:
     def point(self, words: dict, from_x: int, from_y: int) -> tuple[int, int]:
         """The point the X/Y words name: absolute (after G93), or from (from_x, from_y)."""
         if self.incremental:
-            return from_x + self.value(words.get("X"), 0), from_y + self.value(words.get("Y"), 0)
-        x = self.value(words["X"], 0) + self.zero[0] if "X" in words else from_x
-        y = self.value(words["Y"], 0) + self.zero[1] if "Y" in words else from_y
+            x, y = from_x + self.value(words.get("X"), 0), from_y + self.value(words.get("Y"), 0)
+        else:
+            x = self.value(words["X"], 0) + self.zero[0] if "X" in words else from_x
+            y = self.value(words["Y"], 0) + self.zero[1] if "Y" in words else from_y
+        return self.bounded(x, y, min((c for _, c in words.values()), default=1))
+
+    def bounded(self, x: int, y: int, col: int) -> tuple[int, int]:
+        """(x, y), or an error if sums (G91, G93, R, arc centres) took it past the bound."""
+        if abs(x) > MAX_DRILL_COORD_NM or abs(y) > MAX_DRILL_COORD_NM:
+            raise self.error(col, f"the point ({x / 1e6:g}, {y / 1e6:g}) mm lies more than "
+                             f"{MAX_DRILL_COORD_NM // 10**9} m from the origin")
         return x, y
 
     def count(self, col: int, more: int = 1) -> None:
@@ -423,10 +435,10 @@ class _Reader:
     def arc(self, x: int, y: int, extra: dict, col: int) -> None:
         direction = "cw" if self.motion == 2 else "ccw"
         if "A" in extra:
-            cx, cy = self.centre_from_radius(x, y, extra["A"], direction)
+            cx, cy = self.bounded(*self.centre_from_radius(x, y, extra["A"], direction), col)
         elif "I" in extra or "J" in extra:
-            cx = self.x + self.value(extra.get("I"), 0)
-            cy = self.y + self.value(extra.get("J"), 0)
+            cx, cy = self.bounded(self.x + self.value(extra.get("I"), 0),
+                                  self.y + self.value(extra.get("J"), 0), col)
         else:
             raise self.error(col, f"G0{self.motion} arc without its centre (I/J) or radius (A)")
         self.slot(self.x, self.y, x, y, col, direction, cx, cy)
@@ -463,6 +475,7 @@ class _Reader:
         if not self.drilling:
             raise self.error(col, "a repeat (R) in route mode")
         self.count(col, times)
+        self.bounded(self.x + times * dx, self.y + times * dy, col)   # the last, before any
         for _ in range(times):
             self.x += dx
             self.y += dy
