@@ -89,8 +89,9 @@ def _run_info(args: argparse.Namespace) -> int:
 
 def _run_board_info(args: argparse.Namespace) -> int:
     """info BOARD: every file with its role and why, the board's size, holes per diameter."""
+    from galileo_cnc.readers import read_drill
     from galileo_cnc.readers.board import describe_board
-    text, summary = describe_board(args.file, tuple(args.layer or ()))
+    text, summary = describe_board(args.file, tuple(args.layer or ()), read_drill=read_drill)
     print(json.dumps(summary, indent=2) if args.json else text)
     return 0
 

@@ -354,3 +354,13 @@ def test_galileo_cnc_info_on_a_corpus_drill_file():
     assert data["counts"] == {"holes": 60, "slots": 16} and data["plated"] is True
     assert len(data["holes"]) == 60 and len(data["slots"]) == 16
     assert data["tools"][0] == {"tool": "T01", "diameter_mm": 0.6, "holes": 0, "slots": 10}
+
+
+def test_info_of_a_board_folder_counts_its_holes_with_this_reader(capsys, monkeypatch):
+    from galileo_cnc.cli.main import main
+    monkeypatch.setenv("GALILEO_CNC_NO_PROBE", "1")
+    assert main(["info", "--json", str(DRILL / "kicad/8seg-driver")]) == 0
+    board = json.loads(capsys.readouterr().out)["board"]
+    assert {layer["role"] for layer in board["layers"]} == {"drill-plated", "drill-unplated"}
+    assert sum(h["holes"] for h in board["holes"]) == 363 + 12
+    assert {"diameter_mm": 3.2004, "holes": 8, "slots": 0} in board["holes"]
