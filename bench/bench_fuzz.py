@@ -5,12 +5,13 @@
     python3 bench/bench_fuzz.py --show SEED          # one mutant here, with its traceback
     python3 bench/bench_fuzz.py --write SEED DIR     # write one mutant's file to DIR
     python3 bench/bench_fuzz.py --show SEED --ci     # a mutant of the CI sample (test_fuzz.py)
+    python3 bench/bench_fuzz.py --formats drill      # 10,000 Excellon drill-file mutants
 
 The mutants come from tests/readers/mutants.py (flips, truncation, splices, huge
 numbers, deep nesting, huge repeats, the oddities real files hold, binary bytes), over
-small files of the shared Gerber and DXF corpus and G-code written from them. Each
-mutant is written to a temporary file and read with `galileo_cnc.readers.read_file`
-in a forked child (everything imported once, in the parent) whose address space is
+small files of the shared Gerber and DXF corpus, its Excellon drill files and G-code
+written from them. Each mutant is written to a temporary file and read with
+`galileo_cnc.readers.read_file` (a drill mutant with `read_drill`) in a forked child (everything imported once, in the parent) whose address space is
 limited to what it had plus --memory-mb, and which is killed after --timeout seconds.
 
 Outcomes:
@@ -51,7 +52,7 @@ OUTCOMES = ("ok", "positioned", "traceback", "hang", "memory")
 WALL_FACTOR = 6  # a child blocked (not computing) is killed after this many timeouts
 FAILURES = ("traceback", "hang", "memory")
 # What a successful read may hold: each reader's own coordinate bound.
-BOUNDS_NM = {"gerber": 10**10, "gcode": 10**12, "dxf": 10**15}
+BOUNDS_NM = {"gerber": 10**10, "gcode": 10**12, "dxf": 10**15, "drill": 10**10}
 
 
 # --------------------------------------------------------------------------- child
@@ -76,18 +77,38 @@ def _reset_peak() -> bool:
         return False
 
 
-def classify(path: str, fmt_bounds=BOUNDS_NM) -> tuple[str, str]:
-    """Read `path` with read_file: (outcome, detail)."""
+def drill_coordinates(drill) -> list[int]:
+    """Every coordinate a DrillFile holds (holes, slot ends, arc centres), in nm."""
+    values = [v for h in drill.holes for v in (h.x_nm, h.y_nm)]
+    values += [v for s in drill.slots for v in (s.x0_nm, s.y0_nm, s.x1_nm, s.y1_nm, s.cx_nm, s.cy_nm)]
+    return values
+
+
+def _read(path: str, fmt: str) -> tuple[int, int, str]:
+    """(largest coordinate in nm, items read, the format read) of `path`."""
     import numpy as np
 
-    from galileo_cnc.errors import GalileoError
     from galileo_cnc.program.ops import I, J, X, Y
-    from galileo_cnc.readers import read_file
+    from galileo_cnc.readers import read_drill, read_file
+
+    if fmt == "drill":
+        drill = read_drill(path)
+        values = drill_coordinates(drill)
+        return max(map(abs, values), default=0), len(drill.holes) + len(drill.slots), "drill"
+    program = read_file(path)
+    table = program.table
+    biggest = int(np.abs(table[:, [X, Y, I, J]]).max()) if len(table) else 0
+    return biggest, len(table), program.format
+
+
+def classify(path: str, fmt_bounds=BOUNDS_NM, fmt: str = "") -> tuple[str, str]:
+    """Read `path` with read_file (read_drill for a drill mutant): (outcome, detail)."""
+    from galileo_cnc.errors import GalileoError
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            program = read_file(path)
+            biggest, size, read_as = _read(path, fmt)
         except MemoryError:
             return "memory", "MemoryError"
         except RecursionError:
@@ -103,17 +124,15 @@ def classify(path: str, fmt_bounds=BOUNDS_NM) -> tuple[str, str]:
     if runtime:
         w = runtime[0]
         return "traceback", f"RuntimeWarning at {w.filename}:{w.lineno}: {w.message}"
-    table = program.table
-    if len(table):
-        biggest = int(np.abs(table[:, [X, Y, I, J]]).max())
-        bound = fmt_bounds.get(program.format, 10**15)
-        if biggest > bound:
-            return "traceback", f"read OK but a coordinate is {biggest} nm (bound {bound})"
-    return "ok", f"{len(table)} ops"
+    bound = fmt_bounds.get(read_as, 10**15)
+    if biggest > bound:
+        return "traceback", f"read OK but a coordinate is {biggest} nm (bound {bound})"
+    return "ok", f"{size} {'holes and slots' if read_as == 'drill' else 'ops'}"
 
 
-def _child(seed: int, pools, directory: Path, memory_mb: int) -> None:
-    mutant = mutants.mutant(seed, pools)
+def _child(seed: int, pools, directory: Path, memory_mb: int,
+           formats: tuple[str, ...] = mutants.FORMATS) -> None:
+    mutant = mutants.mutant(seed, pools, formats=formats)
     path = directory / f"mutant-{seed}{mutant.extension}"
     path.write_bytes(mutant.data)
     meta = {"fmt": mutant.fmt, "kind": mutant.kind, "source": mutant.source, "how": mutant.how}
@@ -124,7 +143,7 @@ def _child(seed: int, pools, directory: Path, memory_mb: int) -> None:
     if vm_bytes:
         limit = vm_bytes + memory_mb * 1024 * 1024
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
-    outcome, detail = classify(str(path))
+    outcome, detail = classify(str(path), fmt=meta["fmt"])
     peak_kb = _status_kb("VmHWM") if resettable else resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     grown_mb = (peak_kb - base_kb) / 1024
     if outcome != "memory" and grown_mb > memory_mb:
@@ -146,7 +165,8 @@ def _preload() -> None:
 
 
 def run_campaign(seeds: list[int], jobs: int, timeout: float, memory_mb: int, pools,
-                 progress: bool = True) -> dict[int, dict]:
+                 progress: bool = True,
+                 formats: tuple[str, ...] = mutants.FORMATS) -> dict[int, dict]:
     results: dict[int, dict] = {}
     with tempfile.TemporaryDirectory(prefix="galileo-fuzz-") as tmp:
         directory = Path(tmp)
@@ -164,7 +184,7 @@ def run_campaign(seeds: list[int], jobs: int, timeout: float, memory_mb: int, po
                         # CPU seconds: other work on the machine does not make a hang.
                         cpu = int(timeout) + 1
                         resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 5))
-                        _child(seed, pools, directory, memory_mb)
+                        _child(seed, pools, directory, memory_mb, formats)
                     except BaseException:
                         traceback.print_exc()
                         code = 3
@@ -222,7 +242,8 @@ def _table(rows: dict[str, Counter], title: str) -> str:
     return "\n".join(lines)
 
 
-def report(results: dict[int, dict], pools) -> int:
+def report(results: dict[int, dict], pools,
+           formats: tuple[str, ...] = mutants.FORMATS) -> int:
     by_kind: dict[str, Counter] = defaultdict(Counter)
     by_format: dict[str, Counter] = defaultdict(Counter)
     failures = []
@@ -230,7 +251,7 @@ def report(results: dict[int, dict], pools) -> int:
     biggest = max((r.get("grown_mb", 0) for r in results.values()), default=0)
     for seed, result in sorted(results.items()):
         if "kind" not in result:  # a hang or a crash: the child could not say
-            mutant = mutants.mutant(seed, pools)
+            mutant = mutants.mutant(seed, pools, formats=formats)
             result.update(fmt=mutant.fmt, kind=mutant.kind, source=mutant.source, how=mutant.how)
         by_kind[result["kind"]][result["outcome"]] += 1
         by_format[result["fmt"]][result["outcome"]] += 1
@@ -261,48 +282,55 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--timeout", type=float, default=20.0, help="seconds per mutant")
     parser.add_argument("--memory-mb", type=int, default=1024, help="memory per mutant")
+    parser.add_argument("--formats", default=",".join(mutants.FORMATS),
+                        help="mutants of these formats only (comma-separated: "
+                        f"{','.join(mutants.FORMATS)})")
     parser.add_argument("--seeds", help="comma-separated seeds to run instead (e.g. failures)")
     parser.add_argument("--show", type=int, metavar="SEED", help="run one mutant here")
     parser.add_argument("--write", nargs=2, metavar=("SEED", "DIR"), help="write one mutant")
     parser.add_argument("--ci", action="store_true",
                         help="with --show/--write: the CI sample's mutant (small sizes, small pools)")
     args = parser.parse_args(argv)
+    formats = tuple(f.strip() for f in args.formats.split(",") if f.strip())
+    unknown = set(formats) - set(mutants.FORMATS)
+    if unknown or not formats:
+        parser.error(f"--formats: unknown {', '.join(sorted(unknown)) or 'empty'}")
 
     started = time.monotonic()
     pools = mutants.load_pools(max_gerber=30_000, max_dxf=40_000) if args.ci else mutants.load_pools()
     if args.write:
-        mutant = mutants.mutant(int(args.write[0]), pools, ci=args.ci)
+        mutant = mutants.mutant(int(args.write[0]), pools, ci=args.ci, formats=formats)
         path = Path(args.write[1]) / f"mutant-{mutant.seed}{mutant.extension}"
         path.write_bytes(mutant.data)
         print(f"{path}: {mutant.fmt} {mutant.kind} of {mutant.source} ({mutant.how}), "
               f"{len(mutant.data)} bytes")
         return 0
     if args.show is not None:
-        from galileo_cnc.readers import read_file
+        from galileo_cnc.readers import read_drill, read_file
 
-        mutant = mutants.mutant(args.show, pools, ci=args.ci)
+        mutant = mutants.mutant(args.show, pools, ci=args.ci, formats=formats)
         print(f"seed {mutant.seed}: {mutant.fmt} {mutant.kind} of {mutant.source} ({mutant.how}), "
               f"{len(mutant.data)} bytes")
         with tempfile.TemporaryDirectory() as tmp:
             path = Path(tmp) / f"mutant-{mutant.seed}{mutant.extension}"
             path.write_bytes(mutant.data)
-            print(classify(str(path)))
+            print(classify(str(path), fmt=mutant.fmt))
             try:
-                read_file(path)
+                (read_drill if mutant.fmt == "drill" else read_file)(path)
             except Exception:
                 traceback.print_exc()
         return 0
     _preload()
-    sources = {fmt: len(pools.of(fmt)) for fmt in mutants.FORMATS}
-    print(f"fuzz: {args.mutants} mutants, seeds {args.first}..{args.first + args.mutants - 1}, "
-          if not args.seeds else f"fuzz: seeds {args.seeds}, "
-          f"{args.jobs} jobs, {args.timeout:g} s and {args.memory_mb} MB each; sources "
+    sources = {fmt: len(pools.of(fmt)) for fmt in formats}
+    print((f"fuzz: {args.mutants} mutants, seeds {args.first}..{args.first + args.mutants - 1}, "
+           if not args.seeds else f"fuzz: seeds {args.seeds}, ")
+          + f"{args.jobs} jobs, {args.timeout:g} s and {args.memory_mb} MB each; sources "
           + ", ".join(f"{n} {fmt}" for fmt, n in sources.items()))
     seeds = [int(seed) for seed in args.seeds.split(",")] if args.seeds else \
         list(range(args.first, args.first + args.mutants))
     results = run_campaign(seeds, args.jobs,
-                           args.timeout, args.memory_mb, pools)
-    status = report(results, pools)
+                           args.timeout, args.memory_mb, pools, formats=formats)
+    status = report(results, pools, formats)
     print(f"\n{len(results)} mutants in {time.monotonic() - started:.0f} s wall time")
     return status
 

@@ -1,4 +1,5 @@
-"""Gerber reader throughput and peak memory: ours vs gerbonara vs pygerber.
+"""Gerber reader throughput and peak memory: ours vs gerbonara vs pygerber; and the
+Excellon column: our drill reader vs gerbonara's on the corpus's drill files.
 
     python bench/bench_readers.py            # whole corpus (real/synthetic/derived)
     python bench/bench_readers.py --quick    # files up to 100 kB only
@@ -21,6 +22,11 @@ the same bytes. The peers run exactly as tests/peers.py runs them: gerbonara's
 GerberFile.open (warnings silenced), pygerber's Tokenizer + Parser2 with errors
 raised (what its v2 API does with OnParserErrorEnum.Raise, without the bounding box
 that API computes on top).
+
+The Excellon column runs in the same way, in the same run, over the manifest's
+"drill" files (drill/ folder, route files included): `read_drill` against
+gerbonara's ExcellonFile.open; --readers ours,gerbonara without "excellon" leaves it
+out, and --readers excellon runs it alone.
 """
 
 from __future__ import annotations
@@ -40,7 +46,8 @@ sys.path.insert(0, str(REPO / "tests"))
 
 import peers  # noqa: E402  (tests/peers.py: corpus location, how each peer is called)
 
-READERS = ("ours", "gerbonara", "pygerber")
+READERS = ("ours", "gerbonara", "pygerber", "excellon")
+DRILL_READERS = ("ours-drill", "gerbonara-drill")   # what "excellon" runs
 QUICK_MAX_BYTES = 100_000
 TARGETS = {"gerbonara": 3.0, "pygerber": 100.0}
 
@@ -56,6 +63,20 @@ def _reader(name: str):
         return read_gerber
     if name == "gerbonara":
         return peers.gerbonara_read
+    if name == "ours-drill":
+        from galileo_cnc.readers import read_drill
+
+        return read_drill
+    if name == "gerbonara-drill":
+        import warnings
+
+        from gerbonara.excellon import ExcellonFile
+
+        def gerbonara_drill(path):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                return ExcellonFile.open(path)
+        return gerbonara_drill
     if name == "pygerber":
         import logging
 
@@ -169,6 +190,10 @@ def main(argv=None) -> int:
         data = Path(f).read_bytes()
         sizes[f] = (len(data), data.count(b"\n") + (not data.endswith(b"\n")))
     readers = [r for r in args.readers.split(",") if r]
+    drill = "excellon" in readers
+    readers = [r for r in readers if r != "excellon"]
+    if not readers:
+        return excellon_column(root, args.rounds, args.show_failures)
 
     total_bytes = sum(s[0] for s in sizes.values())
     total_lines = sum(s[1] for s in sizes.values())
@@ -216,6 +241,14 @@ def main(argv=None) -> int:
                   f"{nbytes / 1e6:.1f} MB (ours {o_mbs:.3f} MB/s, {name} {p_mbs:.3f} MB/s)"
                   f"  {verdict}")
 
+    print_failures(results, readers, root, args.show_failures)
+    if drill:
+        print()
+        excellon_column(root, args.rounds, args.show_failures)
+    return 0
+
+
+def print_failures(results: dict, readers, root: Path, show: bool) -> None:
     for name in readers:
         errs = results[name]["errors"]
         if not errs:
@@ -226,9 +259,44 @@ def main(argv=None) -> int:
             kinds[key] = kinds.get(key, 0) + 1
         summary = ", ".join(f"{k} x{n}" for k, n in sorted(kinds.items(), key=lambda kv: -kv[1]))
         print(f"\n{name}: {len(errs)} files failed ({summary})")
-        if args.show_failures:
+        if show:
             for f, e in errs.items():
                 print(f"  {Path(f).relative_to(root)}: {e}")
+
+
+def excellon_column(root: Path, rounds: int, show_failures: bool) -> int:
+    """Our Excellon reader and gerbonara's over the corpus's drill files, in alternating
+    rounds (best time per file), with the ratio on the files both read."""
+    rows = peers.corpus_files(kinds=("drill",))
+    files = [str(root / r.path) for r in sorted(rows, key=lambda r: -r.bytes)]
+    if not files:
+        print(f"excellon: no drill files in {root}")
+        return 0
+    sizes = {}
+    for f in files:
+        data = Path(f).read_bytes()
+        sizes[f] = (len(data), data.count(b"\n") + (not data.endswith(b"\n")))
+    results: dict[str, dict] = {}
+    for _ in range(rounds):
+        for name in DRILL_READERS:
+            merge_best(results, name, run_reader(name, files, sizes))
+    print(f"Excellon: {len(files)} drill files, {sum(s[0] for s in sizes.values()) / 1e6:.2f} MB, "
+          f"{sum(s[1] for s in sizes.values()):,} lines")
+    print(f"{'reader':16s} {'files ok':>9s} {'failed':>7s} {'MB':>7s} {'seconds':>9s} "
+          f"{'MB/s':>8s} {'lines/s':>11s}")
+    for name in DRILL_READERS:
+        res = results[name]
+        ok = list(res["times"])
+        mbs, lps, secs, nbytes = throughput(res, ok, sizes)
+        print(f"{name:16s} {len(ok):9d} {len(res['errors']):7d} {nbytes / 1e6:7.2f} "
+              f"{secs:9.3f} {mbs:8.3f} {lps:11,.0f}" + ("  CRASHED" if "crashed" in res else ""))
+    ours, theirs = results["ours-drill"], results["gerbonara-drill"]
+    common = [f for f in files if f in ours["times"] and f in theirs["times"]]
+    o_mbs, _, o_s, nbytes = throughput(ours, common, sizes)
+    p_mbs, _, p_s, _ = throughput(theirs, common, sizes)
+    print(f"  ours/gerbonara {p_s / o_s if o_s else float('nan'):8.1f}x  on {len(common)} files, "
+          f"{nbytes / 1e6:.2f} MB (ours {o_mbs:.3f} MB/s, gerbonara {p_mbs:.3f} MB/s)")
+    print_failures(results, DRILL_READERS, root, show_failures)
     return 0
 
 

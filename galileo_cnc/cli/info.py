@@ -1,4 +1,5 @@
-"""`galileo-cnc info FILE`: what a file holds and the offsets getg proposes.
+"""`galileo-cnc info FILE`: what a file holds and the offsets getg proposes; for an
+Excellon drill file, its tools, holes and slots.
 
 All geometry is computed in nm from the Program table; millimetres appear only in
 the returned summary (the edge where floats are allowed).
@@ -6,6 +7,7 @@ the returned summary (the edge where floats are allowed).
 
 from __future__ import annotations
 
+import json
 from typing import Callable
 
 import numpy as np
@@ -14,6 +16,7 @@ from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.plan.measure import job_lengths
 from galileo_cnc.plan.open_traces import ink_warnings, open_traces
 from galileo_cnc.plan.pipeline import Artwork, PlanOptions, plan_file
+from galileo_cnc.program.drills import DrillFile
 from galileo_cnc.program.extents import extents, region_mask
 from galileo_cnc.readers.gerber.transformed import aperture_label
 from galileo_cnc.program.ops import KIND, NM_PER_MM, TOOL, OpKind, Program
@@ -216,3 +219,80 @@ def format_summary(summary: dict, verbose: bool = False) -> str:
             lines.append(f"  ... and {len(summary['warnings']) - len(shown):,} more "
                          "(--verbose lists them all)")
     return "\n".join(lines)
+
+
+# ---- drill files (Excellon): holes and slots, not a drawing ---------------------------
+
+def drill_summary(drill: DrillFile) -> dict:
+    """Everything `galileo-cnc info --json DRILLFILE` prints (lengths in mm): the tools
+    with their hole and slot counts, the extent, and every hole and slot."""
+    per_tool: dict[str, dict[str, int]] = {name: {"holes": 0, "slots": 0} for name in drill.tools}
+    for hole in drill.holes:
+        per_tool.setdefault(hole.tool, {"holes": 0, "slots": 0})["holes"] += 1
+    for slot in drill.slots:
+        per_tool.setdefault(slot.tool, {"holes": 0, "slots": 0})["slots"] += 1
+    box = drill.box_nm()
+    return {
+        "file": drill.source,
+        "format": "excellon",
+        "units": drill.units,
+        "format_spec": drill.metadata.get("format"),
+        "generator": drill.metadata.get("generator") or None,
+        "assumed": drill.metadata.get("assumed", []),
+        "plated": drill.plated,
+        "plated_from": drill.metadata.get("plated_from"),
+        "line_count": drill.line_count,
+        "tools": [{"tool": name, "diameter_mm": _mm(drill.tools.get(name, 0)), **counts}
+                  for name, counts in per_tool.items()],
+        "counts": {"holes": len(drill.holes), "slots": len(drill.slots)},
+        "bbox_mm": _box_mm(box),
+        "holes": [{"x_mm": _mm(h.x_nm), "y_mm": _mm(h.y_nm), "diameter_mm": _mm(h.diameter_nm),
+                   "tool": h.tool, "plated": h.plated, "line": h.line} for h in drill.holes],
+        "slots": [{"x0_mm": _mm(s.x0_nm), "y0_mm": _mm(s.y0_nm), "x1_mm": _mm(s.x1_nm),
+                   "y1_mm": _mm(s.y1_nm), "diameter_mm": _mm(s.diameter_nm), "tool": s.tool,
+                   "plated": s.plated, "line": s.line,
+                   **({"arc": s.arc, "cx_mm": _mm(s.cx_nm), "cy_mm": _mm(s.cy_nm)} if s.arc else {})}
+                  for s in drill.slots],
+        "warnings": drill.metadata.get("warnings", []),
+    }
+
+
+def format_drill_summary(summary: dict, verbose: bool = False) -> str:
+    """The human-readable `info` report of a drill file."""
+    plated = {True: "plated", False: "unplated", None: "plating not stated"}[summary["plated"]]
+    lines = [
+        f"file        {summary['file']}",
+        f"format      Excellon drill  units {summary['units']}  {summary['format_spec']}"
+        + (f"  ({summary['generator']})" if summary["generator"] else ""),
+        f"lines       {summary['line_count']}   {plated}"
+        + (f" (from {summary['plated_from']})" if summary["plated_from"] else ""),
+        f"counts      {summary['counts']['holes']} holes, {summary['counts']['slots']} slots",
+    ]
+    for note in summary["assumed"]:
+        lines.append(f"assumed     {note}")
+    if summary["tools"]:
+        lines.append("tools")
+        for tool in summary["tools"]:
+            lines.append(f"  {tool['tool']:<5} {tool['diameter_mm']:>8.4f} mm  "
+                         f"{tool['holes']:>6} holes {tool['slots']:>5} slots")
+    box = summary["bbox_mm"]
+    if box:
+        lines.append(f"extent      X {box['min_x']:.4f} .. {box['max_x']:.4f} mm, "
+                     f"Y {box['min_y']:.4f} .. {box['max_y']:.4f} mm (holes included)")
+    else:
+        lines.append("extent      no holes")
+    if summary["warnings"]:
+        shown = summary["warnings"] if verbose else summary["warnings"][:SHOWN_WARNINGS]
+        lines.append(f"warnings    {len(summary['warnings'])}")
+        lines.extend(f"  {w}" for w in shown)
+    return "\n".join(lines)
+
+
+def drill_report(path: str, as_json: bool, verbose: bool = False) -> str | None:
+    """`info` of an Excellon file (the text to print), or None if `path` is not one."""
+    from galileo_cnc.readers import is_drill_file, read_drill
+
+    if not is_drill_file(path):
+        return None
+    summary = drill_summary(read_drill(path))
+    return json.dumps(summary, indent=2) if as_json else format_drill_summary(summary, verbose)

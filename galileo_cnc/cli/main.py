@@ -47,12 +47,16 @@ def check_output(path: str | None, option: str) -> None:
 
 
 def _run_info(args: argparse.Namespace) -> int:
-    from galileo_cnc.cli.info import format_summary, summarize
+    from galileo_cnc.cli.info import drill_report, format_summary, summarize
     from galileo_cnc.plan.pipeline import load_artwork
     from galileo_cnc.readers.board import is_board
 
     if is_board(args.file):
         return _run_board_info(args)
+    report = drill_report(args.file, args.json, args.verbose)   # an Excellon drill file
+    if report is not None:
+        print(report)
+        return 0
     config = _profile(args).config
     options = _plan_options(args)
     artwork = load_artwork(args.file, margin_nm=round(args.margin * NM_PER_MM),
@@ -85,8 +89,9 @@ def _run_info(args: argparse.Namespace) -> int:
 
 def _run_board_info(args: argparse.Namespace) -> int:
     """info BOARD: every file with its role and why, the board's size, holes per diameter."""
+    from galileo_cnc.readers import read_drill
     from galileo_cnc.readers.board import describe_board
-    text, summary = describe_board(args.file, tuple(args.layer or ()))
+    text, summary = describe_board(args.file, tuple(args.layer or ()), read_drill=read_drill)
     print(json.dumps(summary, indent=2) if args.json else text)
     return 0
 

@@ -10,6 +10,7 @@ frame, the one its copper layers share (Gerber and Excellon of one board agree).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from math import atan2, isqrt, tau
 
 
 @dataclass(frozen=True, slots=True)
@@ -41,6 +42,24 @@ class Slot:
     cx_nm: int = 0
     cy_nm: int = 0
 
+    def path_extremes(self) -> list[tuple[int, int]]:
+        """The ends of the path and, for an arc, the points of its circle furthest
+        left, right, down and up that the arc passes (its box is theirs)."""
+        points = [(self.x0_nm, self.y0_nm), (self.x1_nm, self.y1_nm)]
+        if not self.arc:
+            return points
+        cx, cy = self.cx_nm, self.cy_nm
+        radius = isqrt((self.x0_nm - cx) ** 2 + (self.y0_nm - cy) ** 2)
+        start = atan2(self.y0_nm - cy, self.x0_nm - cx)
+        end = atan2(self.y1_nm - cy, self.x1_nm - cx)
+        if self.arc == "cw":
+            start, end = end, start            # the same points, swept counter-clockwise
+        sweep = (end - start) % tau or tau     # start == end: the full circle
+        for quarter, (dx, dy) in enumerate(((1, 0), (0, 1), (-1, 0), (0, -1))):
+            if (quarter * tau / 4 - start) % tau <= sweep:
+                points.append((cx + dx * radius, cy + dy * radius))
+        return points
+
 
 @dataclass
 class DrillFile:
@@ -67,10 +86,11 @@ class DrillFile:
             ys1.append(h.y_nm + r)
         for s in self.slots:
             r = s.diameter_nm // 2
-            xs0.append(min(s.x0_nm, s.x1_nm) - r)
-            ys0.append(min(s.y0_nm, s.y1_nm) - r)
-            xs1.append(max(s.x0_nm, s.x1_nm) + r)
-            ys1.append(max(s.y0_nm, s.y1_nm) + r)
+            xs, ys = zip(*s.path_extremes())
+            xs0.append(min(xs) - r)
+            ys0.append(min(ys) - r)
+            xs1.append(max(xs) + r)
+            ys1.append(max(ys) + r)
         if not xs0:
             return None
         return min(xs0), min(ys0), max(xs1), max(ys1)

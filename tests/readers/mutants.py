@@ -8,9 +8,10 @@ reproduced by its seed alone:
     python3 bench/bench_fuzz.py --show SEED       # run it here, with the traceback
     python3 bench/bench_fuzz.py --write SEED DIR  # write the mutant file
 
-Sources: small files of the Gerber and DXF corpus (tests/corpus.py; read in place), and
-G-code written from small Gerber corpus files plus the sample drawing and a few
-hand-written files that use the rest of the dialect.
+Sources: small files of the Gerber and DXF corpus (tests/corpus.py; read in place), the
+Excellon drill and route files of its drill/ folder (format "drill", read with
+read_drill), and G-code written from small Gerber corpus files plus the sample drawing
+and a few hand-written files that use the rest of the dialect.
 
 Kinds of mutation:
 - flip: bytes flipped or replaced by characters that mean something to a parser;
@@ -32,7 +33,7 @@ from __future__ import annotations
 import random
 import re
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
@@ -42,8 +43,8 @@ from corpus import DXF_CORPUS, GERBER_CORPUS  # noqa: E402
 
 KINDS = ("flip", "truncate", "splice", "huge-number", "deep-nesting", "huge-repeat", "oddity",
          "binary")
-FORMATS = ("gerber", "gcode", "dxf")
-EXTENSIONS = {"gerber": ".gbr", "gcode": ".nc", "dxf": ".dxf"}
+FORMATS = ("gerber", "gcode", "dxf", "drill")
+EXTENSIONS = {"gerber": ".gbr", "gcode": ".nc", "dxf": ".dxf", "drill": ".drl"}
 
 
 @dataclass(frozen=True)
@@ -66,6 +67,7 @@ class Pools:
     gerber: list[tuple[str, bytes]]
     gcode: list[tuple[str, bytes]]
     dxf: list[tuple[str, bytes]]
+    drill: list[tuple[str, bytes]] = field(default_factory=list)
 
     def of(self, fmt: str) -> list[tuple[str, bytes]]:
         return getattr(self, fmt)
@@ -96,10 +98,13 @@ _HAND_GCODE = [
 def load_pools(max_gerber: int = 120_000, max_dxf: int = 260_000) -> Pools:
     """Small corpus files (read in place) and the G-code sources."""
     gerber: list[tuple[str, bytes]] = []
+    drill: list[tuple[str, bytes]] = []
     for row in _manifest(GERBER_CORPUS):
         if row["kind"] in ("real", "synthetic", "derived", "invalid") and \
                 int(row["bytes"]) <= max_gerber:
             gerber.append((row["path"], (GERBER_CORPUS / row["path"]).read_bytes()))
+        elif row["kind"] == "drill" and (GERBER_CORPUS / row["path"]).is_file():
+            drill.append((row["path"], (GERBER_CORPUS / row["path"]).read_bytes()))
     dxf: list[tuple[str, bytes]] = []
     for row in _manifest(DXF_CORPUS):
         if int(row["bytes"]) <= max_dxf:
@@ -107,7 +112,7 @@ def load_pools(max_gerber: int = 120_000, max_dxf: int = 260_000) -> Pools:
     gcode = [("samples/square-and-circle.nc", (REPO / "samples" / "square-and-circle.nc").read_bytes())]
     gcode += _HAND_GCODE
     gcode += _gcode_from_gerber([item for item in gerber if len(item[1]) <= 30_000][::9][:24])
-    return Pools(gerber, gcode, dxf)
+    return Pools(gerber, gcode, dxf, drill)
 
 
 def _gcode_from_gerber(sources) -> list[tuple[str, bytes]]:
@@ -137,10 +142,13 @@ def _gcode_from_gerber(sources) -> list[tuple[str, bytes]]:
 
 # ---------------------------------------------------------------------- mutation
 
-def mutant(seed: int, pools: Pools, ci: bool = False) -> Mutant:
-    """The mutant of `seed`. With ci, sizes stay small (the CI sample runs in-process)."""
+def mutant(seed: int, pools: Pools, ci: bool = False,
+           formats: tuple[str, ...] = FORMATS) -> Mutant:
+    """The mutant of `seed` among `formats` (those with files in `pools`). With ci, sizes
+    stay small (the CI sample runs in-process)."""
     rng = random.Random(seed)
-    fmt = FORMATS[rng.randrange(len(FORMATS))] if pools.dxf else rng.choice(FORMATS[:2])
+    formats = tuple(f for f in formats if pools.of(f)) or ("gcode",)
+    fmt = formats[rng.randrange(len(formats))]
     kind = KINDS[rng.randrange(len(KINDS))]
     pool = pools.of(fmt)
     source, data = pool[rng.randrange(len(pool))]
@@ -221,12 +229,13 @@ def _huge_number(rng, data, fmt, ci):
     if not numbers:
         return data + _huge_digits(rng, ci), "huge number appended"
     roll = rng.random()
-    if roll < 0.25 and fmt in ("gerber", "gcode"):
+    if roll < 0.25 and fmt in ("gerber", "gcode", "drill"):
         # A run of 40 to 200 coordinate statements, all with huge values.
         words = list(re.finditer(rb"([XYIJ])([-+]?\d+(?:\.\d*)?)", data))
         if words:
             start = rng.randrange(len(words))
-            digits = rng.choice((12, 12, 13, 18, 19)) if fmt == "gerber" else rng.choice((9, 12, 13))
+            digits = rng.choice((12, 12, 13, 18, 19)) if fmt in ("gerber", "drill") \
+                else rng.choice((9, 12, 13))
             chosen = words[start:start + rng.randint(80, 400)]
             out, last = [], 0
             for m in chosen:
@@ -326,6 +335,19 @@ def _deep_nesting(rng, data, fmt, ci):
             how = f"{depth} '(' on one line"
         at = data.find(b"\n", rng.randrange(max(1, len(data)))) + 1
         return data[:at] + line + data[at:], how
+    if fmt == "drill":
+        roll = rng.randrange(3)
+        if roll == 0:
+            line = b"X1Y1" + b"G85X2Y2" * depth + b"\n"
+            how = f"a line of {depth} G85 slots"
+        elif roll == 1:
+            line = b"M48\n" * depth + b"T1C0.1\n" + b"%\n" * depth
+            how = f"{depth} headers opened"
+        else:
+            line = b";" + b"(" * depth + b"\nX" + b"+" * depth + b"1\n"
+            how = f"{depth} signs on one number"
+        at = data.find(b"\n", rng.randrange(max(1, len(data)))) + 1
+        return data[:at] + line + data[at:], how
     return _dxf_nested_blocks(rng, depth, ci), f"DXF blocks nested {depth} deep"
 
 
@@ -373,6 +395,12 @@ def _huge_repeat(rng, data, fmt, ci):
                 str(rng.choice((10**7, 10**12, 99999999999))).encode() + \
                 b"Y" + str(rng.choice((1, 10**7))).encode() + b"I0.1J0.1*%X0Y0D02*X1D01*%SR*%M02*"
             return small, "the 104-byte %SR file"
+    if fmt == "drill" and rng.random() < 0.4:
+        count = rng.choice((10, 1000, 10**6, 10**9, 10**30))
+        at = _drill_body(data)
+        step = rng.choice((b"X1000", b"Y-5", b"X0.1Y0.1", b"X" + b"9" * 12))
+        return data[:at] + b"X1000Y1000\nR%d%s\n" % (count, step) + data[at:], \
+            f"repeat R{count}"
     if fmt == "dxf" and rng.random() < 0.5:
         columns = rng.choice((10, 1000, 32767))
         rows = rng.choice((1, 100, 32767))
@@ -444,6 +472,8 @@ def _oddity(rng, data, fmt, ci):
         if roll == 5:
             return b"G1 X1 Y1 G2 X2 Y2 R1 I1\nG4 P-1\nG1 F0\nT99999999999999\n" + data, "bad words"
         return rng.choice((b"", b"\n", b"%\n", b"G\n", b"N1\n")), "a tiny file"
+    if fmt == "drill":
+        return _drill_oddity(rng, data)
     roll = rng.randrange(6)
     if roll == 0:
         return re.sub(rb"(\n *-?\d+)\.(\d+\r?\n)", rb"\1,\2", data, count=20), "decimal commas"
@@ -459,6 +489,45 @@ def _oddity(rng, data, fmt, ci):
         return data.replace(b"\n", b"\r\n"), "CRLF"
     return rng.choice((b"", b"0\nSECTION\n", b"AutoCAD Binary DXF\r\n\x1a\x00", b"999\n")), \
         "a tiny file"
+
+
+def _drill_body(data: bytes) -> int:
+    """Where a drill file's body starts (after the header's '%'), else its end."""
+    at = data.find(b"\n%")
+    if at < 0:
+        return len(data)
+    end = data.find(b"\n", at + 1)
+    return len(data) if end < 0 else end + 1
+
+
+_DRILL_ODDITIES = (
+    (b"G00X0Y0\nM15\nG02X10Y0A1\nM16\n", "an arc radius shorter than half its chord"),
+    (b"G00X0Y0\nM15\nG03X0Y0I5J0\nG02X0Y0\nM16\n", "a full circle and an arc without centre"),
+    (b"T0\nX1Y1\n", "a hole after T0"),
+    (b"T987654321\nX1Y1\n", "an undefined tool"),
+    (b"G91\n" + b"X9999999Y9999999\n" * 50, "incremental steps out to the far distance"),
+    (b"G93X999999999999Y1\nX1Y1\n", "a zero set far away"),
+    (b"METRIC,LZ,00000000.00000000\nX12345678901234567Y1\n", "a format of 16 digits"),
+    (b"M47,operator text\nM97,canned\nM71\nM72\nICI,ON\nX1\nICI,OFF\n", "text and modes"),
+    (b"X1Y1G85\nG85X2Y2\nG85\n", "G85 with a side missing"),
+    (b"T1C-1\nT2C\nT3C1e5\nTC1\n", "bad tool sizes"),
+)
+
+
+def _drill_oddity(rng, data):
+    roll = rng.randrange(len(_DRILL_ODDITIES) + 4)
+    if roll < len(_DRILL_ODDITIES):
+        insert, how = _DRILL_ODDITIES[roll]
+        at = _drill_body(data)
+        return data[:at] + insert + data[at:], how
+    roll -= len(_DRILL_ODDITIES)
+    if roll == 0:
+        return b"\xef\xbb\xbf" + data.replace(b"\n", b"\r\n"), "BOM and CRLF"
+    if roll == 1:
+        return data[_drill_body(data):], "no header"
+    if roll == 2:
+        return data.replace(b"M30", b"", 1) + b"\x00" * 64, "no M30, NUL padding"
+    return rng.choice((b"", b"M48\n", b"%\n", b"M48\n%\nX1Y1\n", b"T1C1\nX\n")), "a tiny file"
 
 
 def _binary(rng, data, fmt, ci):

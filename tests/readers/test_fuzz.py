@@ -5,7 +5,7 @@ GalileoError that names file:line. The op limit is lowered for the sample so ref
 of huge expansions come quickly; the campaign runs with the real limits, in children
 with a memory limit and a timeout. A failing seed is reproduced with
 `GALILEO_MAX_OPS=200000 GALILEO_MAX_BLOCK_ENTITIES=20000 python3 bench/bench_fuzz.py
---show SEED --ci`.
+--show SEED --ci` (a drill-only seed with `--formats drill`).
 """
 
 import numpy as np
@@ -14,10 +14,11 @@ import pytest
 import mutants
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.program.ops import I, J, X, Y
-from galileo_cnc.readers import read_file
+from galileo_cnc.readers import read_drill, read_file
 
 SEEDS = range(200)
-BOUNDS_NM = {"gerber": 10**10, "gcode": 10**12, "dxf": 10**15}
+DRILL_SEEDS = range(10_000, 10_060)       # drill-file mutants only
+BOUNDS_NM = {"gerber": 10**10, "gcode": 10**12, "dxf": 10**15, "drill": 10**10}
 
 
 @pytest.fixture(scope="module")
@@ -28,15 +29,22 @@ def pools():
     return loaded
 
 
-@pytest.mark.parametrize("seed", SEEDS)
-def test_a_mutant_reads_or_gives_a_positioned_error(seed, pools, tmp_path, monkeypatch):
+@pytest.mark.parametrize("seed, formats", [(seed, mutants.FORMATS) for seed in SEEDS]
+                         + [(seed, ("drill",)) for seed in DRILL_SEEDS])
+def test_a_mutant_reads_or_gives_a_positioned_error(seed, formats, pools, tmp_path, monkeypatch):
     monkeypatch.setenv("GALILEO_MAX_OPS", "200000")
     monkeypatch.setenv("GALILEO_MAX_BLOCK_ENTITIES", "20000")
-    mutant = mutants.mutant(seed, pools, ci=True)
+    mutant = mutants.mutant(seed, pools, ci=True, formats=formats)
     path = tmp_path / f"mutant-{seed}{mutant.extension}"
     path.write_bytes(mutant.data)
     what = f"seed {seed}: {mutant.fmt} {mutant.kind} of {mutant.source} ({mutant.how})"
     try:
+        if mutant.fmt == "drill":
+            drill = read_drill(path)
+            values = [v for h in drill.holes for v in (h.x_nm, h.y_nm)] + \
+                [v for s in drill.slots for v in (s.x0_nm, s.y0_nm, s.x1_nm, s.y1_nm, s.cx_nm, s.cy_nm)]
+            assert max(map(abs, values), default=0) <= BOUNDS_NM["drill"], what
+            return
         program = read_file(path)
     except GalileoError as error:
         pos = getattr(error, "pos", None)
