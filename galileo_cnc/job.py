@@ -167,6 +167,9 @@ class Job:
     units: str | None = None                # DXF: units given instead of $INSUNITS
     scale: Fraction = Fraction(1)           # the drawing scaled (plan/transform.py), exact
     rotate_deg: int = 0                     # and turned clockwise (0, 90, 180, 270)
+    #: a board's side: what plans it again (plan/board_plan.py, BoardChoice.as_dict);
+    #: None: a file alone
+    board: dict | None = None
     #: command index -> aperture: stop before that command for a pen change.
     pen_changes: dict[int, int] = field(default_factory=dict)
     #: aperture (pen key) -> what to ask for: "the 0.3 mm pen", "pen for aperture D11 (...)"

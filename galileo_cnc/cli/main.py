@@ -197,7 +197,8 @@ def _run_plot(args: argparse.Namespace) -> int:
                               group=not args.file_order, mode=args.mode,
                               layers=_layers(args), units=args.units, optimize=args.optimize,
                               transform=_transform(args), home=args.home, check=args.check,
-                              handle=handle, kind=kind, allow_open=args.allow_open)
+                              handle=handle, kind=kind, allow_open=args.allow_open,
+                              board=_board_choice(args))
         return run_plot(options)
     finally:
         if handle is not None:
@@ -243,12 +244,12 @@ def _plan(args: argparse.Namespace, config):
     """plan_file for preview and convert: their result goes to stdout, so the stages
     of planning go to stderr, and only on a terminal."""
     from galileo_cnc.cli.plot import stages_on_terminal
-    from galileo_cnc.plan.pipeline import plan_file
+    from galileo_cnc.plan.board_plan import plan_source
 
     with stages_on_terminal(sys.stderr) as on_stage:
-        return plan_file(args.file, config, args.offset,
-                         margin_nm=round(args.margin * NM_PER_MM),
-                         options=_plan_options(args), on_stage=on_stage)
+        return plan_source(args.file, config, args.offset, board=_board_choice(args),
+                           margin_nm=round(args.margin * NM_PER_MM),
+                           options=_plan_options(args), on_stage=on_stage)
 
 
 def _run_convert(args: argparse.Namespace) -> int:
@@ -346,6 +347,40 @@ def _add_job_options(parser: argparse.ArgumentParser) -> None:
     _add_optimize_option(parser)
     _add_ink_options(parser)
     _add_drawing_options(parser)
+    _add_board_options(parser)
+
+
+def _add_board_options(parser: argparse.ArgumentParser) -> None:
+    """A board's side (plan/board_plan.py; docs/boards.md)."""
+    parser.add_argument("--side", choices=("top", "bottom"),
+                        help="a board: which side (default top); the bottom is mirrored so "
+                        "turning the blank over puts it on the top")
+    parser.add_argument("--drill-marks", choices=("none", "small", "actual"),
+                        help="a board: leave each hole's centre bare in the ink, as a small "
+                        "dot (the default) or the whole hole, so etching marks where to drill")
+    parser.add_argument("--drill-mark-size", type=margin_mm, metavar="MM",
+                        help="a board: the small drill marks' width (default 0.3 mm, never "
+                        "wider than the hole)")
+    parser.add_argument("--mirror-axis", metavar="x=MM|y=MM",
+                        help="a board: the line the blank turns over about, in board mm "
+                        "(default: the vertical centre line of the outline, else of the holes)")
+    parser.add_argument("--registration", action="store_true",
+                        help="a board: crosses drawn on both sides to check the turn-over")
+    _add_layer_option(parser)
+
+
+def _board_choice(args: argparse.Namespace):
+    """The board options given (None: none given, so a file alone is fine)."""
+    from galileo_cnc.plan.board_plan import BoardChoice
+    from galileo_cnc.plan.sides import parse_axis
+    given = {"side": args.side, "drill_marks": args.drill_marks,
+             "drill_mark_nm": None if args.drill_mark_size is None
+             else round(args.drill_mark_size * NM_PER_MM),
+             "mirror_axis": parse_axis(args.mirror_axis) if args.mirror_axis else None,
+             "registration": args.registration or None,
+             "layers": tuple(args.layer) if args.layer else None}
+    given = {key: value for key, value in given.items() if value is not None}
+    return BoardChoice(**given) if given else None
 
 
 def _add_optimize_option(parser: argparse.ArgumentParser) -> None:

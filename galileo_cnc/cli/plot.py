@@ -34,7 +34,8 @@ from galileo_cnc.plan.ink.background import Deferred
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
 from galileo_cnc.plan.open_traces import ink_warnings, open_traces
 from galileo_cnc.plan.widths import mm_text
-from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, PlanOptions, plan_file
+from galileo_cnc.plan.board_plan import plan_source
+from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, PlanOptions
 from galileo_cnc.preview.formats import is_svg
 from galileo_cnc.program.ops import NM_PER_MM
 from galileo_cnc.stream.homing import check_homeable
@@ -149,6 +150,8 @@ class PlotOptions:
     #: answered there: the machine greets over it instead of opening the port again
     handle: Any = None
     kind: str | None = None
+    #: a board's side and choices (plan/board_plan.py); None: the defaults on a board
+    board: Any = None
 
     @property
     def plan(self) -> PlanOptions:
@@ -203,9 +206,10 @@ def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None
     planned = None
     if not options.resume:              # a resumed job is planned from its journal
         with progress.staging() as on_stage:
-            planned = plan_file(options.file, profile.config, options.offset,
-                                margin_nm=options.margin_nm, on_progress=progress.planning,
-                                on_stage=on_stage, options=options.plan)
+            planned = plan_source(options.file, profile.config, options.offset,
+                                  board=options.board, margin_nm=options.margin_nm,
+                                  on_progress=progress.planning, on_stage=on_stage,
+                                  options=options.plan)
         if planned.ink is not None and not options.allow_open:
             refuse_open_traces(planned.ink)  # before the machine is opened
     # our firmware's timing (the estimate and the progress line's time left: 3.5 s for
@@ -317,9 +321,14 @@ def _home_first(machine, progress: TextProgress, profile: Profile) -> None:
 
 
 def _say_place(planned, out: TextIO) -> None:
-    """Where the drawing sits in the file, and the offset that moves it."""
+    """A board's side and its axis, where the drawing sits in the file, and the offset
+    that moves it."""
     program, box = planned.artwork.program, planned.artwork.drawn_box_nm
     offset = planned.offset_nm
+    if getattr(planned, "side_line", ""):
+        out.write(f"{planned.side_line}\n")
+    for warning in getattr(planned, "drill_mark_warnings", ()):
+        out.write(f"{warning}\n")
     if box is not None:
         done = planned.artwork.transform.describe()
         out.write(f"{program.source}: {done + '; ' if done else ''}"

@@ -7,6 +7,7 @@ changes. Lengths are nm inside; mm only in what is printed and typed.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 
 from prompt_toolkit.completion import PathCompleter
@@ -15,20 +16,30 @@ from galileo_cnc.config.machine import pen_widths_from_text
 from galileo_cnc.console import jobs
 from galileo_cnc.plan.offsets import offset_from_text
 from galileo_cnc.errors import GalileoError
+from galileo_cnc.plan.board_plan import BoardChoice, plan_board
 from galileo_cnc.plan.feeds import machine_refusal
 from galileo_cnc.plan.open_traces import ink_warnings, open_traces
 from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, Artwork, PlanOptions, load_artwork
+from galileo_cnc.plan.sides import parse_axis
 from galileo_cnc.plan.transform import Transform
+from galileo_cnc.readers.board import is_board
 from galileo_cnc.program.ops import NM_PER_MM
 
 
 def run(console, arguments: list[str]) -> None:
-    options, config, arguments = _options(console, arguments)
+    options, config, board, arguments = _options(console, arguments)
     path = " ".join(arguments) if arguments else console.ask(
         "file to plot: ", completer=PathCompleter(expanduser=True))
     if not path:
         return
     console.machine.check_profile()         # e.g. a board built for another machine
+    if is_board(os.path.expanduser(path)):
+        _board(console, os.path.expanduser(path), options, config, board)
+        return
+    if board:
+        raise GalileoError(f"getg: --side, --drill-marks, --mirror-axis, --registration and "
+                           f"--layer are for a board (a folder, .zip or .gbrjob); {path} is "
+                           f"one file")
     artwork = load_artwork(os.path.expanduser(path), layers=options.layers,
                            units=options.units, transform=options.transform,
                            config=console.config)     # GalileoError: one message, no traceback
@@ -60,34 +71,90 @@ def run(console, arguments: list[str]) -> None:
         return
     if planned is None or planned.offset_nm != offset_nm:
         planned = plan("auto" if offset_nm == artwork.proposal_nm else offset_nm)
+    if not _ink_accepted(console, planned):
+        return
+    jobs.plot(console, planned, config)
+
+
+def _ink_accepted(console, planned) -> bool:
+    """The ink's and the feeds' warnings said; trace pieces left out asked about."""
     if planned.ink is not None:
         for warning in ink_warnings(planned.ink):
             console.say(warning)
         if open_traces(planned.ink) is not None and \
                 not console.confirm("plot it with these trace pieces left out?", default=False):
             console.say("not plotted (getg --pens MM,MM plans it for other pens)")
-            return
+            return False
     for warning in planned.feed_warnings:
         console.say(warning)
-    jobs.plot(console, planned, config)
+    return True
 
 
-def _options(console, arguments: list[str]) -> tuple[PlanOptions, object, list[str]]:
+def _board(console, path: str, options: PlanOptions, config, board: dict) -> None:
+    """getg BOARD: the top side, the turn-over, the bottom side, with one offset (the
+    bottom mirrored to land on the top); `--side` plots that side alone. Planned
+    afresh each time (the console's PlanCache keeps files, not boards)."""
+    one_side = "side" in board
+    choice = BoardChoice(**board)
+    offset = "auto"
+    for side in ((choice.side,) if one_side else ("top", "bottom")):
+        side_choice = dataclasses.replace(choice, side=side)
+        planned = plan_board(path, config, offset, choice=side_choice, options=options,
+                             on_stage=console.say_stage)
+        if offset == "auto":
+            offset_nm = choose_offset(console, planned.artwork, planned)
+            if offset_nm is None:
+                return
+            if offset_nm != planned.offset_nm:
+                planned = plan_board(path, config, offset_nm, choice=side_choice,
+                                     options=options, on_stage=console.say_stage)
+            offset = planned.offset_nm      # the other side: the same offset
+        console.say(planned.side_line)
+        for warning in planned.drill_mark_warnings:
+            console.say(warning)
+        if side == "bottom" and not one_side:
+            console.say(f"turn the blank over about {turn_over_line(planned)} against "
+                        f"the fence, and fix it down again")
+            if not console.confirm("is it turned over? plot the bottom side?"):
+                console.say(f"not plotted: getg --side bottom {path} plots it later")
+                return
+        if not _ink_accepted(console, planned) or not jobs.plot(console, planned, config):
+            return                          # stopped: resume finishes this side
+
+
+def turn_over_line(planned) -> str:
+    """`the vertical line X 37.5000 mm on the machine (work)`: where the blank turns."""
+    axis = planned.axis
+    line = "vertical" if axis.axis == "x" else "horizontal"
+    return f"the {line} line {axis.axis.upper()} {axis.on_machine_mm(planned.offset_nm):.4f} " \
+           f"mm on the machine (work)"
+
+
+def _options(console, arguments: list[str]):
     """`--mode ink|centre`, `--pens 0.3,0.8` (the profile's pens otherwise), a DXF
     drawing's `--layers A,B` and `--units mm|in`, and `--optimize` (order G-code's
-    paths too), before the file name; GalileoError for anything else that starts
-    with --."""
+    paths too), before the file name; a board's `--side`, `--drill-marks`,
+    `--mirror-axis`, `--registration` and `--layer FILE=ROLE`; GalileoError for
+    anything else that starts with --. (PlanOptions, config, the board's choices as
+    BoardChoice's keywords, the rest)."""
     mode, config, rest = "auto", console.config, list(arguments)
     layers: tuple[str, ...] = ()
     units = None
     optimize = fit = False
     scale = rotate = None
+    board: dict = {}
     while rest and rest[0].startswith("--"):
         flag = rest.pop(0)
         if flag in ("--optimize", "--fit"):       # the options without a value
             optimize, fit = optimize or flag == "--optimize", fit or flag == "--fit"
             continue
+        if flag == "--registration":
+            board["registration"] = True
+            continue
         value = rest.pop(0) if rest else ""
+        if flag in BOARD_FLAGS:
+            _board_option(board, flag, value)
+            continue
         if flag in ("--scale", "--rotate"):
             scale, rotate = (value, rotate) if flag == "--scale" else (scale, value)
             continue
@@ -103,9 +170,31 @@ def _options(console, arguments: list[str]) -> tuple[PlanOptions, object, list[s
             raise GalileoError(f"getg: unknown option {flag} {value}".rstrip()
                                + " (getg [--mode ink|centre] [--pens MM,MM] [--layers A,B] "
                                "[--units mm|in] [--optimize] [--scale F] [--rotate 90|180|270] "
-                               "[--fit] [FILE])")
+                               "[--fit] [--side top|bottom] [--drill-marks none|small|actual] "
+                               "[--mirror-axis x=MM] [--registration] [--layer FILE=ROLE] "
+                               "[FILE])")
     return PlanOptions(mode=mode, layers=layers, units=units, optimize=optimize,
-                       transform=Transform.asked(scale, rotate, fit)), config, rest
+                       transform=Transform.asked(scale, rotate, fit)), config, board, rest
+
+
+BOARD_FLAGS = ("--side", "--drill-marks", "--mirror-axis", "--layer")
+
+
+def _board_option(board: dict, flag: str, value: str) -> None:
+    if flag == "--side" and value in ("top", "bottom"):
+        board["side"] = value
+    elif flag == "--drill-marks" and value in ("none", "small", "actual"):
+        board["drill_marks"] = value
+    elif flag == "--mirror-axis":
+        try:
+            board["mirror_axis"] = parse_axis(value)
+        except ValueError as problem:
+            raise GalileoError(f"getg: {problem}") from None
+    elif flag == "--layer" and "=" in value:
+        board["layers"] = (*board.get("layers", ()), value)
+    else:
+        raise GalileoError(f"getg: {flag} {value}: expected --side top|bottom, --drill-marks "
+                           f"none|small|actual, --mirror-axis x=MM or y=MM, --layer FILE=ROLE")
 
 
 def choose_offset(console, artwork: Artwork, inked=None) -> tuple[int, int] | None:

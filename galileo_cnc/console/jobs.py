@@ -9,15 +9,16 @@ from galileo_cnc.machine.timing import duration_text
 from galileo_cnc.transport.link import PortGone
 
 
-def plot(console, planned, config) -> None:
-    """getg's job: estimated, travel-checked, journalled and streamed."""
+def plot(console, planned, config) -> bool:
+    """getg's job: estimated, travel-checked, journalled and streamed; True when it
+    ran to its end."""
     machine = console.machine
     job = machine.prepare(planned, config,
                           timing=lambda: console.plans.timing(planned.job, console.config))
     pens = len(planned.job.pen_changes)
     console.say(f"{job.remaining} {job.unit_long}, {pens} pen change{'s' * (pens != 1)}, "
                 f"about {duration_text(job.estimate_s)} {job.estimate_by}")
-    _run(console, job, lambda operator: machine.run_job(job, operator))
+    return _run(console, job, lambda operator: machine.run_job(job, operator))
 
 
 def resume(console) -> None:
@@ -38,11 +39,15 @@ def resume(console) -> None:
         console.say("then move it there (setup jogs the head), and type resume again")
         return
     job = resumption.job
-    _run(console, job, lambda operator: machine.run_job(job, operator))
+    if _run(console, job, lambda operator: machine.run_job(job, operator)):
+        planned = job.planned.job
+        if planned.board is not None and planned.board.get("side") == "top":
+            console.say(f"the top side is done: turn the blank over and type getg --side "
+                        f"bottom {planned.source} for the bottom")
 
 
-def _run(console, job, run) -> None:
-    """The job under the progress bar, and how it ended."""
+def _run(console, job, run) -> bool:
+    """The job under the progress bar, and how it ended (True: to its end)."""
     screen = JobScreen(console, job.source, job.total, start=job.start)
     try:
         result = screen.run(run, console.machine.stop)
@@ -56,8 +61,9 @@ def _run(console, job, run) -> None:
     if result.completed:
         console.say(f"{BELL}process has finished in {duration_text(result.elapsed_s)} "
                     f"({result.total} {result.unit}){where}")
-        return
+        return True
     reason = f": {result.reason}" if result.reason else ""
     held = f"; {result.held}{where}" if result.held else ""
     console.say(f"job stopped after {result.confirmed} of {result.total} {result.unit}"
                 f"{reason}{held}; type resume to continue it")
+    return False

@@ -269,7 +269,8 @@ class GrblJob:
             source, digest, job.offset_nm, self.config.to_toml(), job.grouped,
             len(self.lines), -1, 0, 0, start_position=here, mode=job.mode,
             ordered=job.ordered, pens_nm=tuple(job.pens_nm), layers=tuple(job.layers),
-            units=job.units, scale=str(job.scale), rotate_deg=job.rotate_deg))
+            units=job.units, scale=str(job.scale), rotate_deg=job.rotate_deg,
+            board=job.board))
 
     def stop(self) -> None:
         """From another thread: feed hold now (GRBL decelerates on its path), and the

@@ -37,10 +37,17 @@ RUNNING, INTERRUPTED, FINISHED, ABORTED, FAILED, RESET = (
 
 
 def file_digest(path: str | os.PathLike) -> str:
+    """SHA-256 of a file; of a folder (a board), of its files' names and bytes, in
+    name order, so a board changed in any file is another board."""
     digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
+    root = Path(path)
+    files = sorted(p for p in root.rglob("*") if p.is_file()) if root.is_dir() else [root]
+    for file in files:
+        if root.is_dir():
+            digest.update(file.relative_to(root).as_posix().encode() + b"\0")
+        with open(file, "rb") as fh:
+            for block in iter(lambda: fh.read(1 << 20), b""):
+                digest.update(block)
     return digest.hexdigest()
 
 
@@ -79,6 +86,9 @@ class JournalEntry:
     #: a stopped job (q, Ctrl-C): the work position (steps) where the machine stood
     #: once it ramped down, before the pen was lifted there; None: not stopped so
     stopped_at: tuple | None = None
+    #: a board's side (plan/board_plan.py's BoardChoice as a dict): `source` is then the
+    #: board (folder, .zip or .gbrjob); None: a file alone (older journals: none)
+    board: dict | None = None
 
     def index_of_seq(self, seq: int) -> int | None:
         """The command a sequence number of this session would belong to (the
@@ -134,6 +144,8 @@ _FIELD_CHECKS = {
               is not None, "a fraction such as 4/5"),
     "rotate_deg": (lambda v: v in (0, 90, 180, 270), "0, 90, 180 or 270"),
     "stopped_at": (lambda v: v is None or _integers(3)(v), "null or a list of 3 integers"),
+    "board": (lambda v: v is None or (isinstance(v, dict) and all(isinstance(k, str) for k in v)),
+              "null or the board's side and choices"),
 }
 _REQUIRED = ("source", "digest", "offset_nm", "profile", "group", "total", "confirmed",
              "first_index", "first_seq")

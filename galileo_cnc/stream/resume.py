@@ -45,6 +45,7 @@ from galileo_cnc.config.machine import MachineConfig, tomllib
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.job import Command, Job, LineTo, PenDown, Rapid, SetFeed
 from galileo_cnc.machine import ReferenceMachine
+from galileo_cnc.plan.board_plan import BoardChoice, plan_board
 from galileo_cnc.plan.pipeline import Artwork, PlannedFile, PlanOptions, plan_file
 from galileo_cnc.plan.transform import Transform
 from galileo_cnc.program.ops import Program
@@ -180,13 +181,17 @@ def replan(entry: JournalEntry, config: MachineConfig,
     """The journal's job planned again exactly as it was (file, offset, mode, order,
     pens, layers, units, scale and rotation; the planner is deterministic), for our
     firmware's resume and GRBL's. `on_stage`: see plan_file; `plan`: plan_file, or one
-    that keeps plans (the console's PlanCache)."""
-    return plan(entry.source, config, tuple(entry.offset_nm),
-                options=PlanOptions(mode=entry.mode, file_order=not entry.group,
-                                    pens_nm=tuple(entry.pens_nm),
-                                    layers=tuple(entry.layers), units=entry.units,
-                                    transform=Transform(Fraction(entry.scale),
-                                                        entry.rotate_deg)),
+    that keeps plans (the console's PlanCache). A board's side (`entry.board`) is
+    planned from the board again, the same side with the same choices."""
+    options = PlanOptions(mode=entry.mode, file_order=not entry.group,
+                          pens_nm=tuple(entry.pens_nm), layers=tuple(entry.layers),
+                          units=entry.units,
+                          transform=Transform(Fraction(entry.scale), entry.rotate_deg))
+    if entry.board is not None:
+        return plan_board(entry.source, config, tuple(entry.offset_nm),
+                          choice=BoardChoice.from_dict(entry.board), options=options,
+                          optimize=entry.ordered, on_stage=on_stage)
+    return plan(entry.source, config, tuple(entry.offset_nm), options=options,
                 optimize=entry.ordered, on_stage=on_stage)
 
 

@@ -502,7 +502,7 @@ class JobStreamer:
             start_position=self.job_start, mode=self.job.mode, ordered=self.job.ordered,
             pens_nm=tuple(self.job.pens_nm), layers=tuple(self.job.layers),
             units=self.job.units, homed=self.homed, scale=str(self.job.scale),
-            rotate_deg=self.job.rotate_deg))
+            rotate_deg=self.job.rotate_deg, board=self.job.board))
 
     def _journal_end(self, state: str, reason: str = "") -> None:
         if self.journal is not None and self.journal.entry is not None:

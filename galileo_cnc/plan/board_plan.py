@@ -1,0 +1,148 @@
+"""A board's side as one job: `plot BOARD --side top|bottom`, `getg BOARD`.
+
+The board (readers/board/: a folder, a .zip or a .gbrjob) gives the side's copper,
+every drill file's holes and slots (readers/excellon/), and the outline; plan_file
+then leaves the holes' drill marks bare in the ink, mirrors the bottom about the
+axis and offsets both sides by one offset (pipeline.py, sides.py, drill_marks.py).
+The job's source becomes the board and `job.board` the user's choices
+(BoardChoice), so the journal keeps both and a resume plans the same side again.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+from galileo_cnc.config.machine import MachineConfig
+from galileo_cnc.plan.drill_marks import DEFAULT_DRILL_MARK_NM
+from galileo_cnc.plan.pipeline import OffsetChoice, PlannedFile, PlanOptions, plan_file
+from galileo_cnc.plan.sides import union_box
+from galileo_cnc.plan.transform import reach_box
+from galileo_cnc.program.drills import Hole, Slot
+from galileo_cnc.readers import read_drill, read_file
+from galileo_cnc.readers.board import Board, BoardError, is_board, open_board
+
+#: zip boards stay unpacked while the program runs: messages, previews and a resume
+#: in the same session name their files
+_UNPACKED: list[Board] = []
+
+
+@dataclass(frozen=True)
+class BoardChoice:
+    """What the user chose for a board: the side, the drill marks, the mirror axis
+    (("x" | "y", nm) in board coordinates; None: the default), registration
+    crosses, and `FILE=ROLE` overrides of the files' roles."""
+
+    side: str = "top"
+    drill_marks: str = "small"
+    drill_mark_nm: int = DEFAULT_DRILL_MARK_NM
+    mirror_axis: tuple[str, int] | None = None
+    registration: bool = False
+    layers: tuple[str, ...] = ()
+
+    def as_dict(self) -> dict:
+        """For job.board and the journal (JSON)."""
+        data = dataclasses.asdict(self)
+        data["mirror_axis"] = list(self.mirror_axis) if self.mirror_axis else None
+        data["layers"] = list(self.layers)
+        return data
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "BoardChoice":
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise BoardError(f"the journal's board has unknown keys {', '.join(unknown)}")
+        axis = data.get("mirror_axis")
+        return cls(**{**data, "mirror_axis": (str(axis[0]), int(axis[1])) if axis else None,
+                      "layers": tuple(data.get("layers") or ())})
+
+    def other_side(self) -> "BoardChoice":
+        return dataclasses.replace(self, side="bottom" if self.side == "top" else "top")
+
+
+def is_board_job(job) -> bool:
+    return getattr(job, "board", None) is not None
+
+
+def board_holes(board: Board) -> list[Hole | Slot]:
+    """Every drill file's holes and slots; a file's role says its plating when the
+    file does not (drill-plated, drill-unplated)."""
+    drills: list[Hole | Slot] = []
+    for layer in board.drills():
+        drill = read_drill(str(layer.path))
+        plated = {"drill-plated": True, "drill-unplated": False}.get(layer.role)
+        for item in (*drill.holes, *drill.slots):
+            if item.plated is None and plated is not None:
+                item = dataclasses.replace(item, plated=plated)
+            drills.append(item)
+    return drills
+
+
+def _one(board: Board, role: str, required: bool) -> Path | None:
+    files = board.files(role)
+    if len(files) > 1:
+        raise BoardError(f"{board.source}: {len(files)} files are {role} "
+                         f"({', '.join(f.file for f in files)}): --layer FILE=other leaves "
+                         f"one out")
+    if not files:
+        if required:
+            raise BoardError(f"{board.source}: no file is {role} (info BOARD lists the "
+                             f"files; --layer FILE={role} places one)")
+        return None
+    return files[0].path
+
+
+def side_options(board: Board, choice: BoardChoice,
+                 options: PlanOptions = PlanOptions()) -> tuple[Path, PlanOptions]:
+    """The side's copper file and the options that plan it as part of the board."""
+    copper = _one(board, f"{choice.side}-copper", required=True)
+    outline_path = _one(board, "outline", required=False)
+    outline = read_file(outline_path) if outline_path is not None else None
+    boxes = [reach_box(read_file(path)) for role in ("top-copper", "bottom-copper")
+             if (path := _one(board, role, required=False)) is not None]
+    if outline is not None:
+        boxes.append(reach_box(outline))
+    return copper, dataclasses.replace(
+        options, holes=tuple(board_holes(board)), drill_marks=choice.drill_marks,
+        drill_mark_nm=choice.drill_mark_nm, side=choice.side, mirror_axis=choice.mirror_axis,
+        registration=choice.registration, outline_program=outline,
+        board_box_nm=union_box(*boxes))
+
+
+def plan_board(path: str | os.PathLike, config: MachineConfig | None = None,
+               offset: OffsetChoice = "auto", *, choice: BoardChoice = BoardChoice(),
+               options: PlanOptions = PlanOptions(),
+               plan: Callable[..., PlannedFile] = plan_file, **kwargs) -> PlannedFile:
+    """The board at `path`, one side planned (plan_file's keywords pass through)."""
+    board = open_board(path, choice.layers)
+    keep = board.root != Path(path) and Path(path).suffix.lower() == ".zip"
+    try:
+        copper, side = side_options(board, choice, options)
+        planned = plan(str(copper), config, offset, options=side, **kwargs)
+    finally:
+        if keep:
+            _UNPACKED.append(board)
+        else:
+            board.close()
+    planned.job.source = str(Path(path).resolve())
+    planned.job.board = choice.as_dict()
+    return planned
+
+
+def plan_source(source: str | os.PathLike, config: MachineConfig | None = None,
+                offset: OffsetChoice = "auto", *, board: BoardChoice | None = None,
+                options: PlanOptions = PlanOptions(), **kwargs) -> PlannedFile:
+    """plan_file for a file, plan_board for a board (a folder, .zip or .gbrjob);
+    `board` None on a board: its top side with the defaults."""
+    if is_board(source):
+        return plan_board(source, config, offset, choice=board or BoardChoice(),
+                          options=options, **kwargs)
+    if board is not None:
+        raise BoardError(f"{os.fsdecode(source)}: --side, --drill-marks, --mirror-axis, "
+                         f"--registration and --layer are for a board (a folder, .zip or "
+                         f".gbrjob), and this is one file")
+    return plan_file(source, config, offset, options=options, **kwargs)
