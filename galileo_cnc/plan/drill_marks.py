@@ -1,0 +1,255 @@
+"""Drill marks: the ink leaves each hole's centre bare, so etching leaves a pit that
+centres the bit (KiCad's plot option "drill marks", for toner and pen transfer).
+
+- `none`: the pads are inked solid, as without holes;
+- `small` (the default): a dot `size_nm` wide (0.3 mm), never wider than the hole,
+  at each hole's centre; a slot gets a dot at each end of its path (where a hand
+  drill starts the slot);
+- `actual`: the whole hole; a slot its whole stadium (an arc slot swept along its arc).
+
+The copper around a mark is still inked. A mark must leave a ring the smallest pen
+can fill (its width plus the edge margins, as the ink's `limit`, ink/inking.py):
+where the copper round a hole is thinner, the copper wins: the mark shrinks, down
+to MIN_MARK_NM, or is left out, and a warning names the hole's place in mm. A mark
+whose centre is off the copper (an unplated hole without a pad) is left out quietly:
+the board is bare there already.
+
+In ink mode the marks reach the ink as `bare` (ink_paths): out of the copper before
+the fill, centre lines cut a pen radius short of them. In centre mode a flash on a
+hole is drawn as a ring around its mark instead of a dot (`ring_flashes`).
+Everything is in integer nm; the discs are pyclipper's round offsets (clip.py).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Sequence, Union
+
+import numpy as np
+import pyclipper as pc
+
+from galileo_cnc.plan import curves
+from galileo_cnc.plan.ink import clip
+from galileo_cnc.plan.ink.edges import EdgeIndex
+from galileo_cnc.plan.widths import mm_text
+from galileo_cnc.program.drills import Hole, Slot
+from galileo_cnc.program.ops import (COL, COLUMNS, I, J, KIND, LINE, NM_PER_MM, TOOL, X, Y,
+                                     OpKind, Program)
+
+DRILL_MARK_MODES = ("none", "small", "actual")
+#: the small mark's width (KiCad's small drill marks are 0.3 mm wide too)
+DEFAULT_DRILL_MARK_NM = 300_000
+#: a mark shrunk below this width is left out: too small a pit to find
+MIN_MARK_NM = 100_000
+#: the ink keeps this far from a mark: the stepped path strays up to ~0.7 step (8.75 um)
+MARK_CLEARANCE_NM = 10_000
+#: a slot's path is measured against the copper at points this far apart
+_SAMPLE_NM = 10_000
+
+Drill = Union[Hole, Slot]
+
+
+@dataclass(frozen=True)
+class DrillMark:
+    """One bare area: the disc of `radius_nm` swept along `path` (one point: a dot)."""
+
+    path: tuple[tuple[int, int], ...]
+    radius_nm: int
+    drill: Drill
+
+    @property
+    def where(self) -> str:
+        x, y = self.path[0]
+        what = "slot" if isinstance(self.drill, Slot) else "hole"
+        return (f"the {mm_text(self.drill.diameter_nm)} mm {what} at "
+                f"X {x / NM_PER_MM:.3f}, Y {y / NM_PER_MM:.3f} mm")
+
+    def polygons(self, tolerance_nm: int, grown_nm: int = 0) -> list:
+        """The mark's area (grown by `grown_nm`), a pyclipper set."""
+        return clip.stroke([list(self.path)], self.radius_nm + grown_nm, tolerance_nm)
+
+
+def check_mode(mode: str) -> str:
+    if mode not in DRILL_MARK_MODES:
+        raise ValueError(f"--drill-marks: expected none, small or actual, got {mode!r}")
+    return mode
+
+
+def marks_for(drills: Sequence[Drill], mode: str = "small",
+              size_nm: int = DEFAULT_DRILL_MARK_NM, tolerance_nm: int = 2_000
+              ) -> list[DrillMark]:
+    """The marks the holes and slots ask for, before the copper is asked (module doc)."""
+    if check_mode(mode) == "none":
+        return []
+    marks = []
+    for drill in drills:
+        radius = drill.diameter_nm // 2 if mode == "actual" \
+            else min(size_nm, drill.diameter_nm) // 2
+        if radius <= 0:
+            continue
+        if isinstance(drill, Hole):
+            marks.append(DrillMark(((drill.x_nm, drill.y_nm),), radius, drill))
+        elif mode == "small":
+            ends = {(drill.x0_nm, drill.y0_nm), (drill.x1_nm, drill.y1_nm)}
+            marks += [DrillMark((end,), radius, drill) for end in sorted(ends)]
+        else:
+            marks.append(DrillMark(slot_path(drill, tolerance_nm), radius, drill))
+    return marks
+
+
+def slot_path(slot: Slot, tolerance_nm: int) -> tuple[tuple[int, int], ...]:
+    """A slot's centre line as points: its ends, or its arc in chords within the tolerance."""
+    if slot.arc:
+        points = curves.arc_points(slot.x0_nm, slot.y0_nm, slot.x1_nm, slot.y1_nm,
+                                   slot.cx_nm - slot.x0_nm, slot.cy_nm - slot.y0_nm,
+                                   slot.arc == "cw", tolerance_nm)
+        return tuple((int(x), int(y)) for x, y in np.asarray(points).tolist())
+    ends = ((slot.x0_nm, slot.y0_nm), (slot.x1_nm, slot.y1_nm))
+    return ends[:1] if ends[0] == ends[1] else ends
+
+
+@dataclass
+class FittedMarks:
+    """The marks the copper leaves room for, and what became of the others."""
+
+    marks: list[DrillMark]
+    warnings: list[str]
+    off_copper: int = 0          # marks left out quietly: no copper at their centre
+
+    def bare(self, tolerance_nm: int, clearance_nm: int = MARK_CLEARANCE_NM) -> list:
+        """The area the ink keeps out of: every mark grown by the clearance."""
+        if not self.marks:
+            return []
+        return clip.union(*[mark.polygons(tolerance_nm, clearance_nm) for mark in self.marks])
+
+
+def fit_marks(marks: list[DrillMark], copper: list, ring_nm: int, pen_nm: int,
+              clearance_nm: int = MARK_CLEARANCE_NM) -> FittedMarks:
+    """Each mark shrunk so that `ring_nm` of copper (what the pen `pen_nm` needs to
+    fill) is left between its clearance and the copper's edge, or left out below
+    MIN_MARK_NM (module doc). `copper`: a pyclipper set, positive winding."""
+    rings = clip.rings_as_arrays(copper)
+    if not marks or not rings:
+        return FittedMarks([], [], len(marks))
+    index = EdgeIndex(rings, cell_nm=max(ring_nm, 200_000))
+    inside = _inside(rings, np.array([mark.path[0] for mark in marks], dtype=np.int64))
+    kept, warnings, off = [], [], 0
+    for mark, on_copper in zip(marks, inside.tolist()):
+        if not on_copper:
+            off += 1
+            continue
+        samples = _samples(mark.path)
+        _edge, _t, distance = index.nearest_many(samples, ring_nm + mark.radius_nm)
+        room = float(distance.min()) - _SAMPLE_NM / 2
+        widest = math.floor(room - ring_nm - clearance_nm)
+        wall = f"the copper round it is {max(0.0, room - mark.radius_nm) / NM_PER_MM:.2f} mm"
+        if widest >= mark.radius_nm:
+            kept.append(mark)
+        elif 2 * widest >= MIN_MARK_NM:
+            kept.append(dataclasses.replace(mark, radius_nm=widest))
+            warnings.append(f"drill mark of {mark.where}: {wall} wide, too thin for the "
+                            f"{mm_text(pen_nm)} mm pen round a {mm_text(2 * mark.radius_nm)} "
+                            f"mm mark: made {2 * widest / NM_PER_MM:.2f} mm wide")
+        else:
+            warnings.append(f"drill mark of {mark.where}: left out, {wall} wide from the "
+                            f"centre, too thin for the {mm_text(pen_nm)} mm pen round a mark; "
+                            "the copper is inked solid")
+    return FittedMarks(kept, warnings, off)
+
+
+def _samples(path: tuple[tuple[int, int], ...]) -> np.ndarray:
+    """Points along the path at most _SAMPLE_NM apart, its vertices included."""
+    points = np.array(path, dtype=np.float64)
+    out = [points[:1]]
+    for a, b in zip(points[:-1], points[1:]):
+        count = max(1, math.ceil(math.hypot(*(b - a)) / _SAMPLE_NM))
+        t = np.arange(1, count + 1)[:, None] / count
+        out.append(a + (b - a) * t)
+    return np.rint(np.concatenate(out)).astype(np.int64)
+
+
+def _inside(rings: list[np.ndarray], points: np.ndarray) -> np.ndarray:
+    """Which points are inside the set (positive winding: outers count +1, holes -1),
+    asking only the rings whose box holds the point."""
+    lows = np.array([ring.min(axis=0) for ring in rings])
+    highs = np.array([ring.max(axis=0) for ring in rings])
+    signs = [1 if pc.Area(ring.tolist()) > 0 else -1 for ring in rings]
+    result = np.zeros(len(points), dtype=bool)
+    for k, (x, y) in enumerate(points.tolist()):
+        near = np.flatnonzero((lows[:, 0] <= x) & (highs[:, 0] >= x) & (lows[:, 1] <= y)
+                              & (highs[:, 1] >= y))
+        winding = sum(signs[r] for r in near.tolist()
+                      if pc.PointInPolygon((x, y), rings[r].tolist()) == 1)
+        result[k] = winding > 0
+    return result
+
+
+class MarkCutter:
+    """The `bare` hook ink_paths calls with the copper (module doc): fits the marks to
+    it and keeps what it decided, for the warnings and the previews."""
+
+    def __init__(self, marks: list[DrillMark], ring_nm: int, pen_nm: int, tolerance_nm: int):
+        self.marks, self.ring_nm, self.pen_nm, self.tolerance_nm = marks, ring_nm, pen_nm, \
+            tolerance_nm
+        self.fitted = FittedMarks([], [])
+
+    def __call__(self, copper: list) -> list:
+        self.fitted = fit_marks(self.marks, copper, self.ring_nm, self.pen_nm)
+        return self.fitted.bare(self.tolerance_nm)
+
+
+_MOVE, _FLASH, _CCW = int(OpKind.MOVE), int(OpKind.FLASH), int(OpKind.ARC_CCW)
+
+
+def ring_flashes(program: Program, marks: list[DrillMark], pen_nm: int
+                 ) -> tuple[Program, list[str]]:
+    """Centre mode: each flash on a hole drawn as a circle a pen radius (and the
+    clearance) outside its mark, with the flash's own aperture, instead of a dot; a pad
+    too small to hold the ring keeps its dot, and a warning says so."""
+    dots = {}
+    for mark in marks:
+        if len(mark.path) == 1:
+            dots.setdefault(mark.path[0], mark)
+    table = program.table
+    flashes = np.flatnonzero(table[:, KIND] == _FLASH).tolist()
+    if not dots or not flashes:
+        return program, []
+    centres = np.array(list(dots), dtype=np.int64)
+    marks_at = list(dots.values())
+    rows, warnings, last = [], [], 0
+    for op in flashes:
+        x, y = int(table[op, X]), int(table[op, Y])
+        gap = np.abs(centres - (x, y)).max(axis=1)
+        nearest = int(np.argmin(gap))
+        mark = marks_at[nearest]
+        if gap[nearest] > mark.drill.diameter_nm // 2:
+            continue
+        aperture = program.apertures.get(int(table[op, TOOL]))
+        radius = mark.radius_nm + MARK_CLEARANCE_NM + pen_nm // 2
+        pad = _pad_radius(aperture)
+        if pad < radius + pen_nm // 2:
+            warnings.append(f"{program.source}:{table[op, LINE]}:{table[op, COL]}: the pad "
+                            f"on {mark.where} is too small for a ring round its drill mark "
+                            f"with the {mm_text(pen_nm)} mm pen: drawn as a dot")
+            continue
+        rows.append(table[last:op])
+        circle = np.zeros((2, len(COLUMNS)), dtype=np.int64)
+        circle[:, [TOOL, LINE, COL]] = table[op, [TOOL, LINE, COL]]
+        circle[0, [KIND, X, Y]] = (_MOVE, x + radius, y)
+        circle[1, [KIND, X, Y, I, J]] = (_CCW, x + radius, y, -radius, 0)
+        rows.append(circle)
+        last = op + 1
+    if not rows:
+        return program, warnings
+    rows.append(table[last:])
+    return dataclasses.replace(program, table=np.concatenate(rows)), warnings
+
+
+def _pad_radius(aperture) -> int:
+    """The largest circle about the flash point the aperture's box holds (0: unknown)."""
+    if aperture is None or not getattr(aperture, "extent_nm", None):
+        return 0
+    x0, y0, x1, y1 = aperture.extent_nm
+    return max(0, min(-x0, -y0, x1, y1))
