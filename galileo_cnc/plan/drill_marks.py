@@ -17,6 +17,8 @@ the board is bare there already.
 In ink mode the marks reach the ink as `bare` (ink_paths): out of the copper before
 the fill, centre lines cut a pen radius short of them. In centre mode a flash on a
 hole is drawn as a ring around its mark instead of a dot (`ring_flashes`).
+Registration crosses (sides.py) on holes keep out of the marks and of every other
+copper island (`clear_strokes`): ink on the hole's own pad is ink on ink.
 Everything is in integer nm; the discs are pyclipper's round offsets (clip.py).
 """
 
@@ -43,8 +45,9 @@ DRILL_MARK_MODES = ("none", "small", "actual")
 DEFAULT_DRILL_MARK_NM = 300_000
 #: a mark shrunk below this width is left out: too small a pit to find
 MIN_MARK_NM = 100_000
-#: the ink keeps this far from a mark: the stepped path strays up to ~0.7 step (8.75 um)
-MARK_CLEARANCE_NM = 10_000
+#: the ink keeps this far from a mark: the stepped path strays up to ~0.7 step (8.75 um),
+#: the fitted arcs and the discs' chords a tolerance (2 um) each
+MARK_CLEARANCE_NM = 20_000
 #: a slot's path is measured against the copper at points this far apart
 _SAMPLE_NM = 10_000
 
@@ -210,7 +213,7 @@ def ring_flashes(program: Program, marks: list[DrillMark], pen_nm: int
     too small to hold the ring keeps its dot, and a warning says so."""
     dots = {}
     for mark in marks:
-        if len(mark.path) == 1:
+        if isinstance(mark.drill, Hole):        # a slot's pad keeps its flash
             dots.setdefault(mark.path[0], mark)
     table = program.table
     flashes = np.flatnonzero(table[:, KIND] == _FLASH).tolist()
@@ -253,3 +256,24 @@ def _pad_radius(aperture) -> int:
         return 0
     x0, y0, x1, y1 = aperture.extent_nm
     return max(0, min(-x0, -y0, x1, y1))
+
+
+def clear_strokes(strokes: list[np.ndarray], copper: list, bare: list, pen_nm: int,
+                  clearance_nm: int, tolerance_nm: int) -> list[np.ndarray]:
+    """The strokes (registration crosses) cut a pen radius short of the bare marks and
+    `clearance_nm` plus a pen radius short of any copper island but the one at each
+    cross's centre (its pad), so their ink joins no two islands."""
+    reach = pen_nm // 2 + tolerance_nm
+    islands = clip.components(copper)
+    out = []
+    for k in range(0, len(strokes), 2):             # a cross: its two strokes
+        horizontal = strokes[k]
+        centre = horizontal.mean(axis=0).round().astype(np.int64)
+        own = [n for n, (outer, holes) in enumerate(islands)
+               if _inside([outer, *holes], centre[None, :])[0]]
+        others = [ring for n, (outer, holes) in enumerate(islands) if n not in own
+                  for ring in (outer, *holes)]
+        keep_out = clip.union(clip.offset(others, clearance_nm + reach, tolerance_nm),
+                              clip.offset(bare, reach, tolerance_nm))
+        out += clip.open_difference(strokes[k:k + 2], keep_out)
+    return out

@@ -29,7 +29,8 @@ from galileo_cnc.plan.collector import collector_paused
 from galileo_cnc.plan.feeds import check_feeds
 from galileo_cnc.plan import sides
 from galileo_cnc.plan.drill_marks import (DEFAULT_DRILL_MARK_NM, DRILL_MARK_MODES, MarkCutter,
-                                          marks_for, ring_flashes)
+                                          clear_strokes, marks_for, ring_flashes)
+from galileo_cnc.plan.ink.islands import CLEARANCE_NM
 from galileo_cnc.plan.ink.inking import (DEFAULT_EDGE_MARGIN_NM, INK_TOLERANCE_NM, InkPlan,
                                          ink_paths)
 from galileo_cnc.plan.offsets import (DEFAULT_MARGIN_NM, OffsetError, offset_for_box,
@@ -366,9 +367,14 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
             if optimize:
                 stage("ordering the paths to cut pen-up travel")
         if side is not None and side.crosses:
-            # ink: among the smallest pen's strokes; centre lines: a pen of their own, last
+            # ink: among the smallest pen's strokes, clear of other islands and the marks;
+            # centre lines: a pen of their own, last
+            strokes = sides.cross_strokes(side.crosses)
+            if ink is not None:
+                strokes = clear_strokes(strokes, ink.copper.native, ink.bare, pen,
+                                        CLEARANCE_NM, INK_TOLERANCE_NM)
             tool = len(ink.pens_nm) if ink is not None else max(plotted.apertures, default=0) + 1
-            plotted = sides.with_crosses(plotted, side.crosses, tool, pen)
+            plotted = sides.with_strokes(plotted, strokes, tool, pen)
         job = plan_program(plotted, config, offset_nm, group=not file_order,
                            on_progress=on_progress, optimize=optimize, ordered=ordered)
         # freed before the collector runs again: its first collection walks what was

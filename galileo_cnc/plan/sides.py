@@ -198,22 +198,31 @@ def _extremes(points: np.ndarray) -> np.ndarray:
 _MOVE, _LINE, _SELECT = int(OpKind.MOVE), int(OpKind.LINE), int(OpKind.SELECT)
 
 
-def with_crosses(program: Program, points: Sequence[tuple[int, int]], tool: int,
+def cross_strokes(points: Sequence[tuple[int, int]]) -> list[np.ndarray]:
+    """A cross at each point: a horizontal and a vertical stroke, CROSS_ARM_NM each way."""
+    arm = CROSS_ARM_NM
+    return [np.array(stroke, dtype=np.int64) for x, y in points
+            for stroke in (((x - arm, y), (x + arm, y)), ((x, y - arm), (x, y + arm)))]
+
+
+def with_strokes(program: Program, strokes: Sequence[np.ndarray], tool: int,
                  pen_nm: int) -> Program:
-    """`program` with a cross (two strokes CROSS_ARM_NM each way) at each point, drawn
-    with aperture `tool` (a round pen of `pen_nm`, added if the program has none) after
-    everything else."""
-    if not points:
+    """`program` with the polylines drawn after everything else with aperture `tool` (a
+    round pen of `pen_nm`, added if the program has none)."""
+    strokes = [s for s in strokes if len(s)]
+    if not strokes:
         return program
-    rows = np.zeros((1 + 4 * len(points), len(COLUMNS)), dtype=np.int64)
+    rows = np.zeros((1 + sum(len(s) for s in strokes), len(COLUMNS)), dtype=np.int64)
     rows[:, TOOL] = tool
     rows[0, KIND] = _SELECT
-    arm = CROSS_ARM_NM
-    for k, (x, y) in enumerate(points):
-        rows[1 + 4 * k:5 + 4 * k, [KIND, X, Y]] = [(_MOVE, x - arm, y), (_LINE, x + arm, y),
-                                                   (_MOVE, x, y - arm), (_LINE, x, y + arm)]
     if len(program.table):
         rows[0, [X, Y]] = program.table[-1, [X, Y]]
+    at = 1
+    for stroke in strokes:
+        rows[at:at + len(stroke), [X, Y]] = stroke
+        rows[at, KIND] = _MOVE
+        rows[at + 1:at + len(stroke), KIND] = _LINE
+        at += len(stroke)
     apertures = dict(program.apertures)
     if tool not in apertures:
         r = pen_nm // 2
