@@ -91,5 +91,14 @@ def ink_near(trace, config: MachineConfig, offset_nm: tuple[int, int], pen_nm: i
     # a stretch also keeps its neighbours, so a step leaving the box still counts
     chosen[1:] |= chosen[:-1] & down[1:]
     edges = np.flatnonzero(np.diff(np.concatenate([[0], chosen.astype(np.int8), [0]])))
-    runs = [points[a:b].tolist() for a, b in zip(edges[::2], edges[1::2])]
+    runs = [_corners(points[a:b]).tolist() for a, b in zip(edges[::2], edges[1::2])]
     return clip.stroke(runs, pen_nm // 2, 1000) if runs else []
+
+
+def _corners(run: np.ndarray) -> np.ndarray:
+    """The run without the points inside a straight stretch of steps: the same line."""
+    if len(run) < 3:
+        return run
+    step = np.diff(run, axis=0)
+    turn = np.any(step[1:] != step[:-1], axis=1)
+    return run[np.concatenate([[True], turn, [True]])]
