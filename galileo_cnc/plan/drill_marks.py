@@ -16,7 +16,9 @@ the board is bare there already.
 
 In ink mode the marks reach the ink as `bare` (ink_paths): out of the copper before
 the fill, centre lines cut a pen radius short of them. In centre mode a flash on a
-hole is drawn as a ring around its mark instead of a dot (`ring_flashes`).
+hole is drawn as a ring around its mark instead of a dot (`ring_flashes`), and straight
+draws (a trace to its pad's centre) stop a pen radius short of the marks
+(`clear_centre_lines`); arcs are drawn as they are.
 Registration crosses (sides.py) on holes keep out of the marks and of every other
 copper island (`clear_strokes`): ink on the hole's own pad is ink on ink.
 Everything is in integer nm; the discs are pyclipper's round offsets (clip.py).
@@ -35,7 +37,7 @@ import pyclipper as pc
 from galileo_cnc.plan import curves
 from galileo_cnc.plan.ink import clip
 from galileo_cnc.plan.ink.edges import EdgeIndex
-from galileo_cnc.plan.widths import mm_text
+from galileo_cnc.plan.widths import aperture_width, mm_text
 from galileo_cnc.program.drills import Hole, Slot
 from galileo_cnc.program.ops import (COL, COLUMNS, I, J, KIND, LINE, NM_PER_MM, TOOL, X, Y,
                                      OpKind, Program)
@@ -248,6 +250,62 @@ def ring_flashes(program: Program, marks: list[DrillMark], pen_nm: int
         return program, warnings
     rows.append(table[last:])
     return dataclasses.replace(program, table=np.concatenate(rows)), warnings
+
+
+_LINE = int(OpKind.LINE)
+
+
+def clear_centre_lines(program: Program, marks: list[DrillMark], pen_nm: int,
+                       tolerance_nm: int) -> Program:
+    """Centre mode: each straight draw cut short of the marks by the clearance and half
+    its aperture's width (the pen drawing it; `pen_nm` where the width is unknown); the
+    head travels pen up across the gap and on to the draw's end, where the next op
+    starts."""
+    table = program.table
+    lines = np.flatnonzero(table[:, KIND] == _LINE)
+    if not marks or not len(lines):
+        return program
+    ends = table[lines][:, [X, Y]]
+    starts = np.where((lines > 0)[:, None], table[np.maximum(lines - 1, 0)][:, [X, Y]], 0)
+    widths = {code: aperture_width(a) for code, a in program.apertures.items()
+              if a.shape != "block"}
+    half = np.array([(widths.get(int(code)) or pen_nm) // 2 for code in table[lines, TOOL]],
+                    dtype=np.int64)
+    low, high = np.minimum(starts, ends), np.maximum(starts, ends)
+    near: dict[int, list[DrillMark]] = {}
+    for mark in marks:
+        points = np.array(mark.path, dtype=np.int64)
+        reach = half + mark.radius_nm + MARK_CLEARANCE_NM + tolerance_nm
+        hit = np.flatnonzero((low[:, 0] - reach <= points[:, 0].max())
+                             & (high[:, 0] + reach >= points[:, 0].min())
+                             & (low[:, 1] - reach <= points[:, 1].max())
+                             & (high[:, 1] + reach >= points[:, 1].min()))
+        for k in hit.tolist():
+            near.setdefault(k, []).append(mark)
+    if not near:
+        return program
+    rows, last = [], 0
+    for k in sorted(near):
+        op = int(lines[k])
+        grown = clip.union(*[m.polygons(tolerance_nm, MARK_CLEARANCE_NM + int(half[k])
+                                        + tolerance_nm) for m in near[k]])
+        pieces = clip.open_difference([np.array([starts[k], ends[k]])], grown)
+        rows.append(table[last:op])
+        row = table[op]
+        out = []
+        for piece in pieces:
+            for n, (x, y) in enumerate(piece.tolist()):
+                new = row.copy()
+                new[KIND], new[X], new[Y], new[I], new[J] = (_MOVE if n == 0 else _LINE), x, y, 0, 0
+                out.append(new)
+        end = row.copy()
+        end[KIND] = _MOVE                      # on to where the next op starts
+        if not out or out[-1][X] != end[X] or out[-1][Y] != end[Y]:
+            out.append(end)
+        rows.append(np.array(out, dtype=np.int64))
+        last = op + 1
+    rows.append(table[last:])
+    return dataclasses.replace(program, table=np.concatenate(rows))
 
 
 def _pad_radius(aperture) -> int:

@@ -29,7 +29,8 @@ from galileo_cnc.plan.collector import collector_paused
 from galileo_cnc.plan.feeds import check_feeds
 from galileo_cnc.plan import sides
 from galileo_cnc.plan.drill_marks import (DEFAULT_DRILL_MARK_NM, DRILL_MARK_MODES, MarkCutter,
-                                          clear_strokes, marks_for, ring_flashes)
+                                          clear_centre_lines, clear_strokes, marks_for,
+                                          ring_flashes)
 from galileo_cnc.plan.ink.islands import CLEARANCE_NM
 from galileo_cnc.plan.ink.inking import (DEFAULT_EDGE_MARGIN_NM, INK_TOLERANCE_NM, InkPlan,
                                          ink_paths)
@@ -364,6 +365,7 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
         else:
             if marks:
                 plotted, mark_warnings = ring_flashes(plotted, marks, pen)
+                plotted = clear_centre_lines(plotted, marks, pen, INK_TOLERANCE_NM)
             if optimize:
                 stage("ordering the paths to cut pen-up travel")
         if side is not None and side.crosses:

@@ -132,6 +132,7 @@ def test_no_drill_marks_ink_the_pads_as_without_holes(board):
 
 
 def test_centre_mode_draws_a_pad_with_a_hole_as_a_ring_round_its_mark(board):
+    """...and its trace to the pad's centre stops short of the mark."""
     planned = plan_file(board, CONFIG, options=PlanOptions(mode="centre", holes=HOLES))
     rows = planned.plotted.table
     flashes = {(x, y) for x, y in rows[rows[:, KIND] == int(OpKind.FLASH)][:, [X, Y]].tolist()}
@@ -145,13 +146,15 @@ def test_centre_mode_draws_a_pad_with_a_hole_as_a_ring_round_its_mark(board):
     # the 1.0 and 0.9 mm pads hold no ring: their dots stay, said; the slot's pad too
     assert {(5 * MM, 9 * MM), (9 * MM, 9 * MM), (13 * MM, 9 * MM)} <= flashes
     assert sum("too small for a ring" in w for w in planned.drill_mark_warnings) == 2
-    # stepped: the ring's pen-down steps round (5, 5) keep out of the mark
+    # stepped: the pen-down steps round (5, 5) keep out of the mark, the 0.2 mm trace's
+    # centre line (to the pad's centre) by its own half width, the ring by the pen's
     trace = simulate(planned.job.commands, CONFIG)
     where = trace.positions()
     down = where[where[:, 2] == CONFIG.pen_down_z_steps][:, :2] * STEP + planned.offset_nm
-    off_trace = down[np.abs(down[:, 1] - 5 * MM) > PEN]       # not the 0.2 mm trace
-    distance = np.hypot(*(off_trace - (5 * MM, 5 * MM)).T)
-    assert distance.min() >= radius - 2 * STEP
+    distance = np.hypot(*(down - (5 * MM, 5 * MM)).T)
+    assert distance.min() >= 150_000 + MARK_CLEARANCE_NM + 100_000 - STEP
+    off_trace = np.abs(down[:, 1] - 5 * MM) > PEN
+    assert distance[off_trace].min() >= radius - 2 * STEP
 
 
 def test_marks_for_sizes_and_options():
