@@ -149,18 +149,18 @@ def fit_marks(marks: list[DrillMark], copper: list, ring_nm: int, pen_nm: int,
         _edge, _t, distance = index.nearest_many(samples, ring_nm + mark.radius_nm)
         room = float(distance.min()) - _SAMPLE_NM / 2
         widest = math.floor(room - ring_nm - clearance_nm)
-        wall = f"the copper round it is {max(0.0, room - mark.radius_nm) / NM_PER_MM:.2f} mm"
+        reach = f"the copper reaches {room / NM_PER_MM:.2f} mm from its centre, and the " \
+            f"{mm_text(pen_nm)} mm pen needs {(ring_nm + clearance_nm) / NM_PER_MM:.2f} mm of it"
         if widest >= mark.radius_nm:
             kept.append(mark)
         elif 2 * widest >= MIN_MARK_NM:
             kept.append(dataclasses.replace(mark, radius_nm=widest))
-            warnings.append(f"drill mark of {mark.where}: {wall} wide, too thin for the "
-                            f"{mm_text(pen_nm)} mm pen round a {mm_text(2 * mark.radius_nm)} "
-                            f"mm mark: made {2 * widest / NM_PER_MM:.2f} mm wide")
+            warnings.append(f"drill mark of {mark.where} made {2 * widest / NM_PER_MM:.2f} mm "
+                            f"wide, not {mm_text(2 * mark.radius_nm)} mm: {reach} round "
+                            "the mark")
         else:
-            warnings.append(f"drill mark of {mark.where}: left out, {wall} wide from the "
-                            f"centre, too thin for the {mm_text(pen_nm)} mm pen round a mark; "
-                            "the copper is inked solid")
+            warnings.append(f"drill mark of {mark.where} left out: {reach} round a mark at "
+                            f"least {mm_text(MIN_MARK_NM)} mm wide; the pad is inked solid")
     return FittedMarks(kept, warnings, off)
 
 
