@@ -3,7 +3,8 @@
 Measured from the steps of the reference machine (the firmware's twin): the pen-down
 steps near the marks swept by the pen (tests/drilled.py) and the marks rasterised at
 10 um: not one pixel of ink inside a mark. A real board of the curated corpus
-(KiCad's flashpads, its holes from its own drill files by a test-only reader) and a
+(KiCad's flashpads, its bottom copper: pads of every shape, some with off-centre
+holes; the holes from its own drill files by a test-only reader) and a
 small hand-made board with thick and thin pads, a trace to a pad's centre and a slot.
 """
 
@@ -28,7 +29,7 @@ MM = 1_000_000
 CONFIG = MachineConfig()
 STEP = CONFIG.nm_per_step
 PEN = CONFIG.pen_widths_nm[0]
-FLASHPADS = CORPUS / "kicad" / "flashpads-x2ap" / "Flashpads-F_Cu.gbr"
+FLASHPADS = CORPUS / "kicad" / "flashpads-x2ap" / "Flashpads-B_Cu.gbr"
 FLASHPADS_DRILL = CORPUS / "drill" / "kicad" / "flashpads-x2ap"
 
 HEADER = "%FSLAX46Y46*%\n%MOMM*%\nG75*\n"
@@ -77,14 +78,23 @@ def test_a_real_board_leaves_every_drill_mark_bare_and_inks_the_rest():
     planned = plan_file(FLASHPADS, CONFIG, options=PlanOptions(mode="ink", holes=holes))
     marks = clip.components(planned.marks)
     assert len(marks) >= 50                       # every plated hole on a pad
-    ink = ink_near(simulate(planned.job.commands, CONFIG), CONFIG, planned.offset_nm, PEN,
-                   planned.marks)
-    assert ink, "no ink round the marks"
+    trace = simulate(planned.job.commands, CONFIG)
+    ink = ink_near(trace, CONFIG, planned.offset_nm, PEN, planned.marks)
     assert pixels_inside(clip.intersection(ink, planned.marks)) == 0
-    # the copper outside the marks is inked as before: the same share of it, within 1 %
-    share_before = before.ink.inked_nm2 / before.ink.copper_nm2
-    share = planned.ink.inked_nm2 / planned.ink.copper_nm2
-    assert share >= 0.99 * share_before
+    # round each mark (0.8 mm: its pad) the copper outside the marks and their clearance
+    # is inked as before, 99 % of it, from the steps; the pads with off-centre holes are
+    # the test (a fill of the copper less the marks leaves crescents in them: 94 %)
+    window = clip.offset(planned.marks, 800_000, 1000)
+    ink = ink_near(trace, CONFIG, planned.offset_nm, PEN, window)
+    ink_before = ink_near(simulate(before.job.commands, CONFIG), CONFIG, before.offset_nm,
+                          PEN, window)
+    copper = clip.difference(clip.intersection(planned.ink.copper.native, window),
+                             planned.ink.bare)
+    for outer, _holes in marks:
+        pad = clip.intersection(copper, clip.offset([outer], 800_000, 1000))
+        inked = clip.area_nm2(clip.intersection(ink, pad))
+        assert inked >= 0.99 * clip.area_nm2(clip.intersection(ink_before, pad)), \
+            outer.mean(axis=0) / MM
     # a mark shrunk for its pad's ring says where, in mm
     assert planned.drill_mark_warnings
     assert all(" mm hole at X " in w and " mm made " in w for w in planned.drill_mark_warnings)
@@ -168,3 +178,18 @@ def test_marks_for_sizes_and_options():
     assert marks_for([hole, slot], "none") == []
     with pytest.raises(PlanError, match="--drill-marks: expected none, small or actual"):
         PlanOptions(drill_marks="big")
+
+
+def test_with_two_pens_each_pen_keeps_out_of_the_marks(board):
+    """Several pens fill the copper less the marks (ink_paths): each pen's paths,
+    swept by its own width, stay out of them."""
+    pens = (600_000, 300_000)
+    planned = plan_file(board, CONFIG, options=PlanOptions(mode="ink", pens_nm=pens,
+                                                           holes=HOLES))
+    assert planned.marks
+    for fill in planned.ink.fills:
+        swept = clip.stroke([path.tolist() for path in fill.paths], fill.width_nm // 2, 1000)
+        assert pixels_inside(clip.intersection(swept, planned.marks)) == 0
+    lines = [piece.tolist() for feature in planned.ink.narrow for piece in feature.pieces]
+    swept = clip.stroke(lines, pens[-1] // 2, 1000)
+    assert pixels_inside(clip.intersection(swept, planned.marks)) == 0

@@ -9,8 +9,12 @@ previews and resume work on ink unchanged. Ring rows carry line 0 (they come fro
 the union of many objects); centre lines keep their object's line and column.
 
 `bare(copper)` (pipeline.py: drill marks, plan/drill_marks.py) gives areas the ink
-leaves bare: they come out of the copper before anything is filled, and centre lines
-are cut a pen radius short of them.
+leaves bare, and centre lines are cut a pen radius short of them. With one pen the
+copper is filled as without them, the fill's walks cut a pen radius short of them and
+a loop drawn round each at that distance (`_around_bare`): the loop inks what the cut
+took, so the copper outside them is inked as before (a fill of the copper less the
+areas leaves crescents between the rings round an off-centre hole and the pad's own).
+With several pens they come out of the copper before anything is filled.
 
 A narrower pen fills what the wider ones left: the copper not yet inked (opened by
 GAP_NM so rounding slivers along the edges do not count), where this pen reaches,
@@ -147,7 +151,9 @@ def ink_paths(program: Program, pens_nm: tuple[int, ...] | list[int], *,
     copper = dark_geometry(program, tolerance_nm)
     region = copper.native
     bare_area = bare(region) if bare is not None else []
-    if bare_area:
+    # one pen: filled as without the bare areas, then cut round them (module doc)
+    around = bool(bare_area) and len(pens) == 1
+    if bare_area and not around:
         region = clip.difference(region, bare_area)
     islands = Islands.of(region)
     close = close_places(islands)
@@ -187,6 +193,9 @@ def ink_paths(program: Program, pens_nm: tuple[int, ...] | list[int], *,
             if number + 1 < len(pens):
                 inked = clip.union(inked, fill.ink) if inked else list(fill.ink)
         narrow, bridges = apart.result()
+        if around:
+            region = clip.difference(region, bare_area)
+            _around_bare(fills[0], bare_area, pens[0] // 2 + tolerance_nm, tolerance_nm)
         if bare_area:
             narrow = _clear_of(narrow, bare_area, smallest // 2 + tolerance_nm, tolerance_nm)
     finally:
@@ -196,6 +205,44 @@ def ink_paths(program: Program, pens_nm: tuple[int, ...] | list[int], *,
     return InkPaths(program, pens, copper, fills, narrow, bridges, zero_size, close,
                     clip.area_nm2(region), coverage, big, began, stage, tolerance_nm,
                     bare=bare_area)
+
+
+def _around_bare(fill: PenFill, bare_area: list, reach_nm: int, tolerance_nm: int) -> None:
+    """The fill's walks cut `reach_nm` short of the bare areas and a closed loop at that
+    distance round each; the coverage counts its batches less the bare areas."""
+    grown = clip.offset(bare_area, reach_nm, tolerance_nm)
+    loops = [np.vstack([ring, ring[:1]]) for ring in clip.rings_as_arrays(grown)]
+    boxes = boxes_of(grown)
+    paths, coarse = [], []
+    fine = len(fill.coarse) == len(fill.paths)
+    for k, path in enumerate(fill.paths):
+        (x0, y0), (x1, y1) = path.min(axis=0), path.max(axis=0)
+        near = np.flatnonzero((boxes[:, 0] <= x1) & (boxes[:, 2] >= x0) & (boxes[:, 1] <= y1)
+                              & (boxes[:, 3] >= y0))
+        if not len(near):
+            paths.append(path)
+            coarse.append(fill.coarse[k] if fine else np.full(len(path), tolerance_nm))
+            continue
+        for piece in clip.open_difference([path], [grown[n] for n in near.tolist()]):
+            paths.append(piece)
+            coarse.append(np.full(len(piece), tolerance_nm))
+    fill.paths = paths + loops
+    fill.coarse = coarse + [np.full(len(loop), tolerance_nm) for loop in loops]
+    recipes = []
+    for batch, recipe in fill.recipes:
+        low = np.min([np.min(ring, axis=0) for ring in batch], axis=0)
+        high = np.max([np.max(ring, axis=0) for ring in batch], axis=0)
+        if not np.any((boxes[:, 0] <= high[0]) & (boxes[:, 2] >= low[0])
+                      & (boxes[:, 1] <= high[1]) & (boxes[:, 3] >= low[1])):
+            recipes.append((batch, recipe))
+            continue
+        # its ink counted as polygons, within the batch less the bare areas
+        if isinstance(recipe.area, Deferred):
+            recipe.area.cancel()
+        recipe.area = None
+        recipe.ink()
+        recipes.append((clip.rings_as_arrays(clip.difference(batch, bare_area)), recipe))
+    fill.recipes = recipes
 
 
 def _clear_of(narrow: list[NarrowFeature], bare_area: list, reach_nm: int,
