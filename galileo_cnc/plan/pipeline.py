@@ -111,7 +111,8 @@ class PlanOptions:
     drawing is read (read_dxf). `transform`: the scale, rotation or fit the drawing
     is read with (transform.py).
 
-    A board's side (all unset: a layer alone, as before): `side` "top" or "bottom"
+    A board's side (all unset: a layer alone, as before; holes without a side: a
+    layer of one side, its own offset, drill marks): `side` "top" or "bottom"
     (the bottom mirrored about `mirror_axis`, ("x", nm) or ("y", nm) in board
     coordinates, default the vertical centre line of `outline_program`'s box, else
     of the holes'); with "auto" both sides take one offset, over `board_box_nm` (give
@@ -246,6 +247,8 @@ class _Side:
 
     name: str
     axis: sides.MirrorAxis
+    #: a side of a two-sided job (`side` given): one offset for both, its first line said
+    turned_over: bool
     holes: tuple
     crosses: tuple
     board_box_nm: Box | None
@@ -286,7 +289,8 @@ def _board_side(artwork: Artwork, options: PlanOptions) -> tuple[Artwork, _Side 
                                                              "side": "bottom"})
             artwork = Artwork(program, extents(program), extents(program, visited=True),
                               artwork.margin_nm, artwork.transform)
-    return artwork, _Side(name, axis, holes, tuple(crosses), board_box)
+    return artwork, _Side(name, axis, options.side is not None, holes, tuple(crosses),
+                          board_box)
 
 
 def _smallest_pen(options: PlanOptions, config: MachineConfig) -> int:
@@ -316,7 +320,7 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
             raise PlanError(f"{problem}: {artwork.way_out()}")
         feed_warnings = check_feeds(artwork.program, config)   # PlanError above the limit
         offset_nm = resolve_offset(artwork, offset)
-        if side is not None and offset == "auto":
+        if side is not None and side.turned_over and offset == "auto":
             offset_nm = sides.shared_offset(side.board_box_nm, side.axis, artwork.margin_nm)
         mode = options.mode_for(artwork.program)
         stage = on_stage if on_stage is not None and len(artwork.program) >= PLANNING_NOTICE_OPS \
@@ -343,7 +347,7 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
                               on_stage=stage, bare=cutter)
             if cutter is not None:
                 mark_warnings = cutter.fitted.warnings
-            if offset == "auto" and side is None:
+            if offset == "auto" and not (side and side.turned_over):
                 # fills reach out to the copper's edges, past the centre lines and flash
                 # points the proposal was made from: the margin is kept from the ink
                 offset_nm = offset_for_box(_union_box(artwork.visited_box_nm, paths.box_nm()),
@@ -390,6 +394,6 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
             return PlannedFile(artwork, offset_nm, job, plotted, mode, ink,
                                tuple(feed_warnings))
         bare = cutter.fitted.bare(INK_TOLERANCE_NM, 0) if cutter is not None else []
+        line = side.axis.describe(side.name, offset_nm) if side.turned_over else ""
         return PlannedFile(artwork, offset_nm, job, plotted, mode, ink, tuple(feed_warnings),
-                           side.axis.describe(side.name, offset_nm), tuple(mark_warnings),
-                           side.holes, bare)
+                           line, tuple(mark_warnings), side.holes, bare)

@@ -139,6 +139,10 @@ def test_no_drill_marks_ink_the_pads_as_without_holes(board):
                                                         drill_marks="none"))
     assert np.array_equal(alone.plotted.table, none.plotted.table)
     assert none.marks == [] and none.drill_mark_warnings == ()
+    # holes without a side: a layer of one side, its own offset, no turn-over line
+    small = plan_file(board, CONFIG, options=PlanOptions(mode="ink", holes=HOLES))
+    assert none.offset_nm == small.offset_nm == alone.offset_nm
+    assert none.side_line == small.side_line == ""
 
 
 def test_centre_mode_draws_a_pad_with_a_hole_as_a_ring_round_its_mark(board):
