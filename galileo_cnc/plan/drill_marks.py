@@ -52,6 +52,9 @@ MIN_MARK_NM = 100_000
 MARK_CLEARANCE_NM = 20_000
 #: a slot's path is measured against the copper at points this far apart
 _SAMPLE_NM = 10_000
+#: drill-mark warnings shown before a job: a board of vias has a hundred and more (the
+#: mark left out in each via's thin ring); one line counts the rest (as the ink's bridges)
+SHOWN_MARK_WARNINGS = 20
 
 Drill = Union[Hole, Slot]
 
@@ -162,6 +165,15 @@ def fit_marks(marks: list[DrillMark], copper: list, ring_nm: int, pen_nm: int,
             warnings.append(f"drill mark of {mark.where} left out: {reach} round a mark at "
                             f"least {mm_text(MIN_MARK_NM)} mm wide; the pad is inked solid")
     return FittedMarks(kept, warnings, off)
+
+
+def warnings_to_show(warnings: Sequence[str], shown: int = SHOWN_MARK_WARNINGS) -> list[str]:
+    """The first `shown` warnings and a line counting the rest (every one for `info`)."""
+    hidden = len(warnings) - shown
+    if hidden <= 0:
+        return list(warnings)
+    return list(warnings[:shown]) + [f"... and {hidden:,} more drill marks shrunk or left "
+                                     "out (galileo-cnc info lists every one)"]
 
 
 def _samples(path: tuple[tuple[int, int], ...]) -> np.ndarray:

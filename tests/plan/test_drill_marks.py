@@ -18,7 +18,7 @@ from inked import ink_of_trace, joined_islands
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.machine.planner import simulate
-from galileo_cnc.plan.drill_marks import MARK_CLEARANCE_NM, marks_for
+from galileo_cnc.plan.drill_marks import MARK_CLEARANCE_NM, marks_for, warnings_to_show
 from galileo_cnc.plan.ink import clip
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 from galileo_cnc.plan.planner import PlanError
@@ -98,6 +98,10 @@ def test_a_real_board_leaves_every_drill_mark_bare_and_inks_the_rest():
     # a mark shrunk for its pad's ring says where, in mm
     assert planned.drill_mark_warnings
     assert all(" mm hole at X " in w and " mm made " in w for w in planned.drill_mark_warnings)
+    shown = warnings_to_show(planned.drill_mark_warnings, 2)
+    assert shown[:2] == list(planned.drill_mark_warnings[:2]) and len(shown) == 3
+    assert shown[2] == f"... and {len(planned.drill_mark_warnings) - 2} more drill marks " \
+        "shrunk or left out (galileo-cnc info lists every one)"
 
 
 @pytest.mark.parametrize("mode", ["actual", "small"])
