@@ -352,11 +352,16 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
                 # points the proposal was made from: the margin is kept from the ink
                 offset_nm = offset_for_box(_union_box(artwork.visited_box_nm, paths.box_nm()),
                                            artwork.margin_nm)
+            if side is not None and side.crosses:
+                # walks of the smallest pen, clear of the marks and of every island but
+                # the hole's own pad
+                paths.add_strokes(clear_strokes(sides.cross_strokes(side.crosses),
+                                                paths.copper.native, paths.bare, pen,
+                                                CLEARANCE_NM, INK_TOLERANCE_NM))
             # path order from the walks' ends meanwhile (walk_order.py), as
             # plan_program would order the rows, while their arcs are fitted
-            # crosses come after the ink's rows: then the planner orders every row itself
             order = paths.start_order(offset_nm, config.nm_per_step) \
-                if optimize and not file_order and not (side and side.crosses) else None
+                if optimize and not file_order else None
             try:
                 ink = paths.finish()
                 plotted = ink.program
@@ -372,15 +377,10 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
                 plotted = clear_centre_lines(plotted, marks, pen, INK_TOLERANCE_NM)
             if optimize:
                 stage("ordering the paths to cut pen-up travel")
-        if side is not None and side.crosses:
-            # ink: among the smallest pen's strokes, clear of other islands and the marks;
-            # centre lines: a pen of their own, last
-            strokes = sides.cross_strokes(side.crosses)
-            if ink is not None:
-                strokes = clear_strokes(strokes, ink.copper.native, ink.bare, pen,
-                                        CLEARANCE_NM, INK_TOLERANCE_NM)
-            tool = len(ink.pens_nm) if ink is not None else max(plotted.apertures, default=0) + 1
-            plotted = sides.with_strokes(plotted, strokes, tool, pen)
+            if side is not None and side.crosses:
+                # centre lines: the crosses with a pen of their own, last
+                plotted = sides.with_strokes(plotted, sides.cross_strokes(side.crosses),
+                                             max(plotted.apertures, default=0) + 1, pen)
         job = plan_program(plotted, config, offset_nm, group=not file_order,
                            on_progress=on_progress, optimize=optimize, ordered=ordered)
         # freed before the collector runs again: its first collection walks what was

@@ -318,6 +318,18 @@ class InkPaths:
                 max(box[2], high[0]), max(box[3], high[1]))
         return box
 
+    def add_strokes(self, strokes: list[np.ndarray]) -> None:
+        """Open polylines (registration crosses, plan/sides.py) drawn with the smallest
+        pen as walks of its own: path order takes them with the pen's other walks.
+        Before `start_order` and `finish`."""
+        fill = self.fills[-1]
+        if len(fill.coarse) != len(fill.paths):
+            fill.coarse = [np.full(len(path), self.tolerance_nm) for path in fill.paths]
+        for stroke in strokes:
+            if len(stroke) >= 2:
+                fill.paths.append(np.ascontiguousarray(stroke, dtype=np.int64))
+                fill.coarse.append(np.full(len(stroke), self.tolerance_nm))
+
     def start_order(self, start: tuple[int, int], join_nm: int) -> WalkOrder:
         """Path order from `start` (program nm) worked out on the walks' ends, in a
         second process on a large board, while `finish` fits the arcs; its `rows`
