@@ -14,7 +14,7 @@ face they must be mirrored, about an axis the user then turns the blank over abo
   bottom hole on its top hole, exactly in nm (to the step once stepped);
 - registration marks: crosses on two or three holes far apart (else outside the
   outline's corners), drawn on both sides: after the turn-over each bottom cross lies
-  on its top one.
+  on its top one (the ink keeps them off other islands: drill_marks.clear_strokes).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from typing import Iterable, Sequence, Union
 
 import numpy as np
 
-from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM, offset_for_box
+from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM, offset_for_box, offset_from_text
 from galileo_cnc.plan.transform import TransformError, mirrored
 from galileo_cnc.program.drills import Hole, Slot
 from galileo_cnc.program.ops import (COLUMNS, KIND, TOOL, X, Y, Aperture, NM_PER_MM, OpKind,
@@ -89,7 +89,6 @@ def parse_axis(text: str) -> tuple[str, int]:
     name, _, value = text.partition("=")
     name = name.strip().lower()
     try:
-        from galileo_cnc.plan.offsets import offset_from_text
         nm = offset_from_text(f"{value},0")[0] if name in ("x", "y") else None
     except ValueError:
         nm = None
