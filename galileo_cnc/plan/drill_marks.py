@@ -329,12 +329,16 @@ def _pad_radius(aperture) -> int:
 
 
 def clear_strokes(strokes: list[np.ndarray], copper: list, bare: list, pen_nm: int,
-                  clearance_nm: int, tolerance_nm: int) -> list[np.ndarray]:
-    """The strokes (registration crosses) cut a pen radius short of the bare marks and
-    `clearance_nm` plus a pen radius short of any copper island but the one at each
-    cross's centre (its pad), so their ink joins no two islands."""
+                  clearance_nm: int, tolerance_nm: int,
+                  lines: Sequence[np.ndarray] = ()) -> list[np.ndarray]:
+    """The strokes (registration crosses: two a cross) cut a pen radius short of the
+    bare marks, and `clearance_nm` plus a pen radius short of any copper island but the
+    one at each cross's centre (its pad) and of the centre lines' ink (`lines`, drawn
+    with the pen: their overdraw passes the copper's edge), so their ink joins no two
+    islands."""
     reach = pen_nm // 2 + tolerance_nm
     islands = clip.components(copper)
+    lines = [np.asarray(line, dtype=np.int64) for line in lines if len(line)]
     out = []
     for k in range(0, len(strokes), 2):             # a cross: its two strokes
         horizontal = strokes[k]
@@ -343,7 +347,11 @@ def clear_strokes(strokes: list[np.ndarray], copper: list, bare: list, pen_nm: i
                if _inside([outer, *holes], centre[None, :])[0]]
         others = [ring for n, (outer, holes) in enumerate(islands) if n not in own
                   for ring in (outer, *holes)]
+        span = int(np.abs(strokes[k] - centre).max()) + pen_nm + clearance_nm + reach
+        near = [line for line in lines if np.abs(line - centre).max(axis=1).min() <= span]
+        inked = clip.stroke([line.tolist() for line in near], pen_nm // 2, tolerance_nm)
         keep_out = clip.union(clip.offset(others, clearance_nm + reach, tolerance_nm),
+                              clip.offset(inked, clearance_nm + reach, tolerance_nm),
                               clip.offset(bare, reach, tolerance_nm))
         out += clip.open_difference(strokes[k:k + 2], keep_out)
     return out

@@ -353,11 +353,12 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
                 offset_nm = offset_for_box(_union_box(artwork.visited_box_nm, paths.box_nm()),
                                            artwork.margin_nm)
             if side is not None and side.crosses:
-                # walks of the smallest pen, clear of the marks and of every island but
-                # the hole's own pad
+                # walks of the smallest pen, clear of the marks, of the centre lines' ink
+                # and of every island but the hole's own pad
+                lines = [piece for feature in paths.narrow for piece in feature.pieces]
                 paths.add_strokes(clear_strokes(sides.cross_strokes(side.crosses),
                                                 paths.copper.native, paths.bare, pen,
-                                                CLEARANCE_NM, INK_TOLERANCE_NM))
+                                                CLEARANCE_NM, INK_TOLERANCE_NM, lines))
             # path order from the walks' ends meanwhile (walk_order.py), as
             # plan_program would order the rows, while their arcs are fitted
             order = paths.start_order(offset_nm, config.nm_per_step) \

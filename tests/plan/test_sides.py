@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from corpus import CORPUS
 from drilled import ink_near, kicad_holes, pen_down_runs, pixels_inside
-from inked import joined_islands
+from inked import ink_of_trace, joined_islands
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.machine.planner import simulate
@@ -195,3 +195,21 @@ def test_a_layer_alone_is_planned_as_before(tmp_path):
         PlanOptions(side="bottom", transform=Transform(rotate_deg=90))
     with pytest.raises(PlanError, match="--side: expected top or bottom"):
         PlanOptions(side="back")
+
+
+def test_a_cross_keeps_off_another_islands_centre_line_ink(tmp_path):
+    """A 0.2 mm trace of another net 0.4 mm from the pad: its centre line, drawn with
+    the 0.4 mm pen, inks 0.1 mm past its copper; the cross's arm stops short of that
+    ink by the islands' clearance, so the two islands stay apart (from the steps)."""
+    path = tmp_path / "pads.gbr"
+    path.write_text(HEADER + "%ADD10C,2.0*%\n%ADD11C,0.2*%\nD10*\nX5000000Y5000000D03*\n"
+                    "X15000000Y5000000D03*\nD11*\nX6500000Y3000000D02*\nX6500000Y7000000D01*\n"
+                    "M02*\n")
+    holes = [Hole(5 * MM, 5 * MM, 800_000), Hole(15 * MM, 5 * MM, 800_000)]
+    planned = plan_file(path, CONFIG, options=PlanOptions(mode="ink", holes=holes, side="top",
+                                                          registration=True))
+    arms = [p for p in planned.ink.fills[-1].paths if len(p) == 2 and p[0][1] == 5 * MM]
+    assert arms, "no horizontal arm left"
+    trace = simulate(planned.job.commands, CONFIG)
+    ink = ink_of_trace(trace, CONFIG, planned.offset_nm, [PEN])
+    assert joined_islands(ink, planned.ink.copper.native, 30_000) == []
