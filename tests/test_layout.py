@@ -93,10 +93,11 @@ def backward_imports(source: str, module: str, is_package: bool = False) -> list
 PLAN_STAGES = {
     "offsets": 0, "curves": 0, "widths": 0, "native": 0, "collector": 0, "measure": 0,
     "transform": 0, "feeds": 0,
-    "order": 1,
+    "order": 1, "sides": 1,
     "ink": 2, "planner": 2,
-    "pipeline": 3, "open_traces": 3,
-    "gcode_writer": 4,
+    "open_traces": 3, "drill_marks": 3,
+    "pipeline": 4,
+    "gcode_writer": 5,
 }
 
 

@@ -9,23 +9,37 @@ A scale, rotation or fit the user asks for (transform.py) is applied as the file
 read, before the box and the offset are worked out; the feeds are checked before
 planning (feeds.py): above the machine's limits refused, above the warning feed
 said in `PlannedFile.feed_warnings`.
+
+A board's side (`PlanOptions.side`, docs/drill-marks-and-sides.md): the bottom is
+mirrored about the axis (sides.py) as it is read, its holes with it, and both sides
+take one offset; the holes' drill marks are left bare in the ink (drill_marks.py), and
+registration crosses drawn after the copper.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Union
+from typing import Callable, Sequence, Union
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.job import Job
 from galileo_cnc.plan.collector import collector_paused
 from galileo_cnc.plan.feeds import check_feeds
-from galileo_cnc.plan.ink.inking import InkPlan, ink_paths
+from galileo_cnc.plan import sides
+from galileo_cnc.plan.drill_marks import (DEFAULT_DRILL_MARK_NM, DRILL_MARK_MODES, MarkCutter,
+                                          clear_centre_lines, clear_strokes, marks_for,
+                                          ring_flashes)
+from galileo_cnc.plan.ink.islands import CLEARANCE_NM
+from galileo_cnc.plan.ink.inking import (DEFAULT_EDGE_MARGIN_NM, INK_TOLERANCE_NM, InkPlan,
+                                         ink_paths)
 from galileo_cnc.plan.offsets import (DEFAULT_MARGIN_NM, OffsetError, offset_for_box,
                                       offset_from_text)
 from galileo_cnc.plan.planner import PlanError, plan_program
-from galileo_cnc.plan.transform import NO_TRANSFORM, Transform, apply_transform
+from galileo_cnc.plan.transform import (NO_TRANSFORM, Transform, TransformError,
+                                        apply_transform, reach_box)
+from galileo_cnc.program.drills import Hole, Slot
 from galileo_cnc.program.extents import extents
 from galileo_cnc.program.ops import NM_PER_MM, Program
 from galileo_cnc.readers import read_file
@@ -95,7 +109,18 @@ class PlanOptions:
     path order. `optimize` orders G-code's paths too (Gerber and DXF are ordered
     anyway), if it only draws with a pen. `layers` and `units` choose what of a DXF
     drawing is read (read_dxf). `transform`: the scale, rotation or fit the drawing
-    is read with (transform.py)."""
+    is read with (transform.py).
+
+    A board's side (all unset: a layer alone, as before; holes without a side: a
+    layer of one side, its own offset, drill marks): `side` "top" or "bottom"
+    (the bottom mirrored about `mirror_axis`, ("x", nm) or ("y", nm) in board
+    coordinates, default the vertical centre line of `outline_program`'s box, else
+    of the holes'); with "auto" both sides take one offset, over `board_box_nm` (give
+    the box of every layer of the board, sides.union_box) or else the outline's and
+    the holes' box, and its mirror image. `holes`: the board's Hole and Slot objects in
+    board coordinates (program/drills.py), left bare as `drill_marks` ("none", "small":
+    dots `drill_mark_nm` wide, "actual": the holes) in the ink; `registration`: crosses
+    on holes far apart (else outside the outline) after the copper, on both sides."""
 
     mode: str = "auto"
     pens_nm: tuple[int, ...] = ()
@@ -104,12 +129,36 @@ class PlanOptions:
     units: str | None = None
     optimize: bool = False
     transform: Transform = NO_TRANSFORM
+    holes: Sequence[Hole | Slot] = ()
+    drill_marks: str = "small"
+    drill_mark_nm: int = DEFAULT_DRILL_MARK_NM
+    side: str | None = None
+    mirror_axis: tuple[str, int] | None = None
+    registration: bool = False
+    outline_program: Program | None = None
+    board_box_nm: Box | None = None
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
             raise PlanError(f"--mode: expected ink or centre, got {self.mode!r}")
         if self.optimize and self.file_order:
             raise PlanError("--optimize and --file-order ask for opposite orders: give one")
+        if self.drill_marks not in DRILL_MARK_MODES:
+            raise PlanError(f"--drill-marks: expected none, small or actual, got "
+                            f"{self.drill_marks!r}")
+        if self.drill_mark_nm <= 0:
+            raise PlanError("--drill-mark-size: expected a width above 0 mm")
+        if self.side is not None and self.side not in sides.SIDES:
+            raise PlanError(f"--side: expected top or bottom, got {self.side!r}")
+        if self.on_board and not self.transform.is_identity:
+            raise PlanError("--scale, --rotate and --fit change a drawing, not a board's side: "
+                            "its holes and its other side would no longer match")
+
+    @property
+    def on_board(self) -> bool:
+        """A board's side, or a layer with holes: more than a layer alone."""
+        return self.side is not None or bool(self.holes) or self.registration \
+            or self.mirror_axis is not None
 
     def mode_for(self, program: Program) -> str:
         if self.mode == "auto":
@@ -133,6 +182,14 @@ class PlannedFile:
     ink: InkPlan | None = None
     #: feeds above the profile's warning feed, one line each (feeds.py)
     feed_warnings: tuple[str, ...] = ()
+    #: a board's side: which it is, the axis and where it lies on the machine, one line
+    side_line: str = ""
+    #: drill marks shrunk or left out, and pads too small for a ring (drill_marks.py)
+    drill_mark_warnings: tuple[str, ...] = ()
+    #: the holes as plotted on this side (mirrored on the bottom), program nm
+    holes: tuple = ()
+    #: the drill marks left bare: their polygon set, program nm (empty: none)
+    marks: list = dataclasses.field(default_factory=list)
 
     @property
     def program(self) -> Program:
@@ -183,6 +240,63 @@ def _union_box(a: Box | None, b: Box | None) -> Box | None:
     return (min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3]))
 
 
+@dataclass(frozen=True)
+class _Side:
+    """A board side as plan_file needs it: the axis, the holes and crosses as plotted
+    (mirrored on the bottom), and the box both sides' offset comes from."""
+
+    name: str
+    axis: sides.MirrorAxis
+    #: a side of a two-sided job (`side` given): one offset for both, its first line said
+    turned_over: bool
+    holes: tuple
+    crosses: tuple
+    board_box_nm: Box | None
+
+
+def _board_side(artwork: Artwork, options: PlanOptions) -> tuple[Artwork, _Side | None]:
+    """The artwork as plotted on its side (the bottom mirrored), and the side."""
+    if not options.on_board:
+        return artwork, None
+    name = options.side or "top"
+    holes = tuple(options.holes)
+    outline_box = extents(options.outline_program) if options.outline_program is not None \
+        else None
+    holes_box = sides.drills_box(holes)
+    program = artwork.program
+    turned = program.metadata.get("side") == "bottom"     # mirrored already (a replan)
+    layer_box = reach_box(program)
+    try:
+        if options.mirror_axis is not None:
+            axis = sides.MirrorAxis.at(*options.mirror_axis)
+        else:
+            axis = sides.default_axis(outline_box, holes_box,
+                                      options.board_box_nm or (None if turned else layer_box))
+    except TransformError as problem:
+        raise PlanError(str(problem)) from None
+    crosses = sides.registration_points(holes, outline_box) if options.registration else []
+    arm = sides.CROSS_ARM_NM
+    crosses_box = sides.union_box(*[(x - arm, y - arm, x + arm, y + arm) for x, y in crosses])
+    board_box = options.board_box_nm or sides.union_box(outline_box, holes_box) or \
+        (axis.box(layer_box) if turned else layer_box)
+    board_box = sides.union_box(board_box, crosses_box)
+    if name == "bottom":
+        holes = tuple(sides.mirror_drills(holes, axis))
+        crosses = [axis.point(x, y) for x, y in crosses]
+        if not turned:
+            program = sides.side_program(program, name, axis)
+            program = dataclasses.replace(program, metadata={**program.metadata,
+                                                             "side": "bottom"})
+            artwork = Artwork(program, extents(program), extents(program, visited=True),
+                              artwork.margin_nm, artwork.transform)
+    return artwork, _Side(name, axis, options.side is not None, holes, tuple(crosses),
+                          board_box)
+
+
+def _smallest_pen(options: PlanOptions, config: MachineConfig) -> int:
+    return min(options.pens_nm or config.pen_widths_nm)
+
+
 def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | None = None,
               offset: OffsetChoice = "auto", *, options: PlanOptions = PlanOptions(),
               margin_nm: int = DEFAULT_MARGIN_NM, group: bool = True,
@@ -201,10 +315,13 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
         artwork = source if isinstance(source, Artwork) else \
             load_artwork(source, margin_nm, layers=options.layers, units=options.units,
                          transform=options.transform, config=config)
+        artwork, side = _board_side(artwork, options)
         if (problem := artwork.misfit(config)) is not None:
             raise PlanError(f"{problem}: {artwork.way_out()}")
         feed_warnings = check_feeds(artwork.program, config)   # PlanError above the limit
         offset_nm = resolve_offset(artwork, offset)
+        if side is not None and side.turned_over and offset == "auto":
+            offset_nm = sides.shared_offset(side.board_box_nm, side.axis, artwork.margin_nm)
         mode = options.mode_for(artwork.program)
         stage = on_stage if on_stage is not None and len(artwork.program) >= PLANNING_NOTICE_OPS \
             else (lambda _text: None)
@@ -216,14 +333,32 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
         if optimize is None:
             optimize = not file_order and (plotted_format in ORDERED_FORMATS or options.optimize)
         ordered = None
+        marks = marks_for(side.holes, options.drill_marks, options.drill_mark_nm,
+                          INK_TOLERANCE_NM) if side is not None else []
+        pen = _smallest_pen(options, config)
+        mark_warnings: list[str] = []
+        cutter = None
         if mode == "ink":
+            # a mark leaves a ring the smallest pen fills: its width and the edge margins
+            # (the ink's own limit for what it fills, inking.py)
+            cutter = MarkCutter(marks, pen + 2 * DEFAULT_EDGE_MARGIN_NM + 4 * INK_TOLERANCE_NM,
+                                pen, INK_TOLERANCE_NM) if marks else None
             paths = ink_paths(artwork.program, options.pens_nm or config.pen_widths_nm,
-                              on_stage=stage)
-            if offset == "auto":
+                              on_stage=stage, bare=cutter)
+            if cutter is not None:
+                mark_warnings = cutter.fitted.warnings
+            if offset == "auto" and not (side and side.turned_over):
                 # fills reach out to the copper's edges, past the centre lines and flash
                 # points the proposal was made from: the margin is kept from the ink
                 offset_nm = offset_for_box(_union_box(artwork.visited_box_nm, paths.box_nm()),
                                            artwork.margin_nm)
+            if side is not None and side.crosses:
+                # walks of the smallest pen, clear of the marks, of the centre lines' ink
+                # and of every island but the hole's own pad
+                lines = [piece for feature in paths.narrow for piece in feature.pieces]
+                paths.add_strokes(clear_strokes(sides.cross_strokes(side.crosses),
+                                                paths.copper.native, paths.bare, pen,
+                                                CLEARANCE_NM, INK_TOLERANCE_NM, lines))
             # path order from the walks' ends meanwhile (walk_order.py), as
             # plan_program would order the rows, while their arcs are fitted
             order = paths.start_order(offset_nm, config.nm_per_step) \
@@ -237,8 +372,16 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
             finally:
                 if order is not None:
                     order.cancel()
-        elif optimize:
-            stage("ordering the paths to cut pen-up travel")
+        else:
+            if marks:
+                plotted, mark_warnings = ring_flashes(plotted, marks, pen)
+                plotted = clear_centre_lines(plotted, marks, pen, INK_TOLERANCE_NM)
+            if optimize:
+                stage("ordering the paths to cut pen-up travel")
+            if side is not None and side.crosses:
+                # centre lines: the crosses with a pen of their own, last
+                plotted = sides.with_strokes(plotted, sides.cross_strokes(side.crosses),
+                                             max(plotted.apertures, default=0) + 1, pen)
         job = plan_program(plotted, config, offset_nm, group=not file_order,
                            on_progress=on_progress, optimize=optimize, ordered=ordered)
         # freed before the collector runs again: its first collection walks what was
@@ -248,4 +391,10 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
         job.pens_nm = ink.pens_nm if ink is not None else ()
         job.layers, job.units = tuple(options.layers), options.units
         job.scale, job.rotate_deg = artwork.transform.scale, artwork.transform.rotate_deg
-        return PlannedFile(artwork, offset_nm, job, plotted, mode, ink, tuple(feed_warnings))
+        if side is None:
+            return PlannedFile(artwork, offset_nm, job, plotted, mode, ink,
+                               tuple(feed_warnings))
+        bare = cutter.fitted.bare(INK_TOLERANCE_NM, 0) if cutter is not None else []
+        line = side.axis.describe(side.name, offset_nm) if side.turned_over else ""
+        return PlannedFile(artwork, offset_nm, job, plotted, mode, ink, tuple(feed_warnings),
+                           line, tuple(mark_warnings), side.holes, bare)

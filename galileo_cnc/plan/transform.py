@@ -15,6 +15,8 @@ takes the same options and offers the fit when a drawing is too big):
   travel with the margin on every side, keeping the aspect: up or down, as vpype's
   layout does.
 
+`mirrored` turns a board's bottom side over about an axis (plan/sides.py), as exact.
+
 Apertures turn and scale with the drawing (readers/gerber/transformed.py makes their
 images, exactly at quarter turns). The offset is worked out afterwards, on the
 transformed drawing, as for any other.
@@ -29,7 +31,7 @@ from fractions import Fraction
 
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.program.extents import extents
-from galileo_cnc.program.ops import NM_PER_MM, Aperture, Program
+from galileo_cnc.program.ops import NM_PER_MM, X, Y, Aperture, Program
 from galileo_cnc.readers.gerber.load import LoadTransform
 from galileo_cnc.readers.gerber.numbers import parse_decimal
 from galileo_cnc.readers.gerber.transformed import transform_aperture
@@ -212,3 +214,23 @@ def apply_transform(program: Program, transform: Transform, travel_nm: tuple[int
     # said where the file's own drawing is compared (a preview's pygerber picture)
     return dataclasses.replace(result, metadata={**result.metadata,
                                                  "transform": done.describe()}), done
+
+
+def mirrored(program: Program, axis: str, twice_nm: int) -> Program:
+    """`program` mirrored about the line `axis` = twice_nm / 2 ("x": the vertical line
+    at that x, "y": the horizontal one), exactly in nm: x -> twice_nm - x (an axis
+    between two nm is exact too), arc centres' offsets and directions turned, every
+    aperture's image mirrored with it (the bottom side of a board, plan/sides.py)."""
+    if axis not in ("x", "y"):
+        raise TransformError(f"--mirror-axis: expected x=MM or y=MM, got {axis!r}")
+    load = LoadTransform("X" if axis == "x" else "Y")
+    try:
+        table = load.transform_rows(program.table)
+        apertures = {key: _aperture(aperture, load, key)
+                     for key, aperture in program.apertures.items()}
+    except (ValueError, OverflowError) as problem:
+        raise TransformError(f"{program.source}: mirrored: {problem}") from None
+    column = X if axis == "x" else Y
+    # transform_rows negated the coordinate; the axis moves it back: 2a - x
+    table[:, column] += twice_nm
+    return dataclasses.replace(program, table=table, apertures=apertures)

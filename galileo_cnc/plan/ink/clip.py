@@ -115,6 +115,30 @@ def boolean(operation, subject: PolygonSet, clip: PolygonSet) -> PolygonSet:
     return clipper.Execute(operation, pc.PFT_POSITIVE, pc.PFT_POSITIVE)
 
 
+def open_difference(paths: list, polygons: PolygonSet) -> list[np.ndarray]:
+    """The parts of open polylines outside the set (positive winding), as int64
+    arrays; a path of one point (a dot) is kept whole or dropped."""
+    if not polygons:
+        return [np.asarray(path, dtype=np.int64) for path in paths]
+    kept = []
+    lines = [path for path in paths if len(path) >= 2]
+    for dot in (path for path in paths if len(path) == 1):
+        x, y = (int(v) for v in dot[0])
+        if sum((1 if pc.Area(ring) > 0 else -1) for ring in polygons
+               if pc.PointInPolygon((x, y), ring) != 0) <= 0:
+            kept.append(np.array([[x, y]], dtype=np.int64))
+    if lines:
+        clipper = pc.Pyclipper()
+        clipper.AddPaths([np.asarray(p, dtype=np.int64).tolist() for p in lines],
+                         pc.PT_SUBJECT, False)
+        clipper.AddPaths(polygons, pc.PT_CLIP, True)
+        tree = clipper.Execute2(pc.CT_DIFFERENCE, pc.PFT_POSITIVE, pc.PFT_POSITIVE)
+        kept += [np.array(path, dtype=np.int64) for path in pc.OpenPathsFromPolyTree(tree)
+                 if len(path) >= 2]
+        free_tree(tree)
+    return kept
+
+
 def union(*sets: PolygonSet) -> PolygonSet:
     return boolean(pc.CT_UNION, [ring for s in sets for ring in s], [])
 

@@ -8,6 +8,14 @@ Program like any other Gerber file, so path order, pen changes, soft limits,
 previews and resume work on ink unchanged. Ring rows carry line 0 (they come from
 the union of many objects); centre lines keep their object's line and column.
 
+`bare(copper)` (pipeline.py: drill marks, plan/drill_marks.py) gives areas the ink
+leaves bare, and centre lines are cut a pen radius short of them. With one pen the
+copper is filled as without them, the fill's walks cut a pen radius short of them and
+a loop drawn round each at that distance (`_around_bare`): the loop inks what the cut
+took, so the copper outside them is inked as before (a fill of the copper less the
+areas leaves crescents between the rings round an off-centre hole and the pad's own).
+With several pens they come out of the copper before anything is filled.
+
 A narrower pen fills what the wider ones left: the copper not yet inked (opened by
 GAP_NM so rounding slivers along the edges do not count), where this pen reaches,
 grown by twice its radius and cut back to the copper (so it has room to move).
@@ -78,6 +86,7 @@ class InkPlan:
     coverage: Coverage | tuple[float, float]
     warnings: list[ReaderWarning] = field(default_factory=list)
     seconds: float = 0.0
+    bare: list = field(default_factory=list)   # the area left bare (drill marks), program nm
     bridge_warnings: slice = field(default_factory=lambda: slice(0, 0))  # theirs in `warnings`
 
     def warnings_to_show(self) -> list[str]:
@@ -129,8 +138,10 @@ def ink_program(program: Program, pens_nm: tuple[int, ...] | list[int], *,
 def ink_paths(program: Program, pens_nm: tuple[int, ...] | list[int], *,
               tolerance_nm: int = INK_TOLERANCE_NM, overlap: float = DEFAULT_OVERLAP,
               edge_margin_nm: int = DEFAULT_EDGE_MARGIN_NM,
-              on_stage: Callable[[str], None] | None = None) -> InkPaths:
-    """ink_program up to the pen paths: the fills and the centre lines, not yet rows."""
+              on_stage: Callable[[str], None] | None = None,
+              bare: Callable[[list], list] | None = None) -> InkPaths:
+    """ink_program up to the pen paths: the fills and the centre lines, not yet rows.
+    `bare(copper)`: the area to leave bare, from the copper's polygon set (module doc)."""
     began = time.perf_counter()
     pens = tuple(sorted({int(p) for p in pens_nm if int(p) > 0}, reverse=True))
     if not pens:
@@ -139,6 +150,11 @@ def ink_paths(program: Program, pens_nm: tuple[int, ...] | list[int], *,
     stage("inking: working out the copper")
     copper = dark_geometry(program, tolerance_nm)
     region = copper.native
+    bare_area = bare(region) if bare is not None else []
+    # one pen: filled as without the bare areas, then cut round them (module doc)
+    around = bool(bare_area) and len(pens) == 1
+    if bare_area and not around:
+        region = clip.difference(region, bare_area)
     islands = Islands.of(region)
     close = close_places(islands)
     keep_out = keep_back(close, CLEARANCE_NM // 2, tolerance_nm)
@@ -177,12 +193,82 @@ def ink_paths(program: Program, pens_nm: tuple[int, ...] | list[int], *,
             if number + 1 < len(pens):
                 inked = clip.union(inked, fill.ink) if inked else list(fill.ink)
         narrow, bridges = apart.result()
+        if around:
+            region = clip.difference(region, bare_area)
+            _around_bare(fills[0], bare_area, pens[0] // 2 + tolerance_nm, tolerance_nm)
+        if bare_area:
+            narrow = _clear_of(narrow, bare_area, smallest // 2 + tolerance_nm, tolerance_nm)
     finally:
         apart.cancel()
     coverage = Coverage(fills, [piece for f in narrow for piece in f.pieces], smallest // 2,
                         region, tolerance_nm, fork=big)
     return InkPaths(program, pens, copper, fills, narrow, bridges, zero_size, close,
-                    clip.area_nm2(region), coverage, big, began, stage, tolerance_nm)
+                    clip.area_nm2(region), coverage, big, began, stage, tolerance_nm,
+                    bare=bare_area)
+
+
+def _around_bare(fill: PenFill, bare_area: list, reach_nm: int, tolerance_nm: int) -> None:
+    """The fill's walks cut `reach_nm` short of the bare areas and a closed loop at that
+    distance round each; the coverage counts its batches less the bare areas."""
+    grown = clip.offset(bare_area, reach_nm, tolerance_nm)
+    loops = [np.vstack([ring, ring[:1]]) for ring in clip.rings_as_arrays(grown)]
+    boxes = boxes_of(grown)
+    paths, coarse = [], []
+    fine = len(fill.coarse) == len(fill.paths)
+    for k, path in enumerate(fill.paths):
+        (x0, y0), (x1, y1) = path.min(axis=0), path.max(axis=0)
+        near = np.flatnonzero((boxes[:, 0] <= x1) & (boxes[:, 2] >= x0) & (boxes[:, 1] <= y1)
+                              & (boxes[:, 3] >= y0))
+        if not len(near):
+            paths.append(path)
+            coarse.append(fill.coarse[k] if fine else np.full(len(path), tolerance_nm))
+            continue
+        for piece in clip.open_difference([path], [grown[n] for n in near.tolist()]):
+            paths.append(piece)
+            coarse.append(np.full(len(piece), tolerance_nm))
+    fill.paths = paths + loops
+    fill.coarse = coarse + [np.full(len(loop), tolerance_nm) for loop in loops]
+    recipes = []
+    for batch, recipe in fill.recipes:
+        low = np.min([np.min(ring, axis=0) for ring in batch], axis=0)
+        high = np.max([np.max(ring, axis=0) for ring in batch], axis=0)
+        if not np.any((boxes[:, 0] <= high[0]) & (boxes[:, 2] >= low[0])
+                      & (boxes[:, 1] <= high[1]) & (boxes[:, 3] >= low[1])):
+            recipes.append((batch, recipe))
+            continue
+        # its ink counted as polygons, within the batch less the bare areas
+        if isinstance(recipe.area, Deferred):
+            recipe.area.cancel()
+        recipe.area = None
+        recipe.ink()
+        recipes.append((clip.rings_as_arrays(clip.difference(batch, bare_area)), recipe))
+    fill.recipes = recipes
+
+
+def _clear_of(narrow: list[NarrowFeature], bare_area: list, reach_nm: int,
+              tolerance_nm: int) -> list[NarrowFeature]:
+    """The centre lines cut `reach_nm` short of the bare area (a trace ends at its pad's
+    centre, where the drill mark is); a feature left with nothing is dropped."""
+    grown = clip.offset(bare_area, reach_nm, tolerance_nm)
+    boxes = boxes_of(grown)
+    kept = []
+    for feature in narrow:
+        points = np.concatenate(feature.pieces) if feature.pieces else None
+        if points is None or not len(points):
+            continue
+        x0, y0 = points.min(axis=0) - reach_nm
+        x1, y1 = points.max(axis=0) + reach_nm
+        near = (boxes[:, 0] <= x1) & (boxes[:, 2] >= x0) & (boxes[:, 1] <= y1) & \
+            (boxes[:, 3] >= y0)
+        if not near.any():
+            kept.append(feature)
+            continue
+        pieces = clip.open_difference(feature.pieces,
+                                      [grown[k] for k in np.flatnonzero(near).tolist()])
+        if pieces:
+            feature.pieces, feature.cut = pieces, True
+            kept.append(feature)
+    return kept
 
 
 def _kept_apart(narrow: list[NarrowFeature], islands: Islands, pen_nm: int
@@ -212,6 +298,7 @@ class InkPaths:
     began: float
     stage: Callable[[str], None]
     tolerance_nm: int                     # the ink's (ink_paths): its arcs are fitted to it
+    bare: list = field(default_factory=list)       # the area left bare (drill marks)
     _fitted: dict = field(default_factory=dict)    # (fill, path) -> its arcs, once fitted
     _narrow: np.ndarray | None = None              # the centre lines' rows, once made
 
@@ -230,6 +317,18 @@ class InkPaths:
                 min(box[0], low[0]), min(box[1], low[1]),
                 max(box[2], high[0]), max(box[3], high[1]))
         return box
+
+    def add_strokes(self, strokes: list[np.ndarray]) -> None:
+        """Open polylines (registration crosses, plan/sides.py) drawn with the smallest
+        pen as walks of its own: path order takes them with the pen's other walks.
+        Before `start_order` and `finish`."""
+        fill = self.fills[-1]
+        if len(fill.coarse) != len(fill.paths):
+            fill.coarse = [np.full(len(path), self.tolerance_nm) for path in fill.paths]
+        for stroke in strokes:
+            if len(stroke) >= 2:
+                fill.paths.append(np.ascontiguousarray(stroke, dtype=np.int64))
+                fill.coarse.append(np.full(len(stroke), self.tolerance_nm))
 
     def start_order(self, start: tuple[int, int], join_nm: int) -> WalkOrder:
         """Path order from `start` (program nm) worked out on the walks' ends, in a
@@ -258,7 +357,8 @@ class InkPaths:
                      self._fitted)
         self._fitted = {}        # 100k small tuples on a pour: freed before the collector runs
         plan = InkPlan(rows, self.pens_nm, self.copper, self.fills, self.narrow, self.bridges,
-                       self.zero_size, self.close, self.copper_nm2, self.coverage)
+                       self.zero_size, self.close, self.copper_nm2, self.coverage,
+                       bare=self.bare)
         plan.warnings, plan.bridge_warnings = _warnings(self.source, plan)
         plan.program.warnings = list(self.source.warnings) + plan.warnings
         plan.seconds = time.perf_counter() - self.began

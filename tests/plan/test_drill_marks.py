@@ -1,0 +1,203 @@
+"""Drill marks: the ink leaves each hole's centre bare (plan/drill_marks.py).
+
+Measured from the steps of the reference machine (the firmware's twin): the pen-down
+steps near the marks swept by the pen (tests/drilled.py) and the marks rasterised at
+10 um: not one pixel of ink inside a mark. A real board of the curated corpus
+(KiCad's flashpads, its bottom copper: pads of every shape, some with off-centre
+holes; the holes from its own drill files by a test-only reader) and a
+small hand-made board with thick and thin pads, a trace to a pad's centre and a slot.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from corpus import CORPUS
+from drilled import ink_near, kicad_holes, pixels_inside
+from inked import ink_of_trace, joined_islands
+
+from galileo_cnc.config.machine import MachineConfig
+from galileo_cnc.machine.planner import simulate
+from galileo_cnc.plan.drill_marks import MARK_CLEARANCE_NM, marks_for, warnings_to_show
+from galileo_cnc.plan.ink import clip
+from galileo_cnc.plan.pipeline import PlanOptions, plan_file
+from galileo_cnc.plan.planner import PlanError
+from galileo_cnc.program.drills import Hole, Slot
+from galileo_cnc.program.ops import I, J, KIND, X, Y, OpKind
+
+MM = 1_000_000
+CONFIG = MachineConfig()
+STEP = CONFIG.nm_per_step
+PEN = CONFIG.pen_widths_nm[0]
+FLASHPADS = CORPUS / "kicad" / "flashpads-x2ap" / "Flashpads-B_Cu.gbr"
+FLASHPADS_DRILL = CORPUS / "drill" / "kicad" / "flashpads-x2ap"
+
+HEADER = "%FSLAX46Y46*%\n%MOMM*%\nG75*\n"
+#: two 2 mm pads joined by a 0.2 mm trace (centre line to their centres), a 1.0 mm
+#: pad (a mark shrunk), a 0.9 mm pad (no room for a mark), an oval pad with a slot
+BOARD = HEADER + """%ADD10C,2.0*%
+%ADD11C,0.2*%
+%ADD12C,1.0*%
+%ADD13C,0.9*%
+%ADD14O,3.0X1.8*%
+D10*
+X5000000Y5000000D03*
+X9000000Y5000000D03*
+D11*
+X5000000Y5000000D02*
+X9000000Y5000000D01*
+D12*
+X5000000Y9000000D03*
+D13*
+X9000000Y9000000D03*
+D14*
+X13000000Y9000000D03*
+M02*
+"""
+HOLES = (Hole(5 * MM, 5 * MM, 1_000_000), Hole(9 * MM, 5 * MM, 800_000),
+         Hole(5 * MM, 9 * MM, 800_000), Hole(9 * MM, 9 * MM, 700_000),
+         Slot(12_600_000, 9 * MM, 13_400_000, 9 * MM, 800_000))
+
+
+@pytest.fixture(scope="module")
+def board(tmp_path_factory):
+    path = tmp_path_factory.mktemp("board") / "board.gbr"
+    path.write_text(BOARD)
+    return path
+
+
+def inside(polygons, x, y) -> bool:
+    return sum(1 if clip.pc.Area(ring) > 0 else -1 for ring in polygons
+               if clip.pc.PointInPolygon((x, y), ring) == 1) > 0
+
+
+def test_a_real_board_leaves_every_drill_mark_bare_and_inks_the_rest():
+    holes = kicad_holes(FLASHPADS_DRILL / "Flashpads-PTH.drl") + \
+        kicad_holes(FLASHPADS_DRILL / "Flashpads-NPTH.drl")
+    before = plan_file(FLASHPADS, CONFIG, options=PlanOptions(mode="ink"))
+    planned = plan_file(FLASHPADS, CONFIG, options=PlanOptions(mode="ink", holes=holes))
+    marks = clip.components(planned.marks)
+    assert len(marks) >= 50                       # every plated hole on a pad
+    trace = simulate(planned.job.commands, CONFIG)
+    ink = ink_near(trace, CONFIG, planned.offset_nm, PEN, planned.marks)
+    assert pixels_inside(clip.intersection(ink, planned.marks)) == 0
+    # round each mark (0.8 mm: its pad) the copper outside the marks and their clearance
+    # is inked as before, 99 % of it, from the steps; the pads with off-centre holes are
+    # the test (a fill of the copper less the marks leaves crescents in them: 94 %)
+    window = clip.offset(planned.marks, 800_000, 1000)
+    ink = ink_near(trace, CONFIG, planned.offset_nm, PEN, window)
+    ink_before = ink_near(simulate(before.job.commands, CONFIG), CONFIG, before.offset_nm,
+                          PEN, window)
+    copper = clip.difference(clip.intersection(planned.ink.copper.native, window),
+                             planned.ink.bare)
+    for outer, _holes in marks:
+        pad = clip.intersection(copper, clip.offset([outer], 800_000, 1000))
+        inked = clip.area_nm2(clip.intersection(ink, pad))
+        assert inked >= 0.99 * clip.area_nm2(clip.intersection(ink_before, pad)), \
+            outer.mean(axis=0) / MM
+    # a mark shrunk for its pad's ring says where, in mm
+    assert planned.drill_mark_warnings
+    assert all(" mm hole at X " in w and " mm made " in w for w in planned.drill_mark_warnings)
+    shown = warnings_to_show(planned.drill_mark_warnings, 2)
+    assert shown[:2] == list(planned.drill_mark_warnings[:2]) and len(shown) == 3
+    assert shown[2] == f"... and {len(planned.drill_mark_warnings) - 2} more drill marks " \
+        "shrunk or left out (galileo-cnc info lists every one)"
+
+
+@pytest.mark.parametrize("mode", ["actual", "small"])
+def test_marks_stay_bare_the_copper_round_them_inked_and_thin_rings_kept(board, mode):
+    planned = plan_file(board, CONFIG, options=PlanOptions(mode="ink", holes=HOLES,
+                                                           drill_marks=mode))
+    trace = simulate(planned.job.commands, CONFIG)
+    ink = ink_of_trace(trace, CONFIG, planned.offset_nm, [PEN])
+    assert pixels_inside(clip.intersection(ink, planned.marks)) == 0
+    copper = planned.ink.copper.native
+    assert joined_islands(ink, copper, 30_000) == []
+    marks = planned.marks
+    for x, y in ((5 * MM, 5 * MM), (9 * MM, 5 * MM), (12_600_000, 9 * MM), (13_400_000, 9 * MM)):
+        assert inside(marks, x, y)
+    # actual: the whole hole (and the slot's stadium); small: 0.3 mm dots, at a slot's ends
+    assert inside(marks, 5 * MM + 450_000, 5 * MM) == (mode == "actual")
+    assert inside(marks, 13 * MM, 9 * MM) == (mode == "actual")
+    assert not inside(marks, 5 * MM + 520_000, 5 * MM)
+    # the 0.9 mm pad has no room for a mark: inked solid, and said
+    assert not inside(marks, 9 * MM, 9 * MM)
+    warnings = "\n".join(planned.drill_mark_warnings)
+    assert "hole at X 9.000, Y 9.000 mm left out" in warnings
+    if mode == "actual":                          # the 1.0 mm pad's mark is shrunk
+        assert "hole at X 5.000, Y 9.000 mm made 0.1" in warnings
+    # the copper of each pad outside its mark (and the clearance) is inked: rings kept
+    grown = clip.offset(marks, MARK_CLEARANCE_NM + 2 * STEP, 1000)
+    for x, y, d in ((5, 5, 2.0), (5, 9, 1.0), (9, 9, 0.9)):
+        pad = clip.stroke([[[x * MM, y * MM]]], round(d * MM) // 2, 1000)
+        ring = clip.difference(pad, grown)
+        covered = clip.area_nm2(clip.intersection(ring, ink)) / clip.area_nm2(ring)
+        assert covered >= 0.95, (x, y, covered)
+    # the trace's centre line stops short of both marks: no step of it inside
+    assert pixels_inside(clip.intersection(ink, marks)) == 0
+
+
+def test_no_drill_marks_ink_the_pads_as_without_holes(board):
+    alone = plan_file(board, CONFIG, options=PlanOptions(mode="ink"))
+    none = plan_file(board, CONFIG, options=PlanOptions(mode="ink", holes=HOLES,
+                                                        drill_marks="none"))
+    assert np.array_equal(alone.plotted.table, none.plotted.table)
+    assert none.marks == [] and none.drill_mark_warnings == ()
+    # holes without a side: a layer of one side, its own offset, no turn-over line
+    small = plan_file(board, CONFIG, options=PlanOptions(mode="ink", holes=HOLES))
+    assert none.offset_nm == small.offset_nm == alone.offset_nm
+    assert none.side_line == small.side_line == ""
+
+
+def test_centre_mode_draws_a_pad_with_a_hole_as_a_ring_round_its_mark(board):
+    """...and its trace to the pad's centre stops short of the mark."""
+    planned = plan_file(board, CONFIG, options=PlanOptions(mode="centre", holes=HOLES))
+    rows = planned.plotted.table
+    flashes = {(x, y) for x, y in rows[rows[:, KIND] == int(OpKind.FLASH)][:, [X, Y]].tolist()}
+    circles = rows[(rows[:, KIND] == int(OpKind.ARC_CCW)) & (rows[:, J] == 0)]
+    centres = {(x + i, y) for x, y, i in circles[:, [X, Y, I]].tolist()}
+    # the 2 mm pads: rings a pen radius and the clearance round the 0.3 mm marks
+    assert {(5 * MM, 5 * MM), (9 * MM, 5 * MM)} <= centres
+    assert (5 * MM, 5 * MM) not in flashes and (9 * MM, 5 * MM) not in flashes
+    radius = 150_000 + MARK_CLEARANCE_NM + PEN // 2
+    assert set((-circles[:, I]).tolist()) == {radius}
+    # the 1.0 and 0.9 mm pads hold no ring: their dots stay, said; the slot's pad too
+    assert {(5 * MM, 9 * MM), (9 * MM, 9 * MM), (13 * MM, 9 * MM)} <= flashes
+    assert sum("too small for a ring" in w for w in planned.drill_mark_warnings) == 2
+    # stepped: the pen-down steps round (5, 5) keep out of the mark, the 0.2 mm trace's
+    # centre line (to the pad's centre) by its own half width, the ring by the pen's
+    trace = simulate(planned.job.commands, CONFIG)
+    where = trace.positions()
+    down = where[where[:, 2] == CONFIG.pen_down_z_steps][:, :2] * STEP + planned.offset_nm
+    distance = np.hypot(*(down - (5 * MM, 5 * MM)).T)
+    assert distance.min() >= 150_000 + MARK_CLEARANCE_NM + 100_000 - STEP
+    off_trace = np.abs(down[:, 1] - 5 * MM) > PEN
+    assert distance[off_trace].min() >= radius - 2 * STEP
+
+
+def test_marks_for_sizes_and_options():
+    hole, slot = Hole(0, 0, 200_000), Slot(0, 0, 1_000_000, 0, 600_000)
+    small = marks_for([hole, slot], "small", 300_000)
+    assert [m.radius_nm for m in small] == [100_000, 150_000, 150_000]   # never wider
+    assert [m.path for m in small[1:]] == [((0, 0),), ((1_000_000, 0),)]
+    actual = marks_for([hole, slot], "actual")
+    assert [m.radius_nm for m in actual] == [100_000, 300_000]
+    assert actual[1].path == ((0, 0), (1_000_000, 0))
+    assert marks_for([hole, slot], "none") == []
+    with pytest.raises(PlanError, match="--drill-marks: expected none, small or actual"):
+        PlanOptions(drill_marks="big")
+
+
+def test_with_two_pens_each_pen_keeps_out_of_the_marks(board):
+    """Several pens fill the copper less the marks (ink_paths): each pen's paths,
+    swept by its own width, stay out of them."""
+    pens = (600_000, 300_000)
+    planned = plan_file(board, CONFIG, options=PlanOptions(mode="ink", pens_nm=pens,
+                                                           holes=HOLES))
+    assert planned.marks
+    for fill in planned.ink.fills:
+        swept = clip.stroke([path.tolist() for path in fill.paths], fill.width_nm // 2, 1000)
+        assert pixels_inside(clip.intersection(swept, planned.marks)) == 0
+    lines = [piece.tolist() for feature in planned.ink.narrow for piece in feature.pieces]
+    swept = clip.stroke(lines, pens[-1] // 2, 1000)
+    assert pixels_inside(clip.intersection(swept, planned.marks)) == 0
