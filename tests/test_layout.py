@@ -96,7 +96,7 @@ PLAN_STAGES = {
     "order": 1, "sides": 1,
     "ink": 2, "planner": 2,
     "open_traces": 3, "drill_marks": 3,
-    "pipeline": 4,
+    "pipeline": 4, "board_plan": 5,
     "gcode_writer": 5,
 }
 

@@ -224,7 +224,8 @@ def _run_preview(args: argparse.Namespace) -> int:
             # within one, without planning or stepping them (docs/preview.md, "Cost")
             path = JobPath(planned.job.commands, config)
             info = render_preview(planned.program, path, config, planned.offset_nm,
-                                  args.output, job=planned.job, copper=planned.copper)
+                                  args.output, job=planned.job, copper=planned.copper,
+                                  marks=planned.marks)
     except OSError as problem:
         raise GalileoError(f"--output {args.output}: cannot write: {problem.strerror}") from None
     print(f"{args.output}: {info.summary()}")

@@ -35,6 +35,7 @@ from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
 from galileo_cnc.plan.open_traces import ink_warnings, open_traces
 from galileo_cnc.plan.widths import mm_text
 from galileo_cnc.plan.board_plan import plan_source
+from galileo_cnc.plan.drill_marks import warnings_to_show
 from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, PlanOptions
 from galileo_cnc.preview.formats import is_svg
 from galileo_cnc.program.ops import NM_PER_MM
@@ -327,7 +328,7 @@ def _say_place(planned, out: TextIO) -> None:
     offset = planned.offset_nm
     if getattr(planned, "side_line", ""):
         out.write(f"{planned.side_line}\n")
-    for warning in getattr(planned, "drill_mark_warnings", ()):
+    for warning in warnings_to_show(getattr(planned, "drill_mark_warnings", ())):
         out.write(f"{warning}\n")
     if box is not None:
         done = planned.artwork.transform.describe()
@@ -386,5 +387,5 @@ def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO)
         from galileo_cnc.preview.render import render_preview
         info = render_preview(planned.program, JobPath(planned.job.commands, config), config,
                               planned.offset_nm, options.preview, job=planned.job,
-                              copper=planned.copper)
+                              copper=planned.copper, marks=planned.marks)
         out.write(f"preview: {options.preview}: {info.summary()}{machine.preview_note}\n")

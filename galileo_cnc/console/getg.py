@@ -17,6 +17,7 @@ from galileo_cnc.console import jobs
 from galileo_cnc.plan.offsets import offset_from_text
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.plan.board_plan import BoardChoice, plan_board
+from galileo_cnc.plan.drill_marks import warnings_to_show
 from galileo_cnc.plan.feeds import machine_refusal
 from galileo_cnc.plan.open_traces import ink_warnings, open_traces
 from galileo_cnc.plan.pipeline import PLANNING_NOTICE_OPS, Artwork, PlanOptions, load_artwork
@@ -110,12 +111,11 @@ def _board(console, path: str, options: PlanOptions, config, board: dict) -> Non
                                      options=options, on_stage=console.say_stage)
             offset = planned.offset_nm      # the other side: the same offset
         console.say(planned.side_line)
-        for warning in planned.drill_mark_warnings:
+        for warning in warnings_to_show(planned.drill_mark_warnings):
             console.say(warning)
         if side == "bottom" and not one_side:
-            console.say(f"turn the blank over about {turn_over_line(planned)} against "
-                        f"the fence, and fix it down again")
-            if not console.confirm("is it turned over? plot the bottom side?"):
+            if not console.confirm(f"turn the blank over about {turn_over_line(planned)} "
+                                   f"against the fence; plot the bottom side?"):
                 console.say(f"not plotted: getg --side bottom {path} plots it later")
                 return
         if not _ink_accepted(console, planned) or not jobs.plot(console, planned, config):
@@ -123,11 +123,11 @@ def _board(console, path: str, options: PlanOptions, config, board: dict) -> Non
 
 
 def turn_over_line(planned) -> str:
-    """`the vertical line X 37.5000 mm on the machine (work)`: where the blank turns."""
+    """`the vertical line X 37.500 mm (work)`: where the blank turns, on the machine."""
     axis = planned.axis
     line = "vertical" if axis.axis == "x" else "horizontal"
-    return f"the {line} line {axis.axis.upper()} {axis.on_machine_mm(planned.offset_nm):.4f} " \
-           f"mm on the machine (work)"
+    return f"the {line} line {axis.axis.upper()} {axis.on_machine_mm(planned.offset_nm):.3f} " \
+           f"mm (work)"
 
 
 def _options(console, arguments: list[str]):

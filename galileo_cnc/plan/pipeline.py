@@ -190,6 +190,8 @@ class PlannedFile:
     holes: tuple = ()
     #: the drill marks left bare: their polygon set, program nm (empty: none)
     marks: list = dataclasses.field(default_factory=list)
+    #: a board's side: the line it turns over about (sides.MirrorAxis; None: a file)
+    axis: object = None
 
     @property
     def program(self) -> Program:
@@ -397,4 +399,5 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
         bare = cutter.fitted.bare(INK_TOLERANCE_NM, 0) if cutter is not None else []
         line = side.axis.describe(side.name, offset_nm) if side.turned_over else ""
         return PlannedFile(artwork, offset_nm, job, plotted, mode, ink, tuple(feed_warnings),
-                           line, tuple(mark_warnings), side.holes, bare)
+                           line, tuple(mark_warnings), side.holes, bare,
+                           side.axis if side.turned_over else None)

@@ -54,6 +54,10 @@ def artwork_box(program: Program, offset_nm, pygerber_limit: int, notes: list[st
         (v - offset_nm[k % 2]) / NM_PER_MM for k, v in enumerate(box))
     if program.format != "gerber":
         return None, ours
+    if program.metadata.get("side") == "bottom":
+        notes.append("a board's bottom side is drawn mirrored; pygerber would draw the file "
+                     "as it is")
+        return None, ours
     parsed, why = _pygerber_parse(program.source, pygerber_limit)
     if parsed is None:
         notes.append(why)

@@ -50,6 +50,7 @@ STROKE = (20, 40, 160)          # dark blue
 TRAVEL = (190, 190, 190)        # light grey
 UNINKED = (255, 120, 0)         # orange: copper the ink leaves bare
 OUTSIDE = (220, 0, 200)         # magenta: ink outside the copper
+DRILL_MARK = (255, 255, 255)    # white: a drill mark the ink leaves bare, as the hole will be
 
 DEFAULT_PX_PER_MM = 20.0
 DEFAULT_MAX_PX = 4000
@@ -102,7 +103,8 @@ def render_preview(program: Program, trace: Steps, config: MachineConfig,
                    artwork: bool = True, travel: bool = True,
                    pygerber_limit: int = DEFAULT_PYGERBER_LIMIT,
                    job: Job | None = None, pen_widths_nm: dict[int, int] | None = None,
-                   copper=None, ink_tolerance_nm: int | None = None) -> PreviewInfo:
+                   copper=None, ink_tolerance_nm: int | None = None,
+                   marks=None) -> PreviewInfo:
     """Draw the trace's pen strokes over the artwork and save the image (PNG etc.).
 
     `trace` must be the run of the job planned from `program` with `offset_nm`,
@@ -119,7 +121,9 @@ def render_preview(program: Program, trace: Steps, config: MachineConfig,
     (an ink plan's `DarkImage`, or a pyclipper polygon set; program nm, like the
     artwork) paints the copper no stroke covers in UNINKED and the strokes outside
     it in OUTSIDE, and fills in `uninked_mm2` and `outside_mm2`; misses and spills
-    within `ink_tolerance_nm` (default one motor step) are not counted.
+    within `ink_tolerance_nm` (default one motor step) are not counted. `marks` (a
+    board's drill marks, a pyclipper polygon set in program nm) are painted in
+    DRILL_MARK where no stroke covers them, and are not counted as bare copper.
     """
     if pen_widths_nm is not None and job is None:
         raise ValueError("pen_widths_nm needs the job: it says which pen draws when")
@@ -185,7 +189,8 @@ def render_preview(program: Program, trace: Steps, config: MachineConfig,
         if copper is not None:
             tolerance = config.nm_per_step if ink_tolerance_nm is None else ink_tolerance_nm
             outlines = _copper_outlines(copper, to_px, offset_nm, max(0, int(tolerance)))
-        bare, stray = _paint_ink(canvas, ink, outlines)
+        mark_edges = _copper_edges(copper_rings(marks), to_px, offset_nm) if marks else None
+        bare, stray = _paint_ink(canvas, ink, outlines, mark_edges)
         if copper is not None:
             uninked, outside = bare / scale ** 2, stray / scale ** 2
         del ink
@@ -282,12 +287,14 @@ def _stroke_widths_nm(strokes: np.ndarray, job: Job, config: MachineConfig,
 _BAND_CELLS = 1 << 20
 
 
-def _paint_ink(canvas: Image.Image, ink: np.ndarray, outlines) -> tuple[int, int]:
+def _paint_ink(canvas: Image.Image, ink: np.ndarray, outlines,
+               mark_edges=None) -> tuple[int, int]:
     """Paint the strokes (`ink`, 255 where inked) in STROKE and, given the copper's
     `outlines` (_copper_outlines), the copper no stroke covers in UNINKED and the
     strokes outside the copper in OUTSIDE, but for the pixels within the tolerance
-    of the copper's outline; a band of rows at a time. (uninked pixels, outside
-    pixels)."""
+    of the copper's outline; given the drill marks' edges, the marks no stroke
+    covers in DRILL_MARK (not bare copper); a band of rows at a time. (uninked
+    pixels, outside pixels)."""
     width, height = canvas.size
     band = max(1, _BAND_CELLS // (width + 1))
     uninked = outside = 0
@@ -298,6 +305,10 @@ def _paint_ink(canvas: Image.Image, ink: np.ndarray, outlines) -> tuple[int, int
         if outlines is not None:
             inner, outer = (_copper_rows(edges, r0, r1, width) for edges in outlines)
             bare, stray = inner & ~inked, inked & ~outer
+            if mark_edges is not None:
+                marked = _copper_rows(mark_edges, r0, r1, width) & ~inked
+                bare &= ~marked
+                paint.append((DRILL_MARK, marked))
             uninked += int(np.count_nonzero(bare))
             outside += int(np.count_nonzero(stray))
             paint += [(UNINKED, bare), (OUTSIDE, stray)]

@@ -1,0 +1,139 @@
+"""A double-sided board at the console (issue 32): `getg BOARD` plots the top, asks
+for the turn-over about the axis (named on the machine), plots the bottom mirrored
+with the same offset; a `q` on the bottom and `resume` finish that side. On sim://
+and on the firmware in simavr; the journal keeps which side it was."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from galileo_cnc.config.machine import MachineConfig
+from galileo_cnc.plan.board_plan import BoardChoice, plan_board
+from galileo_cnc.simavr.board import SimulatedBoard
+from galileo_cnc.stream.journal import FINISHED
+from galileo_cnc.stream.resume import position_after
+
+from firmware_support import ELF, build_firmware, build_harness
+from test_console import console_in_thread, home  # noqa: F401  (the fixture)
+
+TWO_PENS = MachineConfig().replace(pen_widths_mm=(0.3, 0.8))
+
+_HEADER = "%FSLAX46Y46*%\n%MOMM*%\n%LPD*%\n"
+
+
+def _gerber(function: str, body: str) -> str:
+    return f"%TF.FileFunction,{function}*%\n{_HEADER}{body}M02*\n"
+
+
+def _pads(points) -> str:
+    return "D10*\n" + "".join(f"X{x * 10**6}Y{y * 10**6}D03*\n" for x, y in points)
+
+
+def make_board(folder: Path) -> Path:
+    """A 12 x 12 mm KiCad-style export: three 1.6 mm pads with 0.8 mm holes, a 3 mm
+    pad and a trace on each side, the outline and a plated drill file (small: the
+    firmware in simavr runs both sides)."""
+    folder.mkdir()
+    pads = [(3, 3), (7, 3), (3, 7)]
+    # a 3 mm pad wants the 0.8 mm pen, the rings round the holes the 0.3 mm one: both
+    # pens on each side
+    apertures = "%ADD10C,1.600000*%\n%ADD11C,0.250000*%\n%ADD13R,3.000000X3.000000*%\n"
+    big = "D13*\nX8500000Y8500000D03*\n"
+    (folder / "board-F_Cu.gbr").write_text(_gerber(
+        "Copper,L1,Top", apertures + _pads(pads) + big + "D11*\nX3000000Y3000000D02*\n"
+        "X7000000Y3000000D01*\n"))
+    (folder / "board-B_Cu.gbr").write_text(_gerber(
+        "Copper,L2,Bot", apertures + _pads(pads) + big + "D11*\nX3000000Y3000000D02*\n"
+        "X3000000Y7000000D01*\n"))
+    (folder / "board-Edge_Cuts.gbr").write_text(_gerber(
+        "Profile,NP", "%ADD12C,0.100000*%\nD12*\nX0Y0D02*\nX12000000Y0D01*\n"
+        "X12000000Y12000000D01*\nX0Y12000000D01*\nX0Y0D01*\n"))
+    (folder / "board-PTH.drl").write_text(
+        "M48\n; #@! TF.FileFunction,Plated,1,2,PTH\nFMAT,2\nMETRIC\nT1C0.800\n%\nG90\nG05\nT1\n"
+        + "".join(f"X{x}.0Y{y}.0\n" for x, y in pads) + "M30\n")
+    return folder
+
+
+def a_board_evening(user, board: Path, config: MachineConfig) -> dict:
+    """getg BOARD: top, turn-over, bottom stopped with q at its last pen change, resume."""
+    user.line(f"getg {board}")
+    user.expect(r"use these offsets\?")
+    user.line("y")
+    user.expect(r"top side, to be turned over about the vertical line X 6\.0000 mm "
+                r"\(board\)")
+    changes = int(user.expect(r"(\d+) pen changes?").group(1))
+    for _ in range(changes):
+        user.expect(r"insert the \d[\d.]* mm pen")
+        user.type("\r")
+    user.expect(r"process has finished")
+    user.expect(r"bottom side, mirrored about the vertical line X 6\.0000 mm \(board\)")
+    turn = user.expect(r"turn the blank over about the vertical line X (-?[\d.]+) mm \(work\) "
+                       r"against the fence; plot the bottom side\?")
+    user.line("y")
+    changes = int(user.expect(r"(\d+) pen changes?").group(1))
+    assert changes >= 2                       # the second one is after some ink
+    for _ in range(changes - 1):
+        user.expect(r"insert the \d[\d.]* mm pen")
+        user.type("\r")
+    user.expect(r"insert the \d[\d.]* mm pen")
+    user.type("q")
+    user.expect(r"job stopped after \d+ of \d+ commands.*type resume to continue it")
+    user.line("resume")
+    user.expect(r"continue the job\? \[Y/n\]")
+    user.line("")
+    user.expect(r"insert the \d[\d.]* mm pen")        # the pen it stopped for first
+    user.type("\r")
+    user.expect(r"process has finished")
+    return {"axis_on_machine_mm": float(turn.group(1))}
+
+
+def bottom_job(board: Path, config: MachineConfig):
+    top = plan_board(board, config, choice=BoardChoice(side="top"))
+    bottom = plan_board(board, config, top.offset_nm, choice=BoardChoice(side="bottom"))
+    return top, bottom
+
+
+def journal_of(home_dir: Path) -> dict:
+    [path] = list(home_dir.rglob("journal*.json"))
+    return json.loads(path.read_text())
+
+
+def check_the_evening(home_dir: Path, board: Path, seen: dict, status) -> None:
+    top, bottom = bottom_job(board, TWO_PENS)
+    assert top.offset_nm == bottom.offset_nm                      # one offset
+    assert seen["axis_on_machine_mm"] == pytest.approx(6 - top.offset_nm[0] / 1e6, abs=1e-3)
+    assert status == ("idle", *position_after(bottom.job, len(bottom.job), TWO_PENS))
+    entry = journal_of(home_dir)
+    assert entry["state"] == FINISHED and entry["board"]["side"] == "bottom"
+    assert Path(entry["source"]) == board.resolve()
+
+
+def test_a_board_evening_on_sim(home, tmp_path):  # noqa: F811
+    board = make_board(tmp_path / "board")
+    with console_in_thread(home, config=TWO_PENS) as user:
+        seen = a_board_evening(user, board, TWO_PENS)
+        status = user.status()
+    check_the_evening(home, board, seen, status)
+
+
+def test_a_board_evening_on_the_firmware_in_simavr(home, tmp_path):  # noqa: F811
+    build_firmware()
+    build_harness()
+    board = make_board(tmp_path / "board")
+    with SimulatedBoard(ELF) as machine:
+        with console_in_thread(home, machine.port, config=TWO_PENS) as user:
+            seen = a_board_evening(user, board, TWO_PENS)
+            status = user.status()
+        machine.stop()
+    check_the_evening(home, board, seen, status)
+
+
+def test_getg_side_options_on_a_file_alone_are_refused(home, tmp_path):  # noqa: F811
+    lone = make_board(tmp_path / "board") / "board-F_Cu.gbr"
+    with console_in_thread(home) as user:
+        user.line(f"getg --side bottom {lone}")
+        user.expect(re.escape("are for a board (a folder, .zip or .gbrjob)"))
