@@ -109,6 +109,8 @@ def converted_gcode(planned: PlannedFile, config: MachineConfig,
     yield (f"; {planned.mode} mode, offset {mm(ox)}, {mm(oy)} mm subtracted"
            + (f", {done}" if done else "")
            + (f", pens {', '.join(mm(w) for w in job.pens_nm)} mm" if job.pens_nm else ""))
+    if getattr(planned, "side_line", ""):            # a board's side: which, and its axis
+        yield f"; {planned.side_line}"
     yield "G21 G90 G17"
     yield from pen.up
     draw_feed = f"F{mm(round(config.feed_mm_s * 60 * NM_PER_MM))}"

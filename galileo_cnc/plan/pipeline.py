@@ -10,7 +10,7 @@ read, before the box and the offset are worked out; the feeds are checked before
 planning (feeds.py): above the machine's limits refused, above the warning feed
 said in `PlannedFile.feed_warnings`.
 
-A board's side (`PlanOptions.side`, docs/drill-marks-and-sides.md): the bottom is
+A board's side (`PlanOptions.side`, docs/boards.md): the bottom is
 mirrored about the axis (sides.py) as it is read, its holes with it, and both sides
 take one offset; the holes' drill marks are left bare in the ink (drill_marks.py), and
 registration crosses drawn after the copper.

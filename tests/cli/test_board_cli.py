@@ -50,3 +50,56 @@ def test_layer_places_a_file_and_a_wrong_role_is_named(board):
     wrong = galileo("info", str(board), "--layer", "Flashpads-F_Paste.gbr=top-coper")
     assert wrong.returncode != 0
     assert "top-coper" in wrong.stderr and "Traceback" not in wrong.stderr
+
+
+def test_plot_both_sides_lands_the_bottom_holes_on_the_top_ones_and_inks_no_mark(tmp_path):
+    # The steps of `plot BOARD --side top` and `--side bottom` (sim://, --trace): the
+    # pen never comes down within a pen radius of a drill mark's edge on either side,
+    # and the bottom's marks, turned over about the axis, are the top's.
+    import re
+
+    import numpy as np
+
+    from galileo_cnc.config.machine import MachineConfig
+    from galileo_cnc.machine import Trace
+    from boards import make_board
+
+    board = make_board(tmp_path / "board")
+    config = MachineConfig()                       # one 0.4 mm pen
+    holes_mm = [(3, 3), (7, 3), (3, 7)]
+    seen = {}
+    for side in ("top", "bottom"):
+        trace = tmp_path / f"{side}.npz"
+        result = galileo("plot", str(board), "--side", side, "--port", "sim://?speed=0",
+                         "--yes", "--trace", str(trace))
+        assert result.returncode == 0, result.stderr
+        line = re.search(rf"{side} side, .* vertical line X 6\.0000 mm \(board\), X "
+                         rf"(-?[\d.]+) mm on the machine \(work\)", result.stdout)
+        offset = re.search(r"offset (-?[\d.]+), (-?[\d.]+) mm", result.stdout)
+        assert line and offset, result.stdout
+        ox, oy = float(offset.group(1)), float(offset.group(2))
+        seen[side] = (ox, oy, float(line.group(1)))
+        where = Trace.load(trace).positions()
+        down = where[where[:, 2] == config.pen_down_z_steps][:, :2] / config.steps_per_mm
+        for x, y in holes_mm:
+            x = 12 - x if side == "bottom" else x          # mirrored about X 6 mm
+            nearest = np.hypot(down[:, 0] - (x - ox), down[:, 1] - (y - oy)).min()
+            # the 0.3 mm mark's edge, the 0.4 mm pen's radius, 20 um of clearance
+            assert nearest >= 0.15 + 0.2 + 0.02 - 1 / config.steps_per_mm, (side, x, y)
+    assert seen["top"] == seen["bottom"]           # one offset, one axis on the machine
+
+
+def test_convert_and_preview_of_a_side(tmp_path):
+    from boards import make_board
+
+    board = make_board(tmp_path / "board")
+    gcode = tmp_path / "bottom.nc"
+    converted = galileo("convert", str(board), "--side", "bottom", "-o", str(gcode))
+    assert converted.returncode == 0, converted.stderr
+    assert "; bottom side, mirrored about the vertical line X 6.0000 mm (board)" in \
+        gcode.read_text()
+    picture = tmp_path / "bottom.png"
+    previewed = galileo("preview", str(board), "--side", "bottom", "-o", str(picture))
+    assert previewed.returncode == 0, previewed.stderr
+    assert "a board's bottom side is drawn mirrored" in previewed.stdout
+    assert picture.stat().st_size > 0

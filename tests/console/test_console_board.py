@@ -17,46 +17,11 @@ from galileo_cnc.simavr.board import SimulatedBoard
 from galileo_cnc.stream.journal import FINISHED
 from galileo_cnc.stream.resume import position_after
 
+from boards import make_board
 from firmware_support import ELF, build_firmware, build_harness
 from test_console import console_in_thread, home  # noqa: F401  (the fixture)
 
 TWO_PENS = MachineConfig().replace(pen_widths_mm=(0.3, 0.8))
-
-_HEADER = "%FSLAX46Y46*%\n%MOMM*%\n%LPD*%\n"
-
-
-def _gerber(function: str, body: str) -> str:
-    return f"%TF.FileFunction,{function}*%\n{_HEADER}{body}M02*\n"
-
-
-def _pads(points) -> str:
-    return "D10*\n" + "".join(f"X{x * 10**6}Y{y * 10**6}D03*\n" for x, y in points)
-
-
-def make_board(folder: Path) -> Path:
-    """A 12 x 12 mm KiCad-style export: three 1.6 mm pads with 0.8 mm holes, a 3 mm
-    pad and a trace on each side, the outline and a plated drill file (small: the
-    firmware in simavr runs both sides)."""
-    folder.mkdir()
-    pads = [(3, 3), (7, 3), (3, 7)]
-    # a 3 mm pad wants the 0.8 mm pen, the rings round the holes the 0.3 mm one: both
-    # pens on each side
-    apertures = "%ADD10C,1.600000*%\n%ADD11C,0.250000*%\n%ADD13R,3.000000X3.000000*%\n"
-    big = "D13*\nX8500000Y8500000D03*\n"
-    (folder / "board-F_Cu.gbr").write_text(_gerber(
-        "Copper,L1,Top", apertures + _pads(pads) + big + "D11*\nX3000000Y3000000D02*\n"
-        "X7000000Y3000000D01*\n"))
-    (folder / "board-B_Cu.gbr").write_text(_gerber(
-        "Copper,L2,Bot", apertures + _pads(pads) + big + "D11*\nX3000000Y3000000D02*\n"
-        "X3000000Y7000000D01*\n"))
-    (folder / "board-Edge_Cuts.gbr").write_text(_gerber(
-        "Profile,NP", "%ADD12C,0.100000*%\nD12*\nX0Y0D02*\nX12000000Y0D01*\n"
-        "X12000000Y12000000D01*\nX0Y12000000D01*\nX0Y0D01*\n"))
-    (folder / "board-PTH.drl").write_text(
-        "M48\n; #@! TF.FileFunction,Plated,1,2,PTH\nFMAT,2\nMETRIC\nT1C0.800\n%\nG90\nG05\nT1\n"
-        + "".join(f"X{x}.0Y{y}.0\n" for x, y in pads) + "M30\n")
-    return folder
-
 
 def a_board_evening(user, board: Path, config: MachineConfig) -> dict:
     """getg BOARD: top, turn-over, bottom stopped with q at its last pen change, resume."""

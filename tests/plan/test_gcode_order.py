@@ -145,5 +145,5 @@ def test_the_command_line_and_getg_take_optimize(bad, tmp_path, capsys, monkeypa
     assert main(["plot", str(bad), "--optimize", "--port", "sim://?speed=0", "--yes"]) == 0
     assert "process has finished" in capsys.readouterr().out
     console = types.SimpleNamespace(config=MachineConfig())
-    options, _config, rest = _options(console, ["--optimize", "--mode", "centre", "a.nc"])
+    options, _config, _board, rest = _options(console, ["--optimize", "--mode", "centre", "a.nc"])
     assert options.optimize and options.mode == "centre" and rest == ["a.nc"]
