@@ -20,7 +20,7 @@ help [COMMAND]
 
 [getg]
 getg [--mode ink|centre] [--pens MM,MM] [--layers A,B] [--units mm|in]
-     [--optimize] [FILE]
+     [--optimize] [--side top|bottom] [--drill-marks none|small|actual] [FILE]
     Plot a Gerber (RS-274X), G-code or DXF file. Gerber copper is inked with
     your pens (the profile's, or --pens 0.3,0.8); --mode centre draws each
     object's centre line with one pen per aperture. --layers picks a DXF
@@ -50,6 +50,13 @@ getg [--mode ink|centre] [--pens MM,MM] [--layers A,B] [--units mm|in]
     0.8 mm pen"): insert it and press Enter. q or Ctrl-C stops the job (the
     machine ramps down); `resume` continues it. At the end: "process has
     finished" and the time taken; the machine is ready for the next command.
+    A board (a folder, .zip or .gbrjob of Gerber and drill files): getg BOARD
+    plots the top copper with each hole's centre left bare (--drill-marks
+    none|small|actual), then asks you to turn the blank over about the line
+    it names on the machine, against a fence, and plots the bottom mirrored
+    with the same offsets. --side top|bottom plots one side, --mirror-axis
+    x=MM another turn-over line (board mm), --registration adds crosses on
+    both sides, --layer FILE=ROLE places a file (galileo-cnc info BOARD).
 
 [setup]
 setup
