@@ -16,7 +16,7 @@ from galileo_cnc.config.machine import pen_widths_from_text
 from galileo_cnc.console import jobs
 from galileo_cnc.plan.offsets import offset_from_text
 from galileo_cnc.errors import GalileoError
-from galileo_cnc.plan.board_plan import BoardChoice, plan_board
+from galileo_cnc.plan.board_plan import BoardChoice, copper_sides, plan_board
 from galileo_cnc.plan.drill_marks import warnings_to_show
 from galileo_cnc.plan.feeds import machine_refusal
 from galileo_cnc.plan.open_traces import ink_warnings, open_traces
@@ -93,12 +93,18 @@ def _ink_accepted(console, planned) -> bool:
 
 def _board(console, path: str, options: PlanOptions, config, board: dict) -> None:
     """getg BOARD: the top side, the turn-over, the bottom side, with one offset (the
-    bottom mirrored to land on the top); `--side` plots that side alone. Planned
+    bottom mirrored to land on the top); `--side` plots that side alone, and a board
+    with copper on one side only has that side plotted (no turn-over). Planned
     afresh each time (the console's PlanCache keeps files, not boards)."""
-    one_side = "side" in board
     choice = BoardChoice(**board)
+    sides = (choice.side,) if "side" in board else copper_sides(path, choice.layers)
+    one_side = len(sides) == 1
+    if not sides:
+        console.say(f"{path}: no file is top-copper or bottom-copper (galileo-cnc info BOARD "
+                    f"lists the files; --layer FILE=top-copper places one)")
+        return
     offset = "auto"
-    for side in ((choice.side,) if one_side else ("top", "bottom")):
+    for side in sides:
         side_choice = dataclasses.replace(choice, side=side)
         planned = plan_board(path, config, offset, choice=side_choice, options=options,
                              on_stage=console.say_stage)

@@ -133,6 +133,16 @@ def plan_board(path: str | os.PathLike, config: MachineConfig | None = None,
     return planned
 
 
+def copper_sides(path: str | os.PathLike, layers: tuple[str, ...] = ()) -> tuple[str, ...]:
+    """The sides of the board at `path` that have copper: ("top", "bottom"), ("top",)
+    for a one-sided board (or ("bottom",))."""
+    board = open_board(path, layers)
+    try:
+        return tuple(side for side in ("top", "bottom") if board.copper(side))
+    finally:
+        board.close()
+
+
 def plan_source(source: str | os.PathLike, config: MachineConfig | None = None,
                 offset: OffsetChoice = "auto", *, board: BoardChoice | None = None,
                 options: PlanOptions = PlanOptions(), **kwargs) -> PlannedFile:

@@ -102,3 +102,17 @@ def test_getg_side_options_on_a_file_alone_are_refused(home, tmp_path):  # noqa:
     with console_in_thread(home) as user:
         user.line(f"getg --side bottom {lone}")
         user.expect(re.escape("are for a board (a folder, .zip or .gbrjob)"))
+
+
+def test_a_one_sided_board_is_plotted_without_a_turn_over(home, tmp_path):  # noqa: F811
+    board = make_board(tmp_path / "board")
+    (board / "board-B_Cu.gbr").unlink()
+    with console_in_thread(home) as user:
+        user.line(f"getg {board}")
+        user.expect(r"use these offsets\?")
+        user.line("y")
+        user.expect(r"top side, ")
+        user.expect(r"process has finished")
+        user.line("status")
+        screen = user.expect(r"state \w+")
+        assert "turn the blank over about the" not in user.screen.text[:screen.end()]
