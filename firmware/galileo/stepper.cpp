@@ -92,13 +92,31 @@ typedef union {
 } events_u;
 static events_u up_u;     /* up_sat = min(k - first, R) */
 static events_u down_u;   /* down = last - k */
-static events_u m_u;      /* m_ramp = min(up, down, R) */
+static events_u m_u;      /* m_ramp = min(up, fall) */
+/* fall = min(exit + down, events to a committed stop): the ramp's falling bound
+ * (§5.7). Both terms lose one per event, so their minimum does too. */
+static events_u fall_u;
+#define fall (fall_u.v)
+/* A committed stop beyond the current block (a hold, or the end of what the queue
+ * holds: never overrun): the events after the block's last one up to it; 0: none. */
+static events_t stop_beyond;
+static events_t m_left;   /* ramp index of the last event: the next block enters at it */
+/* The fast path may run while down > guard16: below it the end of the queue could
+ * bound the index (slow path: checked there). */
+static uint16_t guard16;
+/* Events of the queued line and arc blocks, cumulative: the main loop adds a block's
+ * when it is ready (a line at commit, an arc when its band table is filled), the
+ * interrupt counts the ones it entered; their difference is what lies ahead. */
+static volatile uint32_t ready_events;
+static uint32_t entered_events;
+static uint8_t ready_slot;  /* the first queued block not yet counted in ready_events */
 #define up_sat (up_u.v)
 #define down (down_u.v)
 #define m_ramp (m_u.v)
 static uint16_t ramp16;   /* min(R, 0xFFFF) */
 static events_t ramp;     /* R */
 static events_t cut;      /* events a hold removed from this run: the block's rest */
+static events_t run_exit;  /* the exit index of this run (the block's; 0 for a pause) */
 static events_t run_events; /* events of the next run of `cur` (all of it, or the rest) */
 static uint32_t seek_steps;
 static uint32_t step_sub, base_sub;
@@ -179,6 +197,8 @@ static void stop(uint8_t phase)
 {
     TIMSK1 &= ~_BV(OCIE1A);
     st_fast = 0;
+    m_left = 0;  /* a standing machine starts from rest */
+    stop_beyond = 0;
     wraps = 0;
     ev_axes = 0;
     st_port_pulse = port_rest;
@@ -322,6 +342,10 @@ static void enter_block(struct block *b)
 {
     cur = b;
     run_events = b->kind == BLOCK_SEEK ? EVENTS_UNKNOWN : (events_t)b->n;
+    if (b->kind == BLOCK_LINE || b->kind == BLOCK_ARC)
+        entered_events += b->n;
+    else
+        m_left = 0;
     base_sub = b->base_sub;
     if (b->kind == BLOCK_LINE) {
         start_line(b->n, b->u.line.inc, b->u.line.neg);
@@ -350,6 +374,20 @@ static void pop_block(void)
     uint8_t h = q_head + 1;
     q_head = h == QUEUE_SLOTS ? 0 : h;
     cur = 0;
+}
+
+/* Never overrun (§5.7): the index stays at most the events left to the end of what
+ * the queue holds. When that bounds it, the machine commits to stopping there (it
+ * keeps braking even if the next block arrives meanwhile). Also sets guard16. */
+static void bound_by_queue(void)
+{
+    uint32_t ahead = ready_events - entered_events;
+    events_t least = up_sat < fall ? up_sat : fall;
+    if (ahead < least && down + ahead < least) {
+        fall = down + (events_t)ahead;
+        stop_beyond = (events_t)ahead;
+    }
+    guard16 = ahead < fall - down && ahead < ramp ? (uint16_t)(ramp - ahead) : 0;
 }
 
 /* Begin the next run: the rest of the current block after a hold, or the next
@@ -406,21 +444,39 @@ static void start_next(void)
         schedule(cur->n);
         return;
     }
-    up_sat = 0;
+    ramp = (events_t)cur->ramp;
     down = run_events - 1;
     cut = 0;
-    m_ramp = 0;
-    ramp = (events_t)cur->ramp;
+    /* §5.7: a block enters at the index the last event ran at (a resumed rest of a
+     * held block from rest: stop() cleared m_left); a committed stop beyond the
+     * block before bounds it, or ends the run inside it. */
+    up_sat = m_left < ramp ? m_left : ramp;
+    fall = down + cur->exit;
+    if (stop_beyond) {
+        events_t to_stop = stop_beyond - 1;
+        if (to_stop <= down) {
+            cut = down - to_stop;
+            down = to_stop;
+            stop_beyond = 0;
+        } else {
+            stop_beyond = to_stop - down;
+        }
+        if (to_stop < fall)
+            fall = to_stop;
+    }
+    bound_by_queue();
+    events_t m = up_sat < fall ? up_sat : fall;
+    m_ramp = m;
     step_sub = cur->step_sub;
-    extra_sub = cur->ramp_total_sub;
+    extra_sub = m ? (uint32_t)(ramp - m) * step_sub : cur->ramp_total_sub;
     frac = 0;
-    run_fast = cur->kind == BLOCK_LINE && base_sub + extra_sub < 0xFFFF00UL
-               && cur->n < 0x8000UL;
+    run_fast = cur->kind == BLOCK_LINE && cur->ramp_total_sub + base_sub < 0xFFFF00UL
+               && cur->n < 0x8000UL && ramp < 0x4000;
     ramp16 = ramp > 0xFFFF ? 0xFFFF : (uint16_t)ramp;
     base24 = (__uint24)base_sub;
     step24 = (__uint24)step_sub;
     st_phase = PHASE_EVENT;
-    prepare_event(cur->kind); /* m_ramp == 0: the next event takes the slow path */
+    prepare_event(cur->kind); /* the next event takes the slow path */
 }
 
 /* The body of the compare interrupt, entered by the stub's jmp: `signal` gives
@@ -462,11 +518,18 @@ void stepper_event_isr(void)
             return;
         }
     }
-    if (st_hold_request && down > m_ramp) { /* §6: last := min(last, k + m_k) */
-        cut += down - m_ramp;
-        down = m_ramp;
+    if (st_hold_request && fall > m_ramp) { /* §6: stop at k + m_k, maybe in a later block */
+        if (down > m_ramp) {
+            cut += down - m_ramp;
+            down = m_ramp;
+            stop_beyond = 0;
+        } else {
+            stop_beyond = m_ramp - down;
+        }
+        fall = m_ramp;
     }
     if (down == 0) {
+        m_left = m_ramp;
         if (cut == 0) {
             pop_block();
             start_next();
@@ -476,17 +539,20 @@ void stepper_event_isr(void)
         }
         return;
     }
-    /* m' = min(up', down', R) with up_sat = min(up, R). */
+    /* m' = min(up', fall') with up_sat = min(up, R). */
     if (up_sat < ramp)
         up_sat++;
-    events_t d = --down, m = up_sat < d ? up_sat : d;
+    --down;
+    --fall;
+    bound_by_queue();
+    events_t m = up_sat < fall ? up_sat : fall;
     if (m > m_ramp)
         extra_sub -= step_sub;
     else if (m < m_ramp)
         extra_sub += step_sub;
     m_ramp = m;
     prepare_event(kind);
-    if (run_fast && !wraps && m) { /* m >= 1, so d >= 1 */
+    if (run_fast && !wraps && m && down > guard16 && !st_hold_request) {
         ival24 = base24 + extra.lo;
         st_fast = 1;
     }
@@ -534,17 +600,16 @@ void stepper_fast_isr(void)
             st_pos_u[2].h.lo = l;
         }
     }
+    /* A hold makes the receive interrupt clear st_fast: the slow path sees it. */
     uint16_t dn = down_u.lo, mr = m_u.lo;
-    if (st_hold_request && dn > mr) { /* §6 */
-        cut += dn - mr;
-        dn = mr;
-    }
     uint16_t up = up_u.lo;
     if (up < ramp16)
         up_u.lo = ++up;
     --dn;
     down_u.lo = dn;
-    uint16_t m = up < dn ? up : dn;
+    uint16_t fl = fall_u.lo - 1;
+    fall_u.lo = fl;
+    uint16_t m = up < fl ? up : fl;
     __uint24 ival = ival24;
     if (m != mr) {
         if (m > mr) {
@@ -591,7 +656,7 @@ void stepper_fast_isr(void)
     ocr = next;
     OCR1A = next;
     st_port_pulse = port_rest | pulse;
-    st_fast = m != 0; /* m <= dn: the next event is not the run's last */
+    st_fast = m != 0 && dn > guard16; /* the next event is not the run's last */
     PROFILE_END();
 }
 
@@ -626,10 +691,33 @@ struct block *queue_slot(uint8_t i)
     return &queue[k >= QUEUE_SLOTS ? k - QUEUE_SLOTS : k];
 }
 
+/* Count the blocks before `tail` that are ready, in queue order (an arc once its
+ * band table is filled); publish the count, and the new tail when given (so the
+ * interrupt never enters a block that is not counted yet). */
+static void count_ready(uint8_t tail, uint8_t publish_tail)
+{
+    uint32_t r = ready_events;
+    uint8_t slot = ready_slot;
+    while (slot != tail) {
+        struct block *b = &queue[slot];
+        if (b->kind == BLOCK_ARC && b->u.arc.table == NO_BAND_TABLE)
+            break;
+        if (b->kind == BLOCK_LINE || b->kind == BLOCK_ARC)
+            r += b->n;
+        slot = slot + 1 == QUEUE_SLOTS ? 0 : slot + 1;
+    }
+    ready_slot = slot;
+    cli();
+    ready_events = r;
+    if (publish_tail)
+        q_tail = tail;
+    sei();
+}
+
 void queue_commit(uint8_t count)
 {
     uint8_t t = q_tail + count;
-    q_tail = t >= QUEUE_SLOTS ? t - QUEUE_SLOTS : t;
+    count_ready(t >= QUEUE_SLOTS ? t - QUEUE_SLOTS : t, 1);
 }
 
 static void kick(void)
@@ -662,6 +750,7 @@ void stepper_service(void)
         }
         i = i + 1 == QUEUE_SLOTS ? 0 : i + 1;
     }
+    count_ready(q_tail, 0);
     uint8_t phase = st_phase;
     if (phase != PHASE_IDLE && phase != PHASE_HELD)
         return; /* running: the interrupt moves on by itself */
@@ -685,6 +774,9 @@ uint8_t stepper_flush(void)
     }
     stop(PHASE_IDLE);
     q_head = q_tail;
+    ready_slot = q_tail;
+    ready_events = entered_events = 0;
+    stop_beyond = 0;
     cur = 0;
     for (uint8_t k = 0; k < N_BAND_TABLES; k++)
         st_band_tables[k].busy = 0;

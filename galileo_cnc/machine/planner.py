@@ -355,6 +355,29 @@ def simulate(commands: Iterable[Command], config: MachineConfig | None = None,
                                                   starved)
 
 
+def with_exit_indices(commands: Iterable[Command], config: MachineConfig | None = None,
+                      position: tuple[int, int, int] = (0, 0, 0)) -> list[Command]:
+    """The commands with each LineTo's and ArcTo's planned exit index (docs/motion.md
+    §5.7) set where it is above 0, as the firmware needs them on the wire; the
+    reference plans the same indices itself from the config."""
+    from dataclasses import replace as _replace
+    machine = ReferenceMachine(config, position)
+    commands = list(commands)
+    spans, items = [], []
+    for cmd in commands:
+        planned = machine.plan([cmd])
+        spans.append((len(items), len(items) + len(planned)))
+        items += planned
+    items = machine.plan_speeds(items)
+    out = []
+    for cmd, (lo, hi) in zip(commands, spans):
+        moves = [it for it in items[lo:hi] if not isinstance(it, Pause) and it.n]
+        if isinstance(cmd, (LineTo, ArcTo)) and moves and moves[-1].exit > 0:
+            cmd = _replace(cmd, exit_index=moves[-1].exit)
+        out.append(cmd)
+    return out
+
+
 class JobSteps:
     """A job's step trace produced piece by piece as it is read, for readers that
     walk it in order (previews): memory stays one piece's, however long the job.

@@ -369,3 +369,30 @@ def test_a_head_outside_the_travel_moves_back_towards_it_never_further(firmware)
             link.close()
     assert (final.x_steps, final.y_steps, final.z_steps) == (200, 100, 300) == \
         tuple(machine.work_position)
+
+
+# ---- junction speeds (docs/motion.md §5.7): the firmware ramps between planned indices --
+JUNCTIONS_ON = MachineConfig(junction_deviation_mm=0.05, vertex_speed_change_mm_s=3.0)
+
+
+def check_junction_job(elf, commands, config=JUNCTIONS_ON):
+    from galileo_cnc.machine.planner import with_exit_indices
+    wire = with_exit_indices(commands, config)
+    assert any(getattr(c, "exit_index", None) for c in wire), "no vertex was blended"
+    ref = simulate(commands, config)
+    fw, replies, final, unsolicited = run_on_firmware(elf, wire)
+    assert all(r.kind == "ok" for r in replies), [r for r in replies if r.kind != "ok"]
+    assert not [u for u in unsolicited if u.kind in ("alarm", "msg")], unsolicited
+    assert_same_trace(fw, ref)
+    assert (final.x_steps, final.y_steps, final.z_steps) == ref.final_position
+    return ref, fw
+
+
+def test_junction_speeds_on_a_star_in_every_octant(firmware):
+    # An octagon's sides run in every octant; each vertex turns by 45 degrees, so
+    # they blend (the spokes from the centre stop at the reversals).
+    pts = [(round(900 * math.cos(a)), round(900 * math.sin(a)))
+           for a in (k * math.pi / 4 + 0.3 for k in range(9))]
+    job = CENTRE + [SetFeed(1600)] + [LineTo(x, y) for x, y in pts] + [LineTo(0, 0)]
+    ref, fw = check_junction_job(firmware, job)
+    assert ref.seconds < simulate(job).seconds
