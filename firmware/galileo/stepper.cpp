@@ -107,8 +107,8 @@ static uint16_t guard16;
 /* Events of the queued line and arc blocks, cumulative: the main loop adds a block's
  * when it is ready (a line at commit, an arc when its band table is filled), the
  * interrupt counts the ones it entered; their difference is what lies ahead. */
-static volatile uint32_t ready_events;
-static uint32_t entered_events;
+static volatile events_t ready_events;  /* modulo 2^24: only differences count */
+static events_t entered_events;
 static uint8_t ready_slot;  /* the first queued block not yet counted in ready_events */
 #define up_sat (up_u.v)
 #define down (down_u.v)
@@ -116,7 +116,6 @@ static uint8_t ready_slot;  /* the first queued block not yet counted in ready_e
 static uint16_t ramp16;   /* min(R, 0xFFFF) */
 static events_t ramp;     /* R */
 static events_t cut;      /* events a hold removed from this run: the block's rest */
-static events_t run_exit;  /* the exit index of this run (the block's; 0 for a pause) */
 static events_t run_events; /* events of the next run of `cur` (all of it, or the rest) */
 static uint32_t seek_steps;
 static uint32_t step_sub, base_sub;
@@ -381,11 +380,11 @@ static void pop_block(void)
  * keeps braking even if the next block arrives meanwhile). Also sets guard16. */
 static void bound_by_queue(void)
 {
-    uint32_t ahead = ready_events - entered_events;
+    events_t ahead = ready_events - entered_events;
     events_t least = up_sat < fall ? up_sat : fall;
-    if (ahead < least && down + ahead < least) {
-        fall = down + (events_t)ahead;
-        stop_beyond = (events_t)ahead;
+    if (ahead < least && (uint32_t)down + ahead < least) {
+        fall = down + ahead;
+        stop_beyond = ahead;
     }
     guard16 = ahead < fall - down && ahead < ramp ? (uint16_t)(ramp - ahead) : 0;
 }
@@ -422,7 +421,7 @@ static void start_next(void)
             stop(PHASE_IDLE); /* the main loop fills the table and kicks again */
             return;
         }
-        if (st_hold_request) {
+        if (st_hold_request && !stop_beyond) { /* braking into this block: not yet */
             stop(PHASE_HELD);
             return;
         }
@@ -433,7 +432,7 @@ static void start_next(void)
         }
         enter_block(b);
     }
-    if (st_hold_request) {
+    if (st_hold_request && !stop_beyond) {
         stop(PHASE_HELD);
         return;
     }
@@ -696,7 +695,7 @@ struct block *queue_slot(uint8_t i)
  * interrupt never enters a block that is not counted yet). */
 static void count_ready(uint8_t tail, uint8_t publish_tail)
 {
-    uint32_t r = ready_events;
+    events_t r = ready_events;
     uint8_t slot = ready_slot;
     while (slot != tail) {
         struct block *b = &queue[slot];

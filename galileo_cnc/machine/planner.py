@@ -355,27 +355,36 @@ def simulate(commands: Iterable[Command], config: MachineConfig | None = None,
                                                   starved)
 
 
-def with_exit_indices(commands: Iterable[Command], config: MachineConfig | None = None,
-                      position: tuple[int, int, int] = (0, 0, 0)) -> list[Command]:
-    """The commands with each LineTo's and ArcTo's planned exit index (docs/motion.md
-    §5.7) set where it is above 0, as the firmware needs them on the wire; the
-    reference plans the same indices itself from the config."""
-    from dataclasses import replace as _replace
-    machine = ReferenceMachine(config, position)
+def exit_indices(commands: Iterable[Command], config: MachineConfig | None = None,
+                 position: tuple[int, int, int] = (0, 0, 0)) -> list[int | None]:
+    """Per command, the exit index of its last move where the config plans junction
+    speeds and it is above 0 (docs/motion.md §5.7), else None: what LineTo's and
+    ArcTo's `exit_index` carry on the wire. The reference plans the same indices."""
     commands = list(commands)
+    machine = ReferenceMachine(config, position)
+    if not JunctionLimits.of(machine.config).enabled:
+        return [None] * len(commands)
     spans, items = [], []
     for cmd in commands:
         planned = machine.plan([cmd])
         spans.append((len(items), len(items) + len(planned)))
         items += planned
     items = machine.plan_speeds(items)
-    out = []
+    out: list[int | None] = []
     for cmd, (lo, hi) in zip(commands, spans):
         moves = [it for it in items[lo:hi] if not isinstance(it, Pause) and it.n]
-        if isinstance(cmd, (LineTo, ArcTo)) and moves and moves[-1].exit > 0:
-            cmd = _replace(cmd, exit_index=moves[-1].exit)
-        out.append(cmd)
+        blended = isinstance(cmd, (LineTo, ArcTo)) and moves and moves[-1].exit > 0
+        out.append(moves[-1].exit if blended else None)
     return out
+
+
+def with_exit_indices(commands: Iterable[Command], config: MachineConfig | None = None,
+                      position: tuple[int, int, int] = (0, 0, 0)) -> list[Command]:
+    """The commands with their planned exit indices set (`exit_indices`)."""
+    from dataclasses import replace
+    commands = list(commands)
+    return [cmd if e is None else replace(cmd, exit_index=e)
+            for cmd, e in zip(commands, exit_indices(commands, config, position))]
 
 
 class JobSteps:

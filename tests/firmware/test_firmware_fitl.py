@@ -396,3 +396,38 @@ def test_junction_speeds_on_a_star_in_every_octant(firmware):
     job = CENTRE + [SetFeed(1600)] + [LineTo(x, y) for x, y in pts] + [LineTo(0, 0)]
     ref, fw = check_junction_job(firmware, job)
     assert ref.seconds < simulate(job).seconds
+
+
+def test_junction_speeds_hold_brakes_across_moves_and_resumes_exactly(firmware):
+    # A 48-gon of 39-step sides at 800 steps/s (a ramp of 32 events): a hold's stop
+    # lies in a later side more often than not; the reference brakes the same way.
+    import time
+    from galileo_cnc.machine import Hold
+    from galileo_cnc.machine.planner import with_exit_indices
+    pts = [(round(300 * math.cos(a)) - 300, round(300 * math.sin(a)))
+           for a in (k * math.pi / 24 for k in range(49))]
+    job = CENTRE + [LineTo(x, y) for x, y in pts]
+    full = simulate(job, JUNCTIONS_ON)
+
+    def hold_then_resume(link):
+        status_when(link, lambda s: s.state == "run" and s.queue_blocks >= 2)
+        link.port.write(P.RT_HOLD)
+        _wait_state(link, "hold")
+        time.sleep(0.2)
+        link.port.write(P.RT_RESUME)
+
+    fw, replies, final, _ = run_on_firmware(firmware, with_exit_indices(job, JUNCTIONS_ON),
+                                            during=hold_then_resume)
+    tick, axis, direction = fw
+    assert np.array_equal(axis, full.axis) and np.array_equal(direction, full.dir)
+    stop, gap = _split_at_pause(tick)
+    assert gap > 100_000
+    for j in range(stop, max(0, stop - 200), -1):
+        ref = simulate(job, JUNCTIONS_ON, holds=[Hold(int(full.tick[j]), gap)])
+        if _split_at_pause(ref.tick)[0] == stop:
+            break
+    else:
+        raise AssertionError("no reference hold stops at the firmware's stop")
+    for part in (slice(0, stop + 1), slice(stop + 1, None)):
+        delay = tick[part] - ref.tick[part]
+        assert delay.max() - delay.min() <= LATENCY_JITTER_TICKS
