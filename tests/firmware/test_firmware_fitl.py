@@ -431,3 +431,33 @@ def test_junction_speeds_hold_brakes_across_moves_and_resumes_exactly(firmware):
     for part in (slice(0, stop + 1), slice(stop + 1, None)):
         delay = tick[part] - ref.tick[part]
         assert delay.max() - delay.min() <= LATENCY_JITTER_TICKS
+
+
+def test_junction_speeds_a_starved_link_brakes_to_the_end_of_the_queue(firmware):
+    # Never overrun: the second side is planned to end at a junction speed, but the
+    # third arrives only once the machine has used up its queue. The firmware braked to
+    # a stop at the end of what it had, exactly as the reference's starved link
+    # (Starved) does, and the rest starts from rest.
+    from galileo_cnc.machine import Starved
+    from galileo_cnc.machine.planner import with_exit_indices
+    pts = [(round(900 * math.cos(a)), round(900 * math.sin(a)))
+           for a in (k * math.pi / 4 + 0.3 for k in range(4))]
+    job = CENTRE + [SetFeed(1600), LineTo(0, 0)] + [LineTo(x, y) for x, y in pts]
+    wire = with_exit_indices(job, JUNCTIONS_ON)
+    assert wire[7].exit_index         # the second side ends at a junction speed
+
+    def starve(link):
+        link.wait_idle()
+        assert all(r.kind == "ok" for r in link.stream(wire[8:]))
+
+    fw, replies, final, _ = run_on_firmware(firmware, wire[:8], during=starve)
+    tick = fw[0]
+    ref = simulate(job, JUNCTIONS_ON, starved=[Starved(8, 100_000)])
+    free = simulate(job, JUNCTIONS_ON)
+    n1 = len(simulate(job[:8]).tick)
+    assert np.array_equal(fw[1], ref.axis) and np.array_equal(fw[2], ref.dir)
+    for part in (slice(0, n1), slice(n1, None)):
+        delay = tick[part] - ref.tick[part]
+        assert delay.max() - delay.min() <= LATENCY_JITTER_TICKS
+    assert not np.array_equal(ref.tick[:n1], free.tick[:n1])   # it did brake early
+    assert (final.x_steps, final.y_steps) == ref.final_position[:2]
