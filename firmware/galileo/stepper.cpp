@@ -101,14 +101,17 @@ static events_u fall_u;
  * holds: never overrun): the events after the block's last one up to it; 0: none. */
 static events_t stop_beyond;
 static events_t m_left;   /* ramp index of the last event: the next block enters at it */
-/* The fast path may run while down > guard16: below it the end of the queue could
- * bound the index (slow path: checked there). */
+/* fall - down, constant between the slow path's changes: the fast path keeps only
+ * fall, and the slow path finds down again from it. */
+static events_t exit_eff;
+/* The fast path may run while fall > guard16 (= exit_eff + the events before the end
+ * of the queue could bound the index: checked in the slow path): the next event is
+ * then not its run's last. */
 static uint16_t guard16;
-/* Events of the queued line and arc blocks, cumulative: the main loop adds a block's
- * when it is ready (a line at commit, an arc when its band table is filled), the
- * interrupt counts the ones it entered; their difference is what lies ahead. */
-static volatile events_t ready_events;  /* modulo 2^24: only differences count */
-static events_t entered_events;
+/* Events of the queued line and arc blocks, cumulative, counted by the interrupt: the
+ * ready ones (committed; an arc once its band table is filled) and the entered ones;
+ * their difference is what lies ahead. The main loop writes nothing for it. */
+static events_t ready_events, entered_events; /* modulo 2^24: only differences count */
 static uint8_t ready_slot;  /* the first queued block not yet counted in ready_events */
 #define up_sat (up_u.v)
 #define down (down_u.v)
@@ -378,15 +381,31 @@ static void pop_block(void)
 /* Never overrun (§5.7): the index stays at most the events left to the end of what
  * the queue holds. When that bounds it, the machine commits to stopping there (it
  * keeps braking even if the next block arrives meanwhile). Also sets guard16. */
+static void count_ready(void)
+{
+    uint8_t slot = ready_slot;
+    while (slot != q_tail) {
+        struct block *b = &queue[slot];
+        if (b->kind == BLOCK_ARC && b->u.arc.table == NO_BAND_TABLE)
+            break;
+        if (b->kind == BLOCK_LINE || b->kind == BLOCK_ARC)
+            ready_events += (events_t)b->n;
+        slot = slot + 1 == QUEUE_SLOTS ? 0 : slot + 1;
+    }
+    ready_slot = slot;
+}
+
 static void bound_by_queue(void)
 {
+    count_ready();
     events_t ahead = ready_events - entered_events;
     events_t least = up_sat < fall ? up_sat : fall;
     if (ahead < least && (uint32_t)down + ahead < least) {
         fall = down + ahead;
         stop_beyond = ahead;
     }
-    guard16 = ahead < fall - down && ahead < ramp ? (uint16_t)(ramp - ahead) : 0;
+    exit_eff = fall - down;
+    guard16 = (uint16_t)exit_eff + (ahead < exit_eff && ahead < ramp ? (uint16_t)(ramp - ahead) : 0);
 }
 
 /* Begin the next run: the rest of the current block after a hold, or the next
@@ -463,7 +482,9 @@ static void start_next(void)
         if (to_stop < fall)
             fall = to_stop;
     }
-    bound_by_queue();
+    exit_eff = fall - down;
+    if (up_sat) /* from rest the first event has m = 0 whatever bounds it */
+        bound_by_queue();
     events_t m = up_sat < fall ? up_sat : fall;
     m_ramp = m;
     step_sub = cur->step_sub;
@@ -501,6 +522,7 @@ void stepper_event_isr(void)
     if (axes & 1) { if (neg & 1) st_pos(0)--; else st_pos(0)++; }
     if (axes & 2) { if (neg & 2) st_pos(1)--; else st_pos(1)++; }
     if (axes & 4) { if (neg & 4) st_pos(2)--; else st_pos(2)++; }
+    down = fall - exit_eff; /* the fast path kept fall only */
     uint8_t kind = cur->kind;
     if (kind == BLOCK_SEEK) { /* read the switch after the step (§8.2) */
         seek_steps++;
@@ -551,7 +573,7 @@ void stepper_event_isr(void)
         extra_sub += step_sub;
     m_ramp = m;
     prepare_event(kind);
-    if (run_fast && !wraps && m && down > guard16 && !st_hold_request) {
+    if (run_fast && !wraps && m && fall > guard16 && !st_hold_request) {
         ival24 = base24 + extra.lo;
         st_fast = 1;
     }
@@ -600,12 +622,10 @@ void stepper_fast_isr(void)
         }
     }
     /* A hold makes the receive interrupt clear st_fast: the slow path sees it. */
-    uint16_t dn = down_u.lo, mr = m_u.lo;
+    uint16_t mr = m_u.lo;
     uint16_t up = up_u.lo;
     if (up < ramp16)
         up_u.lo = ++up;
-    --dn;
-    down_u.lo = dn;
     uint16_t fl = fall_u.lo - 1;
     fall_u.lo = fl;
     uint16_t m = up < fl ? up : fl;
@@ -655,7 +675,7 @@ void stepper_fast_isr(void)
     ocr = next;
     OCR1A = next;
     st_port_pulse = port_rest | pulse;
-    st_fast = m != 0 && dn > guard16; /* the next event is not the run's last */
+    st_fast = m != 0 && fl > guard16; /* the next event is not the run's last */
     PROFILE_END();
 }
 
@@ -690,33 +710,10 @@ struct block *queue_slot(uint8_t i)
     return &queue[k >= QUEUE_SLOTS ? k - QUEUE_SLOTS : k];
 }
 
-/* Count the blocks before `tail` that are ready, in queue order (an arc once its
- * band table is filled); publish the count, and the new tail when given (so the
- * interrupt never enters a block that is not counted yet). */
-static void count_ready(uint8_t tail, uint8_t publish_tail)
-{
-    events_t r = ready_events;
-    uint8_t slot = ready_slot;
-    while (slot != tail) {
-        struct block *b = &queue[slot];
-        if (b->kind == BLOCK_ARC && b->u.arc.table == NO_BAND_TABLE)
-            break;
-        if (b->kind == BLOCK_LINE || b->kind == BLOCK_ARC)
-            r += b->n;
-        slot = slot + 1 == QUEUE_SLOTS ? 0 : slot + 1;
-    }
-    ready_slot = slot;
-    cli();
-    ready_events = r;
-    if (publish_tail)
-        q_tail = tail;
-    sei();
-}
-
 void queue_commit(uint8_t count)
 {
     uint8_t t = q_tail + count;
-    count_ready(t >= QUEUE_SLOTS ? t - QUEUE_SLOTS : t, 1);
+    q_tail = t >= QUEUE_SLOTS ? t - QUEUE_SLOTS : t;
 }
 
 static void kick(void)
@@ -749,7 +746,6 @@ void stepper_service(void)
         }
         i = i + 1 == QUEUE_SLOTS ? 0 : i + 1;
     }
-    count_ready(q_tail, 0);
     uint8_t phase = st_phase;
     if (phase != PHASE_IDLE && phase != PHASE_HELD)
         return; /* running: the interrupt moves on by itself */
