@@ -85,8 +85,9 @@ class ReferenceMachine:
 
     def plan_speeds(self, items: list[Item]) -> list[Item]:
         """The planned moves with their junction speeds (junctions.py), when the config
-        asks for them (junction_deviation_mm > 0); else every move starts and ends at
-        rest, as the firmware runs them."""
+        asks for them (junction_deviation_mm > 0, the default); else every move starts
+        and ends at rest. The firmware runs the exit indices the streamer sends
+        (`exit_indices`)."""
         return plan_junctions(items, JunctionLimits.of(self.config))
 
     def _state(self) -> tuple:

@@ -74,8 +74,12 @@ def assert_same_trace(fw, ref):
 
 
 def check_job(elf, commands, config=None, endstops=()):
+    """The job on the firmware, each move with the exit index `config` plans for it (the
+    default config's junction speeds), against the reference with that config."""
+    from galileo_cnc.machine.planner import with_exit_indices
     ref = simulate(commands, config)
-    fw, replies, final, unsolicited = run_on_firmware(elf, commands, endstops)
+    fw, replies, final, unsolicited = run_on_firmware(
+        elf, with_exit_indices(commands, config), endstops)
     assert all(r.kind == "ok" for r in replies), [r for r in replies if r.kind != "ok"]
     assert not [u for u in unsolicited if u.kind in ("alarm", "msg")], unsolicited
     assert_same_trace(fw, ref)

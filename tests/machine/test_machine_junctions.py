@@ -18,7 +18,7 @@ from galileo_cnc.machine.junctions import JunctionLimits, plan_indices, vertex_s
 from galileo_cnc.machine.ramps import ramp_sum
 from galileo_cnc.machine.timing import job_timing
 
-OFF = MachineConfig()
+OFF = MachineConfig(junction_deviation_mm=0.0)
 ON = MachineConfig(junction_deviation_mm=0.01)
 LIMITS = JunctionLimits.of(ON)
 

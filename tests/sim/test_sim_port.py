@@ -28,6 +28,9 @@ from firmware_support import FirmwareLink, check_bad_input_replies, status_when
 from firmware_support import framed as _framed
 
 CENTRE = [SetFeed(20000), Jog(3000, 3000, 0), SetOrigin(), SetFeed(800)]
+#: what a job streamed as plain commands (no exit index on the wire) runs with: every
+#: move from rest to rest (docs/motion.md §5.7)
+STOPS = MachineConfig(junction_deviation_mm=0.0)
 
 
 def sim_link(url: str = "sim://?speed=0", timeout: float = 2.0) -> FirmwareLink:
@@ -151,7 +154,7 @@ def test_hold_queues_blocks_and_resume_runs_them(link):
     status = link.wait_idle(5)
     assert (status.state, status.x_steps, status.y_steps, status.queue_blocks) == (
         "idle", 5, 0, 0)
-    ref = simulate(CENTRE + job + [LineTo(0, 0), Jog(5, 0, 0)])
+    ref = simulate(CENTRE + job + [LineTo(0, 0), Jog(5, 0, 0)], STOPS)
     assert link.port.trace().same_steps(ref)
 
 
@@ -440,7 +443,7 @@ def test_a_named_machine_keeps_power_while_the_port_is_closed(forget_named):
         link.port, link.seq = port, 1
         done = link.wait_idle(5)
         assert (done.x_steps, done.queue_blocks) == (4800, 0)
-        trace, ref = port.trace(), simulate(job)
+        trace, ref = port.trace(), simulate(job, STOPS)
         assert np.array_equal(machine_ticks(trace, ref), ref.tick)
         assert trace.final_position == ref.final_position
     finally:
