@@ -395,7 +395,7 @@ def check_junction_job(elf, commands, config=JUNCTIONS_ON):
 def test_junction_speeds_on_a_star_in_every_octant(firmware):
     # An octagon's sides run in every octant; each vertex turns by 45 degrees, so
     # they blend (the spokes from the centre stop at the reversals).
-    pts = [(round(900 * math.cos(a)), round(900 * math.sin(a)))
+    pts = [(round(500 * math.cos(a)), round(500 * math.sin(a)))
            for a in (k * math.pi / 4 + 0.3 for k in range(9))]
     job = CENTRE + [SetFeed(1600)] + [LineTo(x, y) for x, y in pts] + [LineTo(0, 0)]
     ref, fw = check_junction_job(firmware, job)
@@ -444,7 +444,7 @@ def test_junction_speeds_a_starved_link_brakes_to_the_end_of_the_queue(firmware)
     # (Starved) does, and the rest starts from rest.
     from galileo_cnc.machine import Starved
     from galileo_cnc.machine.planner import with_exit_indices
-    pts = [(round(900 * math.cos(a)), round(900 * math.sin(a)))
+    pts = [(round(500 * math.cos(a)), round(500 * math.sin(a)))
            for a in (k * math.pi / 4 + 0.3 for k in range(4))]
     job = CENTRE + [SetFeed(1600), LineTo(0, 0)] + [LineTo(x, y) for x, y in pts]
     wire = with_exit_indices(job, JUNCTIONS_ON)
