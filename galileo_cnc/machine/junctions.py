@@ -147,6 +147,8 @@ def _blends(a: Item, b: Item) -> bool:
             return False
         if isinstance(move, LineMove) and move.delta[2] != 0:
             return False     # a pen lift or lower, or a 3-D line: stop
+    if isinstance(a, LineMove) and a.to_rest:
+        return False         # a Rapid's or Jog's end: the wire cannot carry its index
     return a.ramp == b.ramp   # the same feed: the index means the same speed
 
 

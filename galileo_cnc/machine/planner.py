@@ -218,7 +218,9 @@ class ReferenceMachine:
         self._check_travel([min(p, t) for p, t in zip(self.position, target)],
                            [max(p, t) for p, t in zip(self.position, target)])
         self._z_to(self.config.pen_up_z_steps, items)
+        before = len(items)
         self._line(target, self.config.rapid_steps_per_s, items)
+        _ends_at_rest(items, before)
 
     def _line_to(self, cmd: LineTo, items: list[Item]) -> None:
         self._line(self._work_to_machine(cmd.x_steps, cmd.y_steps, cmd.z_steps),
@@ -278,9 +280,10 @@ class ReferenceMachine:
         self.feed_steps_per_s = cmd.feed_steps_per_s
 
     def _jog(self, cmd: Jog, items: list[Item]) -> None:
-        p = self.position
+        p, before = self.position, len(items)
         self._line([p[0] + cmd.dx_steps, p[1] + cmd.dy_steps, p[2] + cmd.dz_steps],
                    self.feed_steps_per_s, items)
+        _ends_at_rest(items, before)
 
     def _set_origin(self, cmd: SetOrigin, items: list[Item]) -> None:
         self.origin = list(self.position)
@@ -354,6 +357,14 @@ def simulate(commands: Iterable[Command], config: MachineConfig | None = None,
     """Run a job on a fresh reference machine and return its step trace."""
     return ReferenceMachine(config, position).run(commands, holds, abort_at_tick, backend,
                                                   starved)
+
+
+def _ends_at_rest(items: list[Item], before: int) -> None:
+    """A Rapid's or Jog's line (appended after `before`): the wire carries no exit
+    index for it (docs/motion.md §5.7), so no junction speed at its end."""
+    if len(items) > before and isinstance(items[-1], LineMove):
+        from dataclasses import replace
+        items[-1] = replace(items[-1], to_rest=True)
 
 
 def exit_indices(commands: Iterable[Command], config: MachineConfig | None = None,
