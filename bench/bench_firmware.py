@@ -102,9 +102,9 @@ def build_variant(workdir: Path) -> tuple[Path, Path, MachineConfig]:
     planner.write_text(text.replace("(2 * feed * feed + ", "(2ULL * feed * feed + "))
     toml = workdir / "bench.toml"
     toml.write_text(config.to_toml())
-    subprocess.run([sys.executable, "-m", "galileo_cnc.firmware_headers", "--config-header",
-                    str(fw / "galileo" / "config.h"), "--config", str(toml)],
-                   cwd=REPO, check=True)
+    subprocess.run([sys.executable, "-m", "galileo_cnc.firmware_headers", "--out",
+                    str(fw / "galileo"), "--config", str(toml)],
+                   cwd=REPO, check=True, stdout=subprocess.DEVNULL)
     for extra in ([], ["PROFILE=1"]):
         result = subprocess.run(["make", "-j4", "-C", str(fw)] + extra,
                                 capture_output=True, text=True)

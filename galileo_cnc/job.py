@@ -57,11 +57,15 @@ class Rapid:
 
 @dataclass(frozen=True, slots=True)
 class LineTo:
-    """Straight move to (x, y[, z]) at the current feed; the pen stays as it is."""
+    """Straight move to (x, y[, z]) at the current feed; the pen stays as it is.
+
+    `exit_index`: the ramp index the move ends at (docs/motion.md §5.7), planned by
+    the host with junction speeds; None ends it at rest."""
 
     x_steps: int
     y_steps: int
     z_steps: int | None = None
+    exit_index: int | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -78,6 +82,7 @@ class ArcTo:
     i_steps: int
     j_steps: int
     cw: bool
+    exit_index: int | None = None   # as LineTo's
 
 
 @dataclass(frozen=True, slots=True)

@@ -219,10 +219,14 @@ static void handle_line(char *s, uint8_t len)
         p = parse_int(p + 1, &pending.args[nargs]);
         if (!p)
             break;
-        static const int32_t lo_of[] = {ARG_COORD_LO, ARG_MS_LO, ARG_FEED_LO, ARG_FLAG_LO};
-        static const int32_t hi_of[] = {ARG_COORD_HI, ARG_MS_HI, ARG_FEED_HI, ARG_FLAG_HI};
+        /* In flash: RAM is the scarce one. */
+        static const int32_t lo_of[] PROGMEM = {ARG_COORD_LO, ARG_MS_LO, ARG_FEED_LO,
+                                                ARG_FLAG_LO, ARG_INDEX_LO};
+        static const int32_t hi_of[] PROGMEM = {ARG_COORD_HI, ARG_MS_HI, ARG_FEED_HI,
+                                                ARG_FLAG_HI, ARG_INDEX_HI};
         uint8_t kind = pgm_read_byte(&proto_commands[cmd].kinds[nargs]);
-        if (pending.args[nargs] < lo_of[kind] || pending.args[nargs] > hi_of[kind]) {
+        if (pending.args[nargs] < (int32_t)pgm_read_dword(&lo_of[kind])
+            || pending.args[nargs] > (int32_t)pgm_read_dword(&hi_of[kind])) {
             p = 0;
             break;
         }

@@ -349,14 +349,24 @@ uint8_t planner_execute(uint8_t cmd, const int32_t *args, uint8_t nargs)
 {
     uint8_t err;
     staged = 0;
+    /* LX, CWX, CCX: the move's exit index first (§5.7), then LINE's or ARC's. */
+    uint32_t exit = 0;
+    if (cmd == CMD_LINE_X || cmd == CMD_ARC_CW_X || cmd == CMD_ARC_CCW_X) {
+        exit = (uint32_t)*args++;
+        nargs--;
+        cmd = cmd == CMD_LINE_X ? CMD_LINE : cmd == CMD_ARC_CW_X ? CMD_ARC_CW : CMD_ARC_CCW;
+    }
     if (cmd == CMD_ARC_CW || cmd == CMD_ARC_CCW) /* the deep one: no snapshot under it */
         err = arc(args, cmd == CMD_ARC_CCW);
     else
         err = execute_other(cmd, args, nargs);
     if (err)
         staged = 0;
-    else
+    else if (staged) {
+        struct block *b = queue_slot(staged - 1);
+        b->exit = (__uint24)(exit < b->ramp ? exit : b->ramp);
         queue_commit(staged);
+    }
     return err;
 }
 

@@ -7,7 +7,7 @@
 #include <stdint.h>
 #include <avr/pgmspace.h>
 
-#define PROTO_VERSION 4
+#define PROTO_VERSION 5
 #define PROTO_FIRMWARE_VERSION "0.1.0"
 #define PROTO_BANNER_NAME "galileo-cnc"
 #define PROTO_MAX_LINE_BYTES 64 /* including the newline */
@@ -33,6 +33,7 @@ enum proto_arg_kind {
     ARG_MS,
     ARG_FEED,
     ARG_FLAG,
+    ARG_INDEX,
 };
 
 #define ARG_COORD_LO (-9999999L)
@@ -43,14 +44,19 @@ enum proto_arg_kind {
 #define ARG_FEED_HI (9999999L)
 #define ARG_FLAG_LO (0L)
 #define ARG_FLAG_HI (1L)
+#define ARG_INDEX_LO (0L)
+#define ARG_INDEX_HI (9999999L)
 
-#define PROTO_MAX_ARGS 4
+#define PROTO_MAX_ARGS 5
 
 enum proto_command {
     CMD_RAPID,
     CMD_LINE,
     CMD_ARC_CW,
     CMD_ARC_CCW,
+    CMD_LINE_X,
+    CMD_ARC_CW_X,
+    CMD_ARC_CCW_X,
     CMD_PEN_UP,
     CMD_PEN_DOWN,
     CMD_FLASH,
@@ -99,7 +105,7 @@ struct proto_command_spec {
     char mnemonic[4];
     uint8_t min_args, max_args;
     uint8_t blocks; /* queue room reserved before planning (HOME: per axis) */
-    uint8_t kinds[4];
+    uint8_t kinds[5];
 };
 
 /* Tables: defined in the one file that defines PROTO_TABLES before including. */
@@ -111,24 +117,27 @@ extern const char *const proto_state_names[STATE_COUNT] PROGMEM;
 #ifdef PROTO_TABLES
 
 const struct proto_command_spec proto_commands[CMD_COUNT] PROGMEM = {
-    {"R", 2, 2, 2, {ARG_COORD, ARG_COORD, 0, 0}}, /* Rapid */
-    {"L", 2, 3, 1, {ARG_COORD, ARG_COORD, ARG_COORD, 0}}, /* LineTo */
-    {"CW", 4, 4, 1, {ARG_COORD, ARG_COORD, ARG_COORD, ARG_COORD}}, /* ArcTo */
-    {"CCW", 4, 4, 1, {ARG_COORD, ARG_COORD, ARG_COORD, ARG_COORD}}, /* ArcTo */
-    {"PU", 0, 0, 1, {0, 0, 0, 0}}, /* PenUp */
-    {"PD", 0, 0, 1, {0, 0, 0, 0}}, /* PenDown */
-    {"FL", 0, 1, 3, {ARG_MS, 0, 0, 0}}, /* Flash */
-    {"DW", 1, 1, 1, {ARG_MS, 0, 0, 0}}, /* Dwell */
-    {"F", 1, 1, 0, {ARG_FEED, 0, 0, 0}}, /* SetFeed */
-    {"J", 3, 3, 1, {ARG_COORD, ARG_COORD, ARG_COORD, 0}}, /* Jog */
-    {"O", 0, 0, 1, {0, 0, 0, 0}}, /* SetOrigin */
-    {"H", 0, 0, 3, {0, 0, 0, 0}}, /* Home */
-    {"M", 1, 1, 0, {ARG_FLAG, 0, 0, 0}}, /* Motors */
-    {"E", 0, 0, 1, {0, 0, 0, 0}}, /* EndJob */
-    {"S", 0, 0, 0, {0, 0, 0, 0}}, /* QueryStatus */
-    {"V", 0, 0, 0, {0, 0, 0, 0}}, /* QueryVersion */
-    {"U", 0, 0, 0, {0, 0, 0, 0}}, /* Unlock */
-    {"C", 0, 0, 0, {0, 0, 0, 0}}, /* QueryConfig */
+    {"R", 2, 2, 2, {ARG_COORD, ARG_COORD, 0, 0, 0}}, /* Rapid */
+    {"L", 2, 3, 1, {ARG_COORD, ARG_COORD, ARG_COORD, 0, 0}}, /* LineTo */
+    {"CW", 4, 4, 1, {ARG_COORD, ARG_COORD, ARG_COORD, ARG_COORD, 0}}, /* ArcTo */
+    {"CCW", 4, 4, 1, {ARG_COORD, ARG_COORD, ARG_COORD, ARG_COORD, 0}}, /* ArcTo */
+    {"LX", 3, 4, 1, {ARG_INDEX, ARG_COORD, ARG_COORD, ARG_COORD, 0}}, /* LineTo */
+    {"CWX", 5, 5, 1, {ARG_INDEX, ARG_COORD, ARG_COORD, ARG_COORD, ARG_COORD}}, /* ArcTo */
+    {"CCX", 5, 5, 1, {ARG_INDEX, ARG_COORD, ARG_COORD, ARG_COORD, ARG_COORD}}, /* ArcTo */
+    {"PU", 0, 0, 1, {0, 0, 0, 0, 0}}, /* PenUp */
+    {"PD", 0, 0, 1, {0, 0, 0, 0, 0}}, /* PenDown */
+    {"FL", 0, 1, 3, {ARG_MS, 0, 0, 0, 0}}, /* Flash */
+    {"DW", 1, 1, 1, {ARG_MS, 0, 0, 0, 0}}, /* Dwell */
+    {"F", 1, 1, 0, {ARG_FEED, 0, 0, 0, 0}}, /* SetFeed */
+    {"J", 3, 3, 1, {ARG_COORD, ARG_COORD, ARG_COORD, 0, 0}}, /* Jog */
+    {"O", 0, 0, 1, {0, 0, 0, 0, 0}}, /* SetOrigin */
+    {"H", 0, 0, 3, {0, 0, 0, 0, 0}}, /* Home */
+    {"M", 1, 1, 0, {ARG_FLAG, 0, 0, 0, 0}}, /* Motors */
+    {"E", 0, 0, 1, {0, 0, 0, 0, 0}}, /* EndJob */
+    {"S", 0, 0, 0, {0, 0, 0, 0, 0}}, /* QueryStatus */
+    {"V", 0, 0, 0, {0, 0, 0, 0, 0}}, /* QueryVersion */
+    {"U", 0, 0, 0, {0, 0, 0, 0, 0}}, /* Unlock */
+    {"C", 0, 0, 0, {0, 0, 0, 0, 0}}, /* QueryConfig */
 };
 
 static const char proto_error_text_1[] PROGMEM = "malformed line";

@@ -56,9 +56,9 @@ void serial_rx_body(void)
     uint8_t c = UDR0;
     switch (c) {
     case PROTO_RT_STATUS: serial_status_request = 1; break;
-    case PROTO_RT_HOLD: st_hold_request = 1; break;
+    case PROTO_RT_HOLD: st_hold_request = 1; st_fast = 0; break; /* the slow path sees it */
     case PROTO_RT_RESUME: if (!st_abort_request) st_hold_request = 0; break;
-    case PROTO_RT_ABORT: st_abort_request = 1; st_hold_request = 1; break;
+    case PROTO_RT_ABORT: st_abort_request = 1; st_hold_request = 1; st_fast = 0; break;
     default: {
         uint8_t h = rx_head, next = h + 1 == RX_SLOTS ? 0 : h + 1;
         if (next == rx_tail) {

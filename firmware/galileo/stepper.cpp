@@ -92,7 +92,27 @@ typedef union {
 } events_u;
 static events_u up_u;     /* up_sat = min(k - first, R) */
 static events_u down_u;   /* down = last - k */
-static events_u m_u;      /* m_ramp = min(up, down, R) */
+static events_u m_u;      /* m_ramp = min(up, fall) */
+/* fall = min(exit + down, events to a committed stop): the ramp's falling bound
+ * (§5.7). Both terms lose one per event, so their minimum does too. */
+static events_u fall_u;
+#define fall (fall_u.v)
+/* A committed stop beyond the current block (a hold, or the end of what the queue
+ * holds: never overrun): the events after the block's last one up to it; 0: none. */
+static events_t stop_beyond;
+static events_t m_left;   /* ramp index of the last event: the next block enters at it */
+/* fall - down, constant between the slow path's changes: the fast path keeps only
+ * fall, and the slow path finds down again from it. */
+static events_t exit_eff;
+/* The fast path may run while fall > guard16 (= exit_eff + the events before the end
+ * of the queue could bound the index: checked in the slow path): the next event is
+ * then not its run's last. */
+static uint16_t guard16;
+/* Events of the queued line and arc blocks, cumulative, counted by the interrupt: the
+ * ready ones (committed; an arc once its band table is filled) and the entered ones;
+ * their difference is what lies ahead. The main loop writes nothing for it. */
+static events_t ready_events, entered_events; /* modulo 2^24: only differences count */
+static uint8_t ready_slot;  /* the first queued block not yet counted in ready_events */
 #define up_sat (up_u.v)
 #define down (down_u.v)
 #define m_ramp (m_u.v)
@@ -179,6 +199,8 @@ static void stop(uint8_t phase)
 {
     TIMSK1 &= ~_BV(OCIE1A);
     st_fast = 0;
+    m_left = 0;  /* a standing machine starts from rest */
+    stop_beyond = 0;
     wraps = 0;
     ev_axes = 0;
     st_port_pulse = port_rest;
@@ -322,6 +344,10 @@ static void enter_block(struct block *b)
 {
     cur = b;
     run_events = b->kind == BLOCK_SEEK ? EVENTS_UNKNOWN : (events_t)b->n;
+    if (b->kind == BLOCK_LINE || b->kind == BLOCK_ARC)
+        entered_events += b->n;
+    else
+        m_left = 0;
     base_sub = b->base_sub;
     if (b->kind == BLOCK_LINE) {
         start_line(b->n, b->u.line.inc, b->u.line.neg);
@@ -350,6 +376,36 @@ static void pop_block(void)
     uint8_t h = q_head + 1;
     q_head = h == QUEUE_SLOTS ? 0 : h;
     cur = 0;
+}
+
+/* Never overrun (§5.7): the index stays at most the events left to the end of what
+ * the queue holds. When that bounds it, the machine commits to stopping there (it
+ * keeps braking even if the next block arrives meanwhile). Also sets guard16. */
+static void count_ready(void)
+{
+    uint8_t slot = ready_slot;
+    while (slot != q_tail) {
+        struct block *b = &queue[slot];
+        if (b->kind == BLOCK_ARC && b->u.arc.table == NO_BAND_TABLE)
+            break;
+        if (b->kind == BLOCK_LINE || b->kind == BLOCK_ARC)
+            ready_events += (events_t)b->n;
+        slot = slot + 1 == QUEUE_SLOTS ? 0 : slot + 1;
+    }
+    ready_slot = slot;
+}
+
+static void bound_by_queue(void)
+{
+    count_ready();
+    events_t ahead = ready_events - entered_events;
+    events_t least = up_sat < fall ? up_sat : fall;
+    if (ahead < least && (uint32_t)down + ahead < least) {
+        fall = down + ahead;
+        stop_beyond = ahead;
+    }
+    exit_eff = fall - down;
+    guard16 = (uint16_t)exit_eff + (ahead < exit_eff && ahead < ramp ? (uint16_t)(ramp - ahead) : 0);
 }
 
 /* Begin the next run: the rest of the current block after a hold, or the next
@@ -384,7 +440,7 @@ static void start_next(void)
             stop(PHASE_IDLE); /* the main loop fills the table and kicks again */
             return;
         }
-        if (st_hold_request) {
+        if (st_hold_request && !stop_beyond) { /* braking into this block: not yet */
             stop(PHASE_HELD);
             return;
         }
@@ -395,7 +451,7 @@ static void start_next(void)
         }
         enter_block(b);
     }
-    if (st_hold_request) {
+    if (st_hold_request && !stop_beyond) {
         stop(PHASE_HELD);
         return;
     }
@@ -406,21 +462,41 @@ static void start_next(void)
         schedule(cur->n);
         return;
     }
-    up_sat = 0;
+    ramp = (events_t)cur->ramp;
     down = run_events - 1;
     cut = 0;
-    m_ramp = 0;
-    ramp = (events_t)cur->ramp;
+    /* §5.7: a block enters at the index the last event ran at (a resumed rest of a
+     * held block from rest: stop() cleared m_left); a committed stop beyond the
+     * block before bounds it, or ends the run inside it. */
+    up_sat = m_left < ramp ? m_left : ramp;
+    fall = down + cur->exit;
+    if (stop_beyond) {
+        events_t to_stop = stop_beyond - 1;
+        if (to_stop <= down) {
+            cut = down - to_stop;
+            down = to_stop;
+            stop_beyond = 0;
+        } else {
+            stop_beyond = to_stop - down;
+        }
+        if (to_stop < fall)
+            fall = to_stop;
+    }
+    exit_eff = fall - down;
+    if (up_sat) /* from rest the first event has m = 0 whatever bounds it */
+        bound_by_queue();
+    events_t m = up_sat < fall ? up_sat : fall;
+    m_ramp = m;
     step_sub = cur->step_sub;
-    extra_sub = cur->ramp_total_sub;
+    extra_sub = m ? (uint32_t)(ramp - m) * step_sub : cur->ramp_total_sub;
     frac = 0;
-    run_fast = cur->kind == BLOCK_LINE && base_sub + extra_sub < 0xFFFF00UL
-               && cur->n < 0x8000UL;
+    run_fast = cur->kind == BLOCK_LINE && cur->ramp_total_sub + base_sub < 0xFFFF00UL
+               && cur->n < 0x8000UL && ramp < 0x4000;
     ramp16 = ramp > 0xFFFF ? 0xFFFF : (uint16_t)ramp;
     base24 = (__uint24)base_sub;
     step24 = (__uint24)step_sub;
     st_phase = PHASE_EVENT;
-    prepare_event(cur->kind); /* m_ramp == 0: the next event takes the slow path */
+    prepare_event(cur->kind); /* the next event takes the slow path */
 }
 
 /* The body of the compare interrupt, entered by the stub's jmp: `signal` gives
@@ -446,6 +522,7 @@ void stepper_event_isr(void)
     if (axes & 1) { if (neg & 1) st_pos(0)--; else st_pos(0)++; }
     if (axes & 2) { if (neg & 2) st_pos(1)--; else st_pos(1)++; }
     if (axes & 4) { if (neg & 4) st_pos(2)--; else st_pos(2)++; }
+    down = fall - exit_eff; /* the fast path kept fall only */
     uint8_t kind = cur->kind;
     if (kind == BLOCK_SEEK) { /* read the switch after the step (§8.2) */
         seek_steps++;
@@ -462,11 +539,18 @@ void stepper_event_isr(void)
             return;
         }
     }
-    if (st_hold_request && down > m_ramp) { /* §6: last := min(last, k + m_k) */
-        cut += down - m_ramp;
-        down = m_ramp;
+    if (st_hold_request && fall > m_ramp) { /* §6: stop at k + m_k, maybe in a later block */
+        if (down > m_ramp) {
+            cut += down - m_ramp;
+            down = m_ramp;
+            stop_beyond = 0;
+        } else {
+            stop_beyond = m_ramp - down;
+        }
+        fall = m_ramp;
     }
     if (down == 0) {
+        m_left = m_ramp;
         if (cut == 0) {
             pop_block();
             start_next();
@@ -476,17 +560,20 @@ void stepper_event_isr(void)
         }
         return;
     }
-    /* m' = min(up', down', R) with up_sat = min(up, R). */
+    /* m' = min(up', fall') with up_sat = min(up, R). */
     if (up_sat < ramp)
         up_sat++;
-    events_t d = --down, m = up_sat < d ? up_sat : d;
+    --down;
+    --fall;
+    bound_by_queue();
+    events_t m = up_sat < fall ? up_sat : fall;
     if (m > m_ramp)
         extra_sub -= step_sub;
     else if (m < m_ramp)
         extra_sub += step_sub;
     m_ramp = m;
     prepare_event(kind);
-    if (run_fast && !wraps && m) { /* m >= 1, so d >= 1 */
+    if (run_fast && !wraps && m && fall > guard16 && !st_hold_request) {
         ival24 = base24 + extra.lo;
         st_fast = 1;
     }
@@ -534,17 +621,14 @@ void stepper_fast_isr(void)
             st_pos_u[2].h.lo = l;
         }
     }
-    uint16_t dn = down_u.lo, mr = m_u.lo;
-    if (st_hold_request && dn > mr) { /* §6 */
-        cut += dn - mr;
-        dn = mr;
-    }
+    /* A hold makes the receive interrupt clear st_fast: the slow path sees it. */
+    uint16_t mr = m_u.lo;
     uint16_t up = up_u.lo;
     if (up < ramp16)
         up_u.lo = ++up;
-    --dn;
-    down_u.lo = dn;
-    uint16_t m = up < dn ? up : dn;
+    uint16_t fl = fall_u.lo - 1;
+    fall_u.lo = fl;
+    uint16_t m = up < fl ? up : fl;
     __uint24 ival = ival24;
     if (m != mr) {
         if (m > mr) {
@@ -591,7 +675,7 @@ void stepper_fast_isr(void)
     ocr = next;
     OCR1A = next;
     st_port_pulse = port_rest | pulse;
-    st_fast = m != 0; /* m <= dn: the next event is not the run's last */
+    st_fast = m != 0 && fl > guard16; /* the next event is not the run's last */
     PROFILE_END();
 }
 
@@ -685,6 +769,9 @@ uint8_t stepper_flush(void)
     }
     stop(PHASE_IDLE);
     q_head = q_tail;
+    ready_slot = q_tail;
+    ready_events = entered_events = 0;
+    stop_beyond = 0;
     cur = 0;
     for (uint8_t k = 0; k < N_BAND_TABLES; k++)
         st_band_tables[k].busy = 0;

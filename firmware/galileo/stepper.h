@@ -29,9 +29,10 @@ struct block {
     uint8_t kind, flags;
     uint32_t n;               /* events (pause: ticks) */
     uint32_t base_sub;        /* cruise subticks per event (line, seek) */
-    uint32_t ramp;            /* R, events */
+    __uint24 ramp;            /* R, events (<= 80 000) */
     uint32_t step_sub;        /* interval change per ramp event, subticks */
     uint32_t ramp_total_sub;  /* R * step_sub: the extra interval of a run's first event */
+    __uint24 exit;            /* ramp index the block ends at (<= R; 0: at rest, §5.7) */
     union {
         struct {
             uint32_t inc[3];  /* 2 |d_a| */
@@ -79,6 +80,7 @@ extern volatile uint8_t st_phase;
 extern volatile uint8_t st_alarm_code;
 extern volatile uint8_t st_hold_request, st_abort_request;
 extern volatile uint16_t st_overruns;
+extern "C" volatile uint8_t st_fast; /* the next event takes the fast body */
 
 void stepper_init(void);
 uint8_t queue_free(void);

@@ -54,12 +54,12 @@ class MachineConfig:
     # approach 1x; the ramp length follows from the axis acceleration bound.
     accel_mm_s2: float = 250.0
     ramp_start_factor: int = 3
-    # Junction speeds (docs/motion.md §5.7): 0 stops at every vertex, as the firmware
-    # does; > 0 (GRBL's $11, 0.01 mm) plans speed through corners on the reference
-    # machine only (its traces, estimates, bench_motion.py): the firmware does not run
-    # them yet, so leave 0 to plot. Every axis changes speed at a vertex by at most
-    # vertex_speed_change_mm_s, about the speed a move already starts at from rest (F/3).
-    junction_deviation_mm: float = 0.0
+    # Junction speeds (docs/motion.md §5.7): 0 stops at every vertex; > 0 (GRBL's $11,
+    # whose default is 0.01 mm) plans speed through corners over the whole job: the
+    # streamer sends each move's exit index and the firmware and sim:// ramp to it. Every
+    # axis changes speed at a vertex by at most vertex_speed_change_mm_s, about the speed
+    # a move already starts at from rest (F/3).
+    junction_deviation_mm: float = 0.01
     vertex_speed_change_mm_s: float = 1.6
     # Fastest step rate the firmware supports on one axis: 50 ticks = 25 us = 40 kHz.
     min_step_period_ticks: int = 50

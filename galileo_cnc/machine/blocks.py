@@ -26,6 +26,7 @@ class LineMove:
     step_sub: int                    # interval change per ramp event, subticks
     entry: int = 0                   # ramp index of the first event (0: from rest, §5.7)
     exit: int = 0                    # ramp index of the last event (0: to rest)
+    to_rest: bool = False            # its command carries no exit index (Rapid, Jog)
 
 
 @dataclass(frozen=True, slots=True)

@@ -9,7 +9,8 @@ one's first event run at that index; m = 0 on both sides is today's stop.
 
 Per vertex the index is capped by
 - a stop (0) where the moves cannot blend: a pause (dwell, flash) between them, a
-  pen lift or any Z motion, a homing seek, a different feed (ramp length), a
+  pen lift or any Z motion, a homing seek, the end of a Rapid or a Jog (no exit index
+  on the wire), a different feed (ramp length), a
   reversal (a turn of more than 90°), the first and last move of the job;
 - GRBL's junction deviation: v² = A · δ · sin(θ/2) / (1 − sin(θ/2)), θ the angle
   between the reversed first direction and the second (so θ = 180° is straight on);
@@ -147,6 +148,8 @@ def _blends(a: Item, b: Item) -> bool:
             return False
         if isinstance(move, LineMove) and move.delta[2] != 0:
             return False     # a pen lift or lower, or a 3-D line: stop
+    if isinstance(a, LineMove) and a.to_rest:
+        return False         # a Rapid's or Jog's end: the wire cannot carry its index
     return a.ramp == b.ramp   # the same feed: the index means the same speed
 
 

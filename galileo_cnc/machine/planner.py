@@ -85,8 +85,9 @@ class ReferenceMachine:
 
     def plan_speeds(self, items: list[Item]) -> list[Item]:
         """The planned moves with their junction speeds (junctions.py), when the config
-        asks for them (junction_deviation_mm > 0); else every move starts and ends at
-        rest, as the firmware runs them."""
+        asks for them (junction_deviation_mm > 0, the default); else every move starts
+        and ends at rest. The firmware runs the exit indices the streamer sends
+        (`exit_indices`)."""
         return plan_junctions(items, JunctionLimits.of(self.config))
 
     def _state(self) -> tuple:
@@ -217,7 +218,9 @@ class ReferenceMachine:
         self._check_travel([min(p, t) for p, t in zip(self.position, target)],
                            [max(p, t) for p, t in zip(self.position, target)])
         self._z_to(self.config.pen_up_z_steps, items)
+        before = len(items)
         self._line(target, self.config.rapid_steps_per_s, items)
+        _ends_at_rest(items, before)
 
     def _line_to(self, cmd: LineTo, items: list[Item]) -> None:
         self._line(self._work_to_machine(cmd.x_steps, cmd.y_steps, cmd.z_steps),
@@ -277,9 +280,10 @@ class ReferenceMachine:
         self.feed_steps_per_s = cmd.feed_steps_per_s
 
     def _jog(self, cmd: Jog, items: list[Item]) -> None:
-        p = self.position
+        p, before = self.position, len(items)
         self._line([p[0] + cmd.dx_steps, p[1] + cmd.dy_steps, p[2] + cmd.dz_steps],
                    self.feed_steps_per_s, items)
+        _ends_at_rest(items, before)
 
     def _set_origin(self, cmd: SetOrigin, items: list[Item]) -> None:
         self.origin = list(self.position)
@@ -353,6 +357,46 @@ def simulate(commands: Iterable[Command], config: MachineConfig | None = None,
     """Run a job on a fresh reference machine and return its step trace."""
     return ReferenceMachine(config, position).run(commands, holds, abort_at_tick, backend,
                                                   starved)
+
+
+def _ends_at_rest(items: list[Item], before: int) -> None:
+    """A Rapid's or Jog's line (appended after `before`): the wire carries no exit
+    index for it (docs/motion.md §5.7), so no junction speed at its end."""
+    if len(items) > before and isinstance(items[-1], LineMove):
+        from dataclasses import replace
+        items[-1] = replace(items[-1], to_rest=True)
+
+
+def exit_indices(commands: Iterable[Command], config: MachineConfig | None = None,
+                 position: tuple[int, int, int] = (0, 0, 0)) -> list[int | None]:
+    """Per command, the exit index of its last move where the config plans junction
+    speeds and it is above 0 (docs/motion.md §5.7), else None: what LineTo's and
+    ArcTo's `exit_index` carry on the wire. The reference plans the same indices."""
+    commands = list(commands)
+    machine = ReferenceMachine(config, position)
+    if not JunctionLimits.of(machine.config).enabled:
+        return [None] * len(commands)
+    spans, items = [], []
+    for cmd in commands:
+        planned = machine.plan([cmd])
+        spans.append((len(items), len(items) + len(planned)))
+        items += planned
+    items = machine.plan_speeds(items)
+    out: list[int | None] = []
+    for cmd, (lo, hi) in zip(commands, spans):
+        moves = [it for it in items[lo:hi] if not isinstance(it, Pause) and it.n]
+        blended = isinstance(cmd, (LineTo, ArcTo)) and moves and moves[-1].exit > 0
+        out.append(moves[-1].exit if blended else None)
+    return out
+
+
+def with_exit_indices(commands: Iterable[Command], config: MachineConfig | None = None,
+                      position: tuple[int, int, int] = (0, 0, 0)) -> list[Command]:
+    """The commands with their planned exit indices set (`exit_indices`)."""
+    from dataclasses import replace
+    commands = list(commands)
+    return [cmd if e is None else replace(cmd, exit_index=e)
+            for cmd, e in zip(commands, exit_indices(commands, config, position))]
 
 
 class JobSteps:

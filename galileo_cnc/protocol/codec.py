@@ -88,7 +88,8 @@ for _spec in COMMANDS:
 
 def _spec_of(cmd: object) -> CommandSpec:
     for spec in _SPECS_OF_CLASS.get(type(cmd), ()):
-        if all(getattr(cmd, f) == v for f, v in spec.fixed):
+        if (all(getattr(cmd, f) == v for f, v in spec.fixed)
+                and spec.junction == (getattr(cmd, "exit_index", None) is not None)):
             return spec
     raise ProtocolError(f"no wire form for {cmd!r}")
 

@@ -19,7 +19,9 @@ from galileo_cnc.job import (ArcTo, Dwell, EndJob, Flash, Home, Jog, LineTo, Mot
 # is expected again), so nothing behind it runs and status `N` shows the refusal.
 # 4: CRC-16 in place of CRC-8, a separator that says the length's parity (every lost or
 # doubled byte is caught), and the same check on every line the machine sends.
-PROTOCOL_VERSION = 4
+# 5: LX, CWX, CCX: a line or arc that ends at a planned ramp index (junction speeds,
+# docs/motion.md §5.7), the index first.
+PROTOCOL_VERSION = 5
 FIRMWARE_VERSION = "0.1.0"
 BANNER_NAME = "galileo-cnc"
 MAX_LINE_BYTES = 64          # including the newline
@@ -62,7 +64,8 @@ COORD = ArgKind("COORD", -9_999_999, 9_999_999)     # steps
 MS = ArgKind("MS", 0, 2_000_000)                    # milliseconds (2000 ticks each)
 FEED = ArgKind("FEED", 0, 9_999_999)                # steps/s (the firmware checks 10..F_MAX)
 FLAG = ArgKind("FLAG", 0, 1)
-ARG_KINDS = (COORD, MS, FEED, FLAG)
+INDEX = ArgKind("INDEX", 0, 9_999_999)              # ramp index (the firmware caps it at R)
+ARG_KINDS = (COORD, MS, FEED, FLAG, INDEX)
 
 
 # ---- protocol-only commands (no motion) ---------------------------------------------
@@ -92,6 +95,7 @@ class CommandSpec:
     """One mnemonic: the command class, its fields in wire order with their kinds.
 
     Fields from `optional_from` on may be omitted (None in the command object).
+    `junction`: the form for a move whose `exit_index` is set (its first argument).
     `fixed` holds fields implied by the mnemonic (CW / CCW set ArcTo.cw).
     `blocks` is the queue room the command reserves before it is planned (per homed
     axis for HOME); the firmware reads it from the generated table.
@@ -104,6 +108,7 @@ class CommandSpec:
     optional_from: Optional[int] = None
     fixed: tuple[tuple[str, object], ...] = ()
     blocks: int = 0
+    junction: bool = False
 
     @property
     def min_args(self) -> int:
@@ -118,6 +123,14 @@ COMMANDS = (
                 fixed=(("cw", True),), blocks=1),
     CommandSpec("ARC_CCW", "CCW", ArcTo, _XY + (("i_steps", COORD), ("j_steps", COORD)),
                 fixed=(("cw", False),), blocks=1),
+    CommandSpec("LINE_X", "LX", LineTo, (("exit_index", INDEX),) + _XY + (("z_steps", COORD),),
+                optional_from=3, blocks=1, junction=True),
+    CommandSpec("ARC_CW_X", "CWX", ArcTo, (("exit_index", INDEX),) + _XY
+                + (("i_steps", COORD), ("j_steps", COORD)), fixed=(("cw", True),), blocks=1,
+                junction=True),
+    CommandSpec("ARC_CCW_X", "CCX", ArcTo, (("exit_index", INDEX),) + _XY
+                + (("i_steps", COORD), ("j_steps", COORD)), fixed=(("cw", False),), blocks=1,
+                junction=True),
     CommandSpec("PEN_UP", "PU", PenUp, blocks=1),
     CommandSpec("PEN_DOWN", "PD", PenDown, blocks=1),
     CommandSpec("FLASH", "FL", Flash, (("dwell_ms", MS),), optional_from=0,

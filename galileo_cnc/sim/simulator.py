@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import threading
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -33,6 +33,7 @@ from galileo_cnc import protocol as P
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.job import MachineError, SetOrigin
 from galileo_cnc.machine import ReferenceMachine, Trace
+from galileo_cnc.machine.blocks import Pause
 from galileo_cnc.sim.timeline import SimClock, Timeline
 
 _ABORTED = P.ERROR_BY_NAME["ABORTED"].code
@@ -436,6 +437,11 @@ class SimulatedMachine:
             if "job has ended" in text:
                 return 8, ""
             return 4, ""
+        exit_index = getattr(cmd, "exit_index", None)
+        moves = [i for i, it in enumerate(items) if not isinstance(it, Pause) and it.n]
+        if exit_index and moves:            # the firmware caps it at the ramp (§5.7)
+            last = items[moves[-1]]
+            items[moves[-1]] = replace(last, exit=min(exit_index, last.ramp))
         blocks = len(items) + (1 if isinstance(cmd, SetOrigin) else 0)  # the origin block
         if blocks:
             self._queue_block(_Block(blocks, items, self._snapshot(), mnemonic), now)

@@ -76,6 +76,8 @@ class Timeline:
         self._end = 0                       # when the last scheduled item ends
         self._live = 0                      # kept events whose ticks are final
         self._hold: tuple[int, int, list[Run]] | None = None   # (at, stop, runs to the stop)
+        self._planned: list[tuple[int, int]] = []   # (run, planned exit) capped at the queue end
+        self._exit_m = 0                    # ramp index of the last scheduled event
 
     @property
     def count(self) -> int:
@@ -107,6 +109,9 @@ class Timeline:
         table, base, runs, tail = vector.build_events(items)
         gap = 0 if not_before is None else max(0, not_before - self._end)
         first = self.count
+        if (runs and (self._exit_m or self._planned) and self._tail == 0 and gap == 0
+                and runs[0].pause_ticks == 0):
+            runs[0] = replace(runs[0], entry=self._enter(not_before))
         if runs:
             runs[0] = replace(runs[0], pause_ticks=runs[0].pause_ticks + self._tail + gap)
             ticks, _starts, end = run_ticks(base, runs, self._end - self._tail, tail)
@@ -116,6 +121,9 @@ class Timeline:
             self._base = np.concatenate((self._base, base))
             self._ticks = np.concatenate((self._ticks, ticks))
             self._tail = tail
+            if not_before is not None:      # an instant clock: the host is never late
+                end = self._bound_to_the_queue_end(end)
+            self._exit_m = self._last_index()
         else:
             self._tail += gap + tail
             end = self._end + gap + tail
@@ -123,8 +131,65 @@ class Timeline:
         self._live = len(self._base)
         return first, end
 
+    # ---- never overrun (docs/motion.md §5.7): the firmware's index stays at most the
+    # events left to the end of what its queue holds; once that bounds it, the machine
+    # has committed to stopping there.
+    def _bound_to_the_queue_end(self, end: int) -> int:
+        """Cap the exits of the last runs so the machine stops at the last event queued;
+        the planned exits are kept to restore if the next block comes in time."""
+        last = self._runs[-1].last
+        self._planned = []
+        for i in range(len(self._runs) - 1, -1, -1):
+            run = self._runs[i]
+            cap = last - run.last
+            if run.exit <= cap:
+                break
+            self._planned.append((i, run.exit))
+            self._runs[i] = replace(run, exit=cap)
+            if run.pause_ticks:
+                break
+        if not self._planned:
+            return end
+        return self._retime()
+
+    def _retime(self) -> int:
+        ticks, _starts, end = run_ticks(self._base, self._runs, self._t0, self._tail)
+        self._ticks = ticks
+        return end
+
+    def _enter(self, now: int | None) -> int:
+        """The entry index of a block queued after the last run, at tick `now`: the
+        index the last event runs at. The planned exits come back if the machine had
+        not begun to brake for the end of its queue by then (else it stops there, and
+        the block starts from rest)."""
+        planned = self._planned
+        if planned:
+            bounded = self._ticks.copy()
+            for i, exit_ in planned:
+                self._runs[i] = replace(self._runs[i], exit=exit_)
+            free_end = self._retime()
+            differ = np.flatnonzero(bounded != self._ticks)
+            if len(differ) and now is not None and bounded[max(0, differ[0] - 1)] <= now:
+                for i, _exit in planned:     # committed: keep braking to the stop
+                    self._runs[i] = replace(self._runs[i], exit=min(
+                        self._runs[i].exit, self._runs[-1].last - self._runs[i].last))
+                self._retime()
+                self._planned = []
+                return 0
+            self._end = free_end
+            self._planned = []
+            self._exit_m = self._last_index()
+        return self._exit_m
+
+    def _last_index(self) -> int:
+        if not self._runs or self._tail:
+            return 0
+        run = self._runs[-1]
+        return min(run.exit, run.entry + run.last - run.first, run.ramp)
+
     def hold(self, at: int) -> int:
         """A feed hold raised at tick `at`: decelerate and stop; returns the stop tick."""
+        self._planned = []                   # a hold re-times (and splits) the runs
         ticks, runs, stop, n_done = vector.apply_holds(
             self._base, self._runs, self._tail, self._t0, (), at)
         self._ticks[:n_done] = ticks[:n_done]       # the deceleration re-times the last run
@@ -146,6 +211,7 @@ class Timeline:
         self._ticks, self._runs, self._end = ticks, runs, end
         self._live = len(self._base)
         self._hold = None
+        self._exit_m = self._last_index()
         return stop, shift
 
     def abort(self) -> None:
@@ -158,6 +224,7 @@ class Timeline:
         self._tail = stop - last_run_end
         self._end = stop
         self._hold = None
+        self._exit_m = 0
 
     def executed(self, now: int | None) -> int:
         """Number of the first event not yet executed at tick `now`."""
@@ -185,6 +252,7 @@ class Timeline:
         self._ticks = self._ticks[cut:]
         self._runs = [replace(r, first=r.first - cut, last=r.last - cut)
                       for r in self._runs[idx:]]
+        self._planned = [(i - idx, e) for i, e in self._planned if i >= idx]
         self._first += cut
         self._live -= cut
 

@@ -49,6 +49,7 @@ from typing import Callable, Sequence
 from galileo_cnc import protocol as P
 from galileo_cnc.errors import GalileoError, SourcePos
 from galileo_cnc.job import NO_OP, Command, Job, PenUp
+from galileo_cnc.machine.planner import exit_indices
 from galileo_cnc.machine.timing import JobTiming, job_timing
 from galileo_cnc.program.ops import COL, LINE, NM_PER_MM, Program
 from galileo_cnc.stream.journal import (ABORTED, FAILED, FINISHED, INTERRUPTED, RESET,
@@ -162,6 +163,9 @@ class JobStreamer:
         #: the job's frame is the homed one (journalled: a reset is then resumable)
         self.homed = homed
         self.timing = timing or job_timing(job.commands, link.config)
+        #: per command, the exit index its move ends at (junction speeds, docs/motion.md
+        #: §5.7): the wire carries it, the firmware ramps to it
+        self._exits = exit_indices(job.commands, link.config)
         self._abort = threading.Event()
         self._rx_bytes = link.banner.rx_buffer_bytes if link.banner else P.RX_BUFFER_BYTES
         self.stall_s = STALL_S          # a bench against an instant machine shortens it
@@ -280,6 +284,8 @@ class JobStreamer:
                and not self._pen_change_due()):
             leading = bool(self._lead_in)
             command = self._lead_in[0] if leading else self.job.commands[self._next]
+            if not leading and self._exits[self._next] is not None:
+                command = replace(command, exit_index=self._exits[self._next])
             seq = self.link.next_seq()
             line = P.encode_command(command, seq)
             if in_flight + len(line) > self._rx_bytes:

@@ -13,6 +13,8 @@ no longer holds the pattern and the lowest stack pointer it saw
 """
 
 
+import math
+
 from galileo_cnc import protocol as P
 from galileo_cnc.job import (ArcTo, Dwell, Flash, Home, Jog, LineTo, PenDown, PenUp, Rapid,
                              SetFeed, SetOrigin)
@@ -88,6 +90,23 @@ def _demanding_job(link):
     link.port.write(P.RT_HOLD)
     held = status_when(link, lambda s: s.state == "hold", 60.0, 0.005)
     assert held.x_steps > 0
+    link.port.write(P.RT_RESUME)
+    status = link.wait_idle(60)
+    assert (status.x_steps, status.y_steps) == (0, 0), status
+
+    # Junction speeds (LX, CWX, CCX): blocks entered at speed, a hold braking across them.
+    from galileo_cnc.config.machine import MachineConfig
+    from galileo_cnc.machine.planner import with_exit_indices
+    sides = [LineTo(round(900 * math.cos(a)), round(900 * math.sin(a)))
+             for a in (k * math.pi / 4 + 0.3 for k in range(9))]
+    wave = [SetFeed(1600)] + sides + [ArcTo(sides[-1].x_steps - 400, sides[-1].y_steps, -200, 0,
+                                            cw=True), LineTo(0, 0)]
+    wire = with_exit_indices([Jog(3000, 3000, 0), SetOrigin()] + wave, MachineConfig(
+        junction_deviation_mm=0.05, vertex_speed_change_mm_s=3.0))[2:]
+    assert sum(1 for c in wire if c.__class__ in (LineTo, ArcTo) and c.exit_index) >= 6
+    assert all(r.kind == "ok" for r in link.stream(wire))
+    link.port.write(P.RT_HOLD)
+    status_when(link, lambda s: s.state == "hold", 60.0, 0.005)
     link.port.write(P.RT_RESUME)
     status = link.wait_idle(60)
     assert (status.x_steps, status.y_steps) == (0, 0), status

@@ -74,8 +74,12 @@ def assert_same_trace(fw, ref):
 
 
 def check_job(elf, commands, config=None, endstops=()):
+    """The job on the firmware, each move with the exit index `config` plans for it (the
+    default config's junction speeds), against the reference with that config."""
+    from galileo_cnc.machine.planner import with_exit_indices
     ref = simulate(commands, config)
-    fw, replies, final, unsolicited = run_on_firmware(elf, commands, endstops)
+    fw, replies, final, unsolicited = run_on_firmware(
+        elf, with_exit_indices(commands, config), endstops)
     assert all(r.kind == "ok" for r in replies), [r for r in replies if r.kind != "ok"]
     assert not [u for u in unsolicited if u.kind in ("alarm", "msg")], unsolicited
     assert_same_trace(fw, ref)
@@ -369,3 +373,95 @@ def test_a_head_outside_the_travel_moves_back_towards_it_never_further(firmware)
             link.close()
     assert (final.x_steps, final.y_steps, final.z_steps) == (200, 100, 300) == \
         tuple(machine.work_position)
+
+
+# ---- junction speeds (docs/motion.md §5.7): the firmware ramps between planned indices --
+JUNCTIONS_ON = MachineConfig(junction_deviation_mm=0.05, vertex_speed_change_mm_s=3.0)
+
+
+def check_junction_job(elf, commands, config=JUNCTIONS_ON):
+    from galileo_cnc.machine.planner import with_exit_indices
+    wire = with_exit_indices(commands, config)
+    assert any(getattr(c, "exit_index", None) for c in wire), "no vertex was blended"
+    ref = simulate(commands, config)
+    fw, replies, final, unsolicited = run_on_firmware(elf, wire)
+    assert all(r.kind == "ok" for r in replies), [r for r in replies if r.kind != "ok"]
+    assert not [u for u in unsolicited if u.kind in ("alarm", "msg")], unsolicited
+    assert_same_trace(fw, ref)
+    assert (final.x_steps, final.y_steps, final.z_steps) == ref.final_position
+    return ref, fw
+
+
+def test_junction_speeds_on_a_star_in_every_octant(firmware):
+    # An octagon's sides run in every octant; each vertex turns by 45 degrees, so
+    # they blend (the spokes from the centre stop at the reversals).
+    pts = [(round(500 * math.cos(a)), round(500 * math.sin(a)))
+           for a in (k * math.pi / 4 + 0.3 for k in range(9))]
+    job = CENTRE + [SetFeed(1600)] + [LineTo(x, y) for x, y in pts] + [LineTo(0, 0)]
+    ref, fw = check_junction_job(firmware, job)
+    assert ref.seconds < simulate(job).seconds
+
+
+def test_junction_speeds_hold_brakes_across_moves_and_resumes_exactly(firmware):
+    # A 48-gon of 39-step sides at 800 steps/s (a ramp of 32 events): a hold's stop
+    # lies in a later side more often than not; the reference brakes the same way.
+    import time
+    from galileo_cnc.machine import Hold
+    from galileo_cnc.machine.planner import with_exit_indices
+    pts = [(round(300 * math.cos(a)) - 300, round(300 * math.sin(a)))
+           for a in (k * math.pi / 24 for k in range(49))]
+    job = CENTRE + [LineTo(x, y) for x, y in pts]
+    full = simulate(job, JUNCTIONS_ON)
+
+    def hold_then_resume(link):
+        status_when(link, lambda s: s.state == "run" and s.queue_blocks >= 2)
+        link.port.write(P.RT_HOLD)
+        _wait_state(link, "hold")
+        time.sleep(0.2)
+        link.port.write(P.RT_RESUME)
+
+    fw, replies, final, _ = run_on_firmware(firmware, with_exit_indices(job, JUNCTIONS_ON),
+                                            during=hold_then_resume)
+    tick, axis, direction = fw
+    assert np.array_equal(axis, full.axis) and np.array_equal(direction, full.dir)
+    stop, gap = _split_at_pause(tick)
+    assert gap > 100_000
+    for j in range(stop, max(0, stop - 200), -1):
+        ref = simulate(job, JUNCTIONS_ON, holds=[Hold(int(full.tick[j]), gap)])
+        if _split_at_pause(ref.tick)[0] == stop:
+            break
+    else:
+        raise AssertionError("no reference hold stops at the firmware's stop")
+    for part in (slice(0, stop + 1), slice(stop + 1, None)):
+        delay = tick[part] - ref.tick[part]
+        assert delay.max() - delay.min() <= LATENCY_JITTER_TICKS
+
+
+def test_junction_speeds_a_starved_link_brakes_to_the_end_of_the_queue(firmware):
+    # Never overrun: the second side is planned to end at a junction speed, but the
+    # third arrives only once the machine has used up its queue. The firmware braked to
+    # a stop at the end of what it had, exactly as the reference's starved link
+    # (Starved) does, and the rest starts from rest.
+    from galileo_cnc.machine import Starved
+    from galileo_cnc.machine.planner import with_exit_indices
+    pts = [(round(500 * math.cos(a)), round(500 * math.sin(a)))
+           for a in (k * math.pi / 4 + 0.3 for k in range(4))]
+    job = CENTRE + [SetFeed(1600), LineTo(0, 0)] + [LineTo(x, y) for x, y in pts]
+    wire = with_exit_indices(job, JUNCTIONS_ON)
+    assert wire[7].exit_index         # the second side ends at a junction speed
+
+    def starve(link):
+        link.wait_idle()
+        assert all(r.kind == "ok" for r in link.stream(wire[8:]))
+
+    fw, replies, final, _ = run_on_firmware(firmware, wire[:8], during=starve)
+    tick = fw[0]
+    ref = simulate(job, JUNCTIONS_ON, starved=[Starved(8, 100_000)])
+    free = simulate(job, JUNCTIONS_ON)
+    n1 = len(simulate(job[:8]).tick)
+    assert np.array_equal(fw[1], ref.axis) and np.array_equal(fw[2], ref.dir)
+    for part in (slice(0, n1), slice(n1, None)):
+        delay = tick[part] - ref.tick[part]
+        assert delay.max() - delay.min() <= LATENCY_JITTER_TICKS
+    assert not np.array_equal(ref.tick[:n1], free.tick[:n1])   # it did brake early
+    assert (final.x_steps, final.y_steps) == ref.final_position[:2]

@@ -238,3 +238,90 @@ def test_a_real_copper_layer_inked_with_two_pens_steps_as_the_reference(firmware
     assert result.completed
     assert [c.prompt for c in changes] == ["insert the 0.8 mm pen", "insert the 0.3 mm pen"]
     assert_same_trace_in_pieces(fw, sim_trace, [steps_before(job, k) for k in job.pen_changes])
+
+
+# ---- junction speeds (docs/motion.md §5.7) on the firmware --------------------------------
+JUNCTIONS_ON = MachineConfig(junction_deviation_mm=0.05, vertex_speed_change_mm_s=3.0)
+
+
+def stream_with_junctions(elf, job, program, config=JUNCTIONS_ON):
+    """The job streamed by JobStreamer to the firmware, planned with junction speeds."""
+    with SimulatedBoard(elf) as board:
+        link = MachineLink.open(board.port, config=config)
+        messages = []
+        link.on_message = messages.append
+        result = JobStreamer(link, job, program).run()
+        final = link.status()
+        link.close()
+        board.stop()
+        fw = step_trace(board.trace())
+    assert result.completed and not messages, messages
+    return fw, final
+
+
+def vertex_axis_changes(tick, commands, config):
+    """Per blended vertex, the largest change of one axis's speed (steps/s) measured on
+    `tick` (a trace of the commands): the last event of the move before and the first of
+    the move after, each at its interval from the trace and along its move's direction."""
+    from galileo_cnc.config.hardware import TICKS_PER_S
+    from galileo_cnc.machine import ReferenceMachine
+    from galileo_cnc.machine.blocks import Pause
+    from galileo_cnc.machine.junctions import move_ends
+    machine = ReferenceMachine(config)
+    items = machine.plan_speeds(machine.plan(list(commands)))
+    events = tick[np.r_[True, np.diff(tick) != 0]]
+    changes, k, before = [], 0, None
+    for item in items:
+        if isinstance(item, Pause):
+            before = None
+            continue
+        if item.n == 0:
+            continue
+        start, end = move_ends(item)
+        if before is not None and before[0].exit > 0:
+            prev_end, last = before[1], k - 1
+            v_in = prev_end.rho * TICKS_PER_S / (events[last] - events[last - 1])
+            v_out = start.rho * TICKS_PER_S / (events[k] - events[last])
+            changes.append(max(abs(v_in * a - v_out * b)
+                               for a, b in zip(prev_end.direction, start.direction)))
+        before = (item, end)
+        k += item.n
+    return np.array(changes)
+
+
+def check_blended(fw, job, config=JUNCTIONS_ON):
+    """Blended vertices exist, and none changes an axis's speed by more than the bound
+    (1 % for the trace's whole-tick intervals)."""
+    changes = vertex_axis_changes(fw[0], job.commands, config)
+    assert len(changes) >= 8, len(changes)
+    assert changes.max() <= 1.01 * config.vertex_speed_change_steps_per_s, changes.max()
+
+
+def test_an_ink_job_with_junction_speeds_steps_as_the_reference(firmware):
+    from galileo_cnc.plan.pipeline import PlanOptions, plan_file
+    layer = plan_file(REPO / "samples" / "led-blinker.gbr", options=PlanOptions(mode="ink"))
+    job = cut_to_paths(layer.job, lambda rapid, nth: nth < 2)
+    ref = simulate(job.commands, JUNCTIONS_ON)
+    assert ref.total_ticks < simulate(job.commands).total_ticks
+    fw, final = stream_with_junctions(firmware, job, layer.plotted)
+    assert_same_trace_in_pieces(fw, ref, [steps_before(job, k) for k in job.pen_changes])
+    assert (final.x_steps, final.y_steps, final.z_steps) == ref.final_position
+    check_blended(fw, job)
+
+
+def test_an_arc_heavy_gcode_with_junction_speeds_steps_as_the_reference(firmware, tmp_path):
+    # A wave of tangent semicircles, both ways round, between two lines: the pen
+    # keeps its speed along the whole wave (the tangent is continuous at every joint).
+    text = ["G21 G90 G17", "F600", "G00 X2 Y10", "M03", "G01 X6 Y10"]
+    for k in range(8):
+        text.append(f"{'G02' if k % 2 == 0 else 'G03'} X{10 + 4 * k} Y10 I2 J0")
+    text += ["G01 X40 Y14", "M05", "M02"]
+    path = tmp_path / "wave.nc"
+    path.write_text("\n".join(text) + "\n")
+    program = read_file(path)
+    job = plan_program(program, None, proposed_offset(program))
+    assert sum(isinstance(c, ArcTo) for c in job.commands) >= 8
+    ref = simulate(job.commands, JUNCTIONS_ON)
+    fw, final = stream_with_junctions(firmware, job, program)
+    assert_same_trace_in_pieces(fw, ref, [steps_before(job, k) for k in job.pen_changes])
+    check_blended(fw, job)

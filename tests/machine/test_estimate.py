@@ -61,7 +61,7 @@ def ends_from_the_trace(commands, config=None) -> np.ndarray:
         planned = machine.plan([command])
         items.extend(planned)
         events.append(sum(item.n for item in planned if not isinstance(item, Pause)))
-    tick, _axis, _dir, end, _ = vector.execute(items, 0)
+    tick, _axis, _dir, end, _ = vector.execute(machine.plan_speeds(items), 0)
     event_ticks = tick[np.r_[True, tick[1:] != tick[:-1]]] if len(tick) else tick
     done = np.cumsum(events)
     ends = np.array([event_ticks[d - 1] if d else 0 for d in done.tolist()], dtype=np.int64)

@@ -10,7 +10,8 @@ import numpy as np
 from hypothesis import given, settings, strategies as st
 
 from galileo_cnc.config.machine import MachineConfig
-from galileo_cnc.job import ArcTo, Dwell, EndJob, Jog, LineTo, PenDown, PenUp, Rapid, SetOrigin
+from galileo_cnc.job import (ArcTo, Dwell, EndJob, Jog, LineTo, PenDown, PenUp, Rapid, SetFeed,
+                             SetOrigin)
 from galileo_cnc.machine import Hold, ReferenceMachine, Starved, simulate
 from galileo_cnc.machine.analysis import min_step_gap_ticks
 from galileo_cnc.machine.blocks import LineMove, Pause
@@ -18,7 +19,7 @@ from galileo_cnc.machine.junctions import JunctionLimits, plan_indices, vertex_s
 from galileo_cnc.machine.ramps import ramp_sum
 from galileo_cnc.machine.timing import job_timing
 
-OFF = MachineConfig()
+OFF = MachineConfig(junction_deviation_mm=0.0)
 ON = MachineConfig(junction_deviation_mm=0.01)
 LIMITS = JunctionLimits.of(ON)
 
@@ -211,3 +212,18 @@ def test_a_starved_link_brakes_in_time_to_stop_where_the_moves_end():
     b = simulate(commands, ON, starved=[Starved(61, wait), Starved(90, 0)],
                  holds=[Hold(int(full.tick[-300]), 7000)], backend="loop")
     assert a.same_steps(b) and a.total_ticks == b.total_ticks
+
+
+def test_a_rapid_or_jog_ends_at_rest_as_the_wire_sends_it():
+    # Two Rapids back to back (the pen stays up) are two blendable lines at the rapid
+    # feed, but a Rapid's line carries no exit index on the wire: it stops; LineTos at
+    # the same feed and angle blend.
+    from galileo_cnc.machine.planner import exit_indices
+    rapids = [Rapid(3000, 3000), Rapid(3600, 3100), Rapid(4200, 3000)]
+    lines = [Rapid(3000, 3000), SetFeed(ON.rapid_steps_per_s), LineTo(3600, 3100),
+             LineTo(4200, 3000)]
+    jogs = [Rapid(3000, 3000), Jog(600, 100, 0), Jog(600, -100, 0)]
+    assert simulate(rapids, ON).total_ticks == simulate(rapids, OFF).total_ticks
+    assert simulate(jogs, ON).total_ticks == simulate(jogs, OFF).total_ticks
+    assert simulate(lines, ON).total_ticks < simulate(lines, OFF).total_ticks
+    assert exit_indices(lines, ON)[2] > 0 and exit_indices(rapids, ON) == [None] * 3

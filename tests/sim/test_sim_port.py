@@ -28,6 +28,9 @@ from firmware_support import FirmwareLink, check_bad_input_replies, status_when
 from firmware_support import framed as _framed
 
 CENTRE = [SetFeed(20000), Jog(3000, 3000, 0), SetOrigin(), SetFeed(800)]
+#: what a job streamed as plain commands (no exit index on the wire) runs with: every
+#: move from rest to rest (docs/motion.md §5.7)
+STOPS = MachineConfig(junction_deviation_mm=0.0)
 
 
 def sim_link(url: str = "sim://?speed=0", timeout: float = 2.0) -> FirmwareLink:
@@ -91,7 +94,7 @@ def test_bad_input_gets_the_firmwares_reply_and_the_next_line_works(link):
     (_framed(b"N1 L 1 1234567890"), ("error", 4, 1)),            # 10 digits
     (_framed(b"N1 L 1 10000000"), ("error", 4, 1)),              # outside COORD
     (_framed(b"N1 M 2"), ("error", 4, 1)),                       # FLAG is 0/1
-    (_framed(b"N1 LX 1 2"), ("error", 3, 1)),                    # 4-letter mnemonic
+    (_framed(b"N1 LXQW 1 2"), ("error", 3, 1)),                  # 4-letter mnemonic
     (_framed(b"N1 l 1 2"), ("error", 3, 1)),
     (_framed(b"X1 S"), ("error", 1, None)),                      # no N
     (_framed(b"N123456 S"), ("error", 1, None)),
@@ -151,7 +154,7 @@ def test_hold_queues_blocks_and_resume_runs_them(link):
     status = link.wait_idle(5)
     assert (status.state, status.x_steps, status.y_steps, status.queue_blocks) == (
         "idle", 5, 0, 0)
-    ref = simulate(CENTRE + job + [LineTo(0, 0), Jog(5, 0, 0)])
+    ref = simulate(CENTRE + job + [LineTo(0, 0), Jog(5, 0, 0)], STOPS)
     assert link.port.trace().same_steps(ref)
 
 
@@ -440,7 +443,7 @@ def test_a_named_machine_keeps_power_while_the_port_is_closed(forget_named):
         link.port, link.seq = port, 1
         done = link.wait_idle(5)
         assert (done.x_steps, done.queue_blocks) == (4800, 0)
-        trace, ref = port.trace(), simulate(job)
+        trace, ref = port.trace(), simulate(job, STOPS)
         assert np.array_equal(machine_ticks(trace, ref), ref.tick)
         assert trace.final_position == ref.final_position
     finally:
@@ -458,3 +461,46 @@ def test_a_named_machine_keeps_power_while_the_port_is_closed(forget_named):
 def test_bad_sim_urls_do_not_open(url):
     with pytest.raises(serial.SerialException):
         open_port(url)
+
+
+# ---- junction speeds (docs/motion.md §5.7): sim:// runs the exit indices as the firmware --
+JUNCTIONS_ON = MachineConfig(junction_deviation_mm=0.05, vertex_speed_change_mm_s=3.0)
+OCTAGON = [LineTo(round(900 * np.cos(a)), round(900 * np.sin(a)))
+           for a in (k * np.pi / 4 + 0.3 for k in range(9))]
+
+
+def test_exit_indices_on_the_wire_give_the_reference_with_junction_speeds(link):
+    from galileo_cnc.machine.planner import with_exit_indices
+    job = CENTRE + [SetFeed(1600)] + OCTAGON + [ArcTo(0, 0, -450, 0, cw=True), LineTo(0, 0)]
+    wire = with_exit_indices(job, JUNCTIONS_ON)
+    assert sum(1 for c in wire if getattr(c, "exit_index", None)) >= 7
+    assert all(r.kind == "ok" for r in link.stream(wire))
+    ref = simulate(job, JUNCTIONS_ON)
+    assert ref.total_ticks < simulate(job).total_ticks
+    trace = link.port.trace()
+    assert np.array_equal(trace.tick, ref.tick) and trace.same_steps(ref)
+
+
+def test_a_late_block_finds_the_machine_braked_to_the_end_of_its_queue(paced):
+    # Never overrun: the first side ends at a junction speed, but the next one comes
+    # when the machine has stopped: it braked to the end of what it had, as the
+    # reference's starved link (Starved) does, and the next side starts from rest.
+    from galileo_cnc.machine import Starved
+    from galileo_cnc.machine.planner import with_exit_indices
+    job = CENTRE + [SetFeed(1600)] + OCTAGON[:4]
+    wire = with_exit_indices(job, JUNCTIONS_ON)
+    assert wire[6].exit_index
+    assert all(r.kind == "ok" for r in paced.stream(wire[:7]))
+    paced.wait_idle(5)
+    time.sleep(0.05)
+    assert all(r.kind == "ok" for r in paced.stream(wire[7:]))
+    paced.wait_idle(5)
+    trace = paced.port.trace()
+    n1 = len(simulate(job[:7]).tick)
+    ref = simulate(job, JUNCTIONS_ON, starved=[Starved(7, 100_000)])
+    assert np.array_equal(trace.axis, ref.axis) and np.array_equal(trace.dir, ref.dir)
+    for part in (slice(0, n1), slice(n1, None)):      # each part on the reference's ticks
+        t, r = trace.tick[part], ref.tick[part]
+        assert np.array_equal(t - t[0], r - r[0])
+    free = simulate(job, JUNCTIONS_ON).tick
+    assert not np.array_equal(free[:n1] - free[0], ref.tick[:n1] - ref.tick[0])
