@@ -4,7 +4,7 @@
 [machine]            # any MachineConfig field (galileo_cnc/config.py); the seed's machine by default
 steps_per_rev = 200
 pitch_mm = 1.25
-junction_deviation_mm = 0.0      # > 0: speed through corners (docs/motion.md §5.7)
+junction_deviation_mm = 0.01     # speed through corners (docs/motion.md §5.7); 0: stop at each
 vertex_speed_change_mm_s = 1.6   # the largest per-axis speed change at a vertex
 
 [serial]
