@@ -201,3 +201,13 @@ def test_with_two_pens_each_pen_keeps_out_of_the_marks(board):
     lines = [piece.tolist() for feature in planned.ink.narrow for piece in feature.pieces]
     swept = clip.stroke(lines, pens[-1] // 2, 1000)
     assert pixels_inside(clip.intersection(swept, planned.marks)) == 0
+
+
+def test_a_centre_line_of_zero_length_near_a_mark_is_a_dot_not_a_clipper_error():
+    # Altium's usbvil bottom copper as a board side: a trace piece whose points all
+    # coincide met the marks' clearance, and Clipper refused the whole cut ("All paths
+    # are invalid for clipping"); it is a dot now, kept or cut as dots are.
+    square = [[0, 0], [1000, 0], [1000, 1000], [0, 1000]]
+    outside, inside = [[5000, 5000], [5000, 5000]], [[500, 500], [500, 500], [500, 500]]
+    kept = clip.open_difference([outside, inside, [[2000, 0], [3000, 0]]], [square])
+    assert sorted(sorted(p.tolist()) for p in kept) == [[[2000, 0], [3000, 0]], [[5000, 5000]]]

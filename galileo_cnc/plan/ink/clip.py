@@ -115,12 +115,25 @@ def boolean(operation, subject: PolygonSet, clip: PolygonSet) -> PolygonSet:
     return clipper.Execute(operation, pc.PFT_POSITIVE, pc.PFT_POSITIVE)
 
 
+def _distinct(path) -> np.ndarray:
+    """The polyline without repeats of a point right after itself."""
+    points = np.asarray(path, dtype=np.int64).reshape(-1, 2)
+    if len(points) < 2:
+        return points
+    keep = np.ones(len(points), dtype=bool)
+    keep[1:] = np.any(points[1:] != points[:-1], axis=1)
+    return points[keep]
+
+
 def open_difference(paths: list, polygons: PolygonSet) -> list[np.ndarray]:
     """The parts of open polylines outside the set (positive winding), as int64
     arrays; a path of one point (a dot) is kept whole or dropped."""
     if not polygons:
         return [np.asarray(path, dtype=np.int64) for path in paths]
     kept = []
+    # a polyline whose points all coincide is a dot: Clipper refuses a subject of
+    # zero length ("All paths are invalid for clipping")
+    paths = [_distinct(path) for path in paths]
     lines = [path for path in paths if len(path) >= 2]
     for dot in (path for path in paths if len(path) == 1):
         x, y = (int(v) for v in dot[0])
