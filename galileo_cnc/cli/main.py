@@ -374,10 +374,14 @@ def _board_choice(args: argparse.Namespace):
     """The board options given (None: none given, so a file alone is fine)."""
     from galileo_cnc.plan.board_plan import BoardChoice
     from galileo_cnc.plan.sides import parse_axis
+    try:
+        axis = parse_axis(args.mirror_axis) if args.mirror_axis else None
+    except ValueError as problem:
+        raise GalileoError(str(problem)) from None
     given = {"side": args.side, "drill_marks": args.drill_marks,
              "drill_mark_nm": None if args.drill_mark_size is None
              else round(args.drill_mark_size * NM_PER_MM),
-             "mirror_axis": parse_axis(args.mirror_axis) if args.mirror_axis else None,
+             "mirror_axis": axis,
              "registration": args.registration or None,
              "layers": tuple(args.layer) if args.layer else None}
     given = {key: value for key, value in given.items() if value is not None}

@@ -50,6 +50,9 @@ def test_layer_places_a_file_and_a_wrong_role_is_named(board):
     wrong = galileo("info", str(board), "--layer", "Flashpads-F_Paste.gbr=top-coper")
     assert wrong.returncode != 0
     assert "top-coper" in wrong.stderr and "Traceback" not in wrong.stderr
+    axis = galileo("convert", str(board), "--mirror-axis", "z=3", "-o", "/dev/null")
+    assert axis.returncode != 0 and "Traceback" not in axis.stderr
+    assert "--mirror-axis: expected x=MM or y=MM" in axis.stderr
 
 
 def test_plot_both_sides_lands_the_bottom_holes_on_the_top_ones_and_inks_no_mark(tmp_path):
