@@ -13,6 +13,7 @@ import pytest
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.plan.board_plan import BoardChoice, plan_board
+from galileo_cnc.plan.pipeline import PlanOptions
 from galileo_cnc.simavr.board import SimulatedBoard
 from galileo_cnc.stream.journal import FINISHED
 from galileo_cnc.stream.resume import position_after
@@ -23,16 +24,20 @@ from test_console import console_in_thread, home  # noqa: F401  (the fixture)
 
 TWO_PENS = MachineConfig().replace(pen_widths_mm=(0.3, 0.8))
 
-def a_board_evening(user, board: Path, config: MachineConfig) -> dict:
+#: what a pen change says: the ink's pens, or an aperture's pen (centre mode)
+PEN = r"insert (?:pen for aperture|the \d[\d.]* mm pen)"
+
+
+def a_board_evening(user, board: Path, mode: str) -> dict:
     """getg BOARD: top, turn-over, bottom stopped with q at its last pen change, resume."""
-    user.line(f"getg {board}")
+    user.line(f"getg --mode {mode} {board}")
     user.expect(r"use these offsets\?")
     user.line("y")
     user.expect(r"top side, to be turned over about the vertical line X 6\.0000 mm "
                 r"\(board\)")
     changes = int(user.expect(r"(\d+) pen changes?").group(1))
     for _ in range(changes):
-        user.expect(r"insert the \d[\d.]* mm pen")
+        user.expect(PEN)
         user.type("\r")
     user.expect(r"process has finished")
     user.expect(r"bottom side, mirrored about the vertical line X 6\.0000 mm \(board\)")
@@ -42,23 +47,25 @@ def a_board_evening(user, board: Path, config: MachineConfig) -> dict:
     changes = int(user.expect(r"(\d+) pen changes?").group(1))
     assert changes >= 2                       # the second one is after some ink
     for _ in range(changes - 1):
-        user.expect(r"insert the \d[\d.]* mm pen")
+        user.expect(PEN)
         user.type("\r")
-    user.expect(r"insert the \d[\d.]* mm pen")
+    user.expect(PEN)
     user.type("q")
     user.expect(r"job stopped after \d+ of \d+ commands.*type resume to continue it")
     user.line("resume")
     user.expect(r"continue the job\? \[Y/n\]")
     user.line("")
-    user.expect(r"insert the \d[\d.]* mm pen")        # the pen it stopped for first
+    user.expect(PEN)                          # the pen it stopped for first
     user.type("\r")
     user.expect(r"process has finished")
     return {"axis_on_machine_mm": float(turn.group(1))}
 
 
-def bottom_job(board: Path, config: MachineConfig):
-    top = plan_board(board, config, choice=BoardChoice(side="top"))
-    bottom = plan_board(board, config, top.offset_nm, choice=BoardChoice(side="bottom"))
+def bottom_job(board: Path, config: MachineConfig, mode: str):
+    options = PlanOptions(mode=mode)
+    top = plan_board(board, config, choice=BoardChoice(side="top"), options=options)
+    bottom = plan_board(board, config, top.offset_nm, choice=BoardChoice(side="bottom"),
+                        options=options)
     return top, bottom
 
 
@@ -67,8 +74,8 @@ def journal_of(home_dir: Path) -> dict:
     return json.loads(path.read_text())
 
 
-def check_the_evening(home_dir: Path, board: Path, seen: dict, status) -> None:
-    top, bottom = bottom_job(board, TWO_PENS)
+def check_the_evening(home_dir: Path, board: Path, seen: dict, status, mode: str) -> None:
+    top, bottom = bottom_job(board, TWO_PENS, mode)
     assert top.offset_nm == bottom.offset_nm                      # one offset
     assert seen["axis_on_machine_mm"] == pytest.approx(6 - top.offset_nm[0] / 1e6, abs=1e-3)
     assert status == ("idle", *position_after(bottom.job, len(bottom.job), TWO_PENS))
@@ -80,9 +87,9 @@ def check_the_evening(home_dir: Path, board: Path, seen: dict, status) -> None:
 def test_a_board_evening_on_sim(home, tmp_path):  # noqa: F811
     board = make_board(tmp_path / "board")
     with console_in_thread(home, config=TWO_PENS) as user:
-        seen = a_board_evening(user, board, TWO_PENS)
+        seen = a_board_evening(user, board, "ink")
         status = user.status()
-    check_the_evening(home, board, seen, status)
+    check_the_evening(home, board, seen, status, "ink")
 
 
 def test_a_board_evening_on_the_firmware_in_simavr(home, tmp_path):  # noqa: F811
@@ -91,10 +98,12 @@ def test_a_board_evening_on_the_firmware_in_simavr(home, tmp_path):  # noqa: F81
     board = make_board(tmp_path / "board")
     with SimulatedBoard(ELF) as machine:
         with console_in_thread(home, machine.port, config=TWO_PENS) as user:
-            seen = a_board_evening(user, board, TWO_PENS)
+            # centre mode (an aperture's pen each, pads with holes as rings): the same
+            # evening in less than half the machine time of the ink's
+            seen = a_board_evening(user, board, "centre")
             status = user.status()
         machine.stop()
-    check_the_evening(home, board, seen, status)
+    check_the_evening(home, board, seen, status, "centre")
 
 
 def test_getg_side_options_on_a_file_alone_are_refused(home, tmp_path):  # noqa: F811
