@@ -252,6 +252,24 @@ def _split_at_pause(tick):
     return stop, int(gaps[stop])
 
 
+def assert_hold_as_the_reference(tick, job, full, config=None):
+    """The firmware's steps `tick` of `job`, held once and resumed: the reference with
+    a hold seen at some event j stops at the same step, with the same ramp down, and
+    resumed ramps up again exactly like the firmware (`full`: the job unheld)."""
+    from galileo_cnc.machine import Hold
+    stop, gap = _split_at_pause(tick)
+    assert gap > 100_000
+    for j in range(stop, max(0, stop - 200), -1):
+        ref = simulate(job, config, holds=[Hold(int(full.tick[j]), gap)])
+        if _split_at_pause(ref.tick)[0] == stop:
+            break
+    else:
+        raise AssertionError("no reference hold stops at the firmware's stop")
+    for part in (slice(0, stop + 1), slice(stop + 1, None)):
+        delay = tick[part] - ref.tick[part]
+        assert delay.max() - delay.min() <= LATENCY_JITTER_TICKS
+
+
 def test_feed_hold_decelerates_and_resume_continues_as_the_reference(firmware):
     import time
     job = CENTRE + [SetFeed(1600), LineTo(2400, 800)]
@@ -272,20 +290,7 @@ def test_feed_hold_decelerates_and_resume_continues_as_the_reference(firmware):
     tick, axis, direction = fw
     assert np.array_equal(axis, full.axis) and np.array_equal(direction, full.dir)
     assert (final.x_steps, final.y_steps) == (2400, 800)
-    stop, gap = _split_at_pause(tick)
-    assert gap > 100_000
-    # The reference with a hold seen at some event j stops at the same step, with
-    # the same ramp down; resumed, it ramps up again exactly like the firmware.
-    from galileo_cnc.machine import Hold
-    for j in range(stop, max(0, stop - 200), -1):
-        ref = simulate(job, holds=[Hold(int(full.tick[j]), gap)])
-        if _split_at_pause(ref.tick)[0] == stop:
-            break
-    else:
-        raise AssertionError("no reference hold stops at the firmware's stop")
-    for part in (slice(0, stop + 1), slice(stop + 1, None)):
-        delay = tick[part] - ref.tick[part]
-        assert delay.max() - delay.min() <= LATENCY_JITTER_TICKS
+    assert_hold_as_the_reference(tick, job, full)
 
 
 def test_abort_decelerates_keeps_the_position_and_locks_until_unlock(firmware):
@@ -406,7 +411,6 @@ def test_junction_speeds_hold_brakes_across_moves_and_resumes_exactly(firmware):
     # A 48-gon of 39-step sides at 800 steps/s (a ramp of 32 events): a hold's stop
     # lies in a later side more often than not; the reference brakes the same way.
     import time
-    from galileo_cnc.machine import Hold
     from galileo_cnc.machine.planner import with_exit_indices
     pts = [(round(300 * math.cos(a)) - 300, round(300 * math.sin(a)))
            for a in (k * math.pi / 24 for k in range(49))]
@@ -424,17 +428,7 @@ def test_junction_speeds_hold_brakes_across_moves_and_resumes_exactly(firmware):
                                             during=hold_then_resume)
     tick, axis, direction = fw
     assert np.array_equal(axis, full.axis) and np.array_equal(direction, full.dir)
-    stop, gap = _split_at_pause(tick)
-    assert gap > 100_000
-    for j in range(stop, max(0, stop - 200), -1):
-        ref = simulate(job, JUNCTIONS_ON, holds=[Hold(int(full.tick[j]), gap)])
-        if _split_at_pause(ref.tick)[0] == stop:
-            break
-    else:
-        raise AssertionError("no reference hold stops at the firmware's stop")
-    for part in (slice(0, stop + 1), slice(stop + 1, None)):
-        delay = tick[part] - ref.tick[part]
-        assert delay.max() - delay.min() <= LATENCY_JITTER_TICKS
+    assert_hold_as_the_reference(tick, job, full, JUNCTIONS_ON)
 
 
 def test_junction_speeds_a_starved_link_brakes_to_the_end_of_the_queue(firmware):
