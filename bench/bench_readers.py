@@ -185,10 +185,7 @@ def main(argv=None) -> int:
     if args.limit:
         rows = rows[: args.limit]
     files = [str(root / r.path) for r in rows]
-    sizes = {}
-    for f in files:
-        data = Path(f).read_bytes()
-        sizes[f] = (len(data), data.count(b"\n") + (not data.endswith(b"\n")))
+    sizes = file_sizes(files)
     readers = [r for r in args.readers.split(",") if r]
     drill = "excellon" in readers
     readers = [r for r in readers if r != "excellon"]
@@ -264,6 +261,15 @@ def print_failures(results: dict, readers, root: Path, show: bool) -> None:
                 print(f"  {Path(f).relative_to(root)}: {e}")
 
 
+def file_sizes(files: list[str]) -> dict[str, tuple[int, int]]:
+    """Bytes and lines (a last line without a newline counts) of each file."""
+    sizes = {}
+    for f in files:
+        data = Path(f).read_bytes()
+        sizes[f] = (len(data), data.count(b"\n") + (not data.endswith(b"\n")))
+    return sizes
+
+
 def excellon_column(root: Path, rounds: int, show_failures: bool) -> int:
     """Our Excellon reader and gerbonara's over the corpus's drill files, in alternating
     rounds (best time per file), with the ratio on the files both read."""
@@ -272,10 +278,7 @@ def excellon_column(root: Path, rounds: int, show_failures: bool) -> int:
     if not files:
         print(f"excellon: no drill files in {root}")
         return 0
-    sizes = {}
-    for f in files:
-        data = Path(f).read_bytes()
-        sizes[f] = (len(data), data.count(b"\n") + (not data.endswith(b"\n")))
+    sizes = file_sizes(files)
     results: dict[str, dict] = {}
     for _ in range(rounds):
         for name in DRILL_READERS:
