@@ -39,7 +39,7 @@ from galileo_cnc.plan.offsets import (DEFAULT_MARGIN_NM, OffsetError, offset_for
 from galileo_cnc.plan.planner import PlanError, plan_program
 from galileo_cnc.plan.transform import (NO_TRANSFORM, Transform, TransformError,
                                         apply_transform, reach_box)
-from galileo_cnc.program.drills import Hole, Slot
+from galileo_cnc.program.drills import Hole, Slot, drills_box
 from galileo_cnc.program.extents import extents
 from galileo_cnc.program.ops import NM_PER_MM, Program
 from galileo_cnc.readers import read_file
@@ -264,7 +264,7 @@ def _board_side(artwork: Artwork, options: PlanOptions) -> tuple[Artwork, _Side 
     holes = tuple(options.holes)
     outline_box = extents(options.outline_program) if options.outline_program is not None \
         else None
-    holes_box = sides.drills_box(holes)
+    holes_box = drills_box(holes)
     program = artwork.program
     turned = program.metadata.get("side") == "bottom"     # mirrored already (a replan)
     layer_box = reach_box(program)

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Iterable, Sequence, Union
+from typing import Sequence, Union
 
 import numpy as np
 
@@ -95,22 +95,6 @@ def parse_axis(text: str) -> tuple[str, int]:
     if nm is None:
         raise ValueError(f"--mirror-axis: expected x=MM or y=MM (board mm), got {text!r}")
     return name, nm
-
-
-def drills_box(drills: Iterable[Drill]) -> Box | None:
-    """The box of the holes and slots, their radius included."""
-    lows, highs = [], []
-    for d in drills:
-        r = d.diameter_nm // 2
-        points = [(d.x_nm, d.y_nm)] if isinstance(d, Hole) else \
-            [(d.x0_nm, d.y0_nm), (d.x1_nm, d.y1_nm)]
-        for x, y in points:
-            lows.append((x - r, y - r))
-            highs.append((x + r, y + r))
-    if not lows:
-        return None
-    low, high = np.min(lows, axis=0).tolist(), np.max(highs, axis=0).tolist()
-    return (low[0], low[1], high[0], high[1])
 
 
 def union_box(*boxes: Box | None) -> Box | None:

@@ -77,20 +77,20 @@ class DrillFile:
 
     def box_nm(self) -> tuple[int, int, int, int] | None:
         """(xmin, ymin, xmax, ymax) of every hole and slot, their radius included."""
-        xs0, ys0, xs1, ys1 = [], [], [], []
-        for h in self.holes:
-            r = h.diameter_nm // 2
-            xs0.append(h.x_nm - r)
-            ys0.append(h.y_nm - r)
-            xs1.append(h.x_nm + r)
-            ys1.append(h.y_nm + r)
-        for s in self.slots:
-            r = s.diameter_nm // 2
-            xs, ys = zip(*s.path_extremes())
-            xs0.append(min(xs) - r)
-            ys0.append(min(ys) - r)
-            xs1.append(max(xs) + r)
-            ys1.append(max(ys) + r)
-        if not xs0:
-            return None
-        return min(xs0), min(ys0), max(xs1), max(ys1)
+        return drills_box([*self.holes, *self.slots])
+
+
+def drills_box(drills) -> tuple[int, int, int, int] | None:
+    """(xmin, ymin, xmax, ymax) of holes and slots (an arc slot by the points its
+    arc passes), their radius included; None for none."""
+    xs0, ys0, xs1, ys1 = [], [], [], []
+    for d in drills:
+        r = d.diameter_nm // 2
+        xs, ys = zip(*([(d.x_nm, d.y_nm)] if isinstance(d, Hole) else d.path_extremes()))
+        xs0.append(min(xs) - r)
+        ys0.append(min(ys) - r)
+        xs1.append(max(xs) + r)
+        ys1.append(max(ys) + r)
+    if not xs0:
+        return None
+    return min(xs0), min(ys0), max(xs1), max(ys1)
