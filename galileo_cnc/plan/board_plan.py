@@ -14,7 +14,6 @@ import dataclasses
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.plan.drill_marks import DEFAULT_DRILL_MARK_NM
@@ -22,6 +21,7 @@ from galileo_cnc.plan.pipeline import OffsetChoice, PlannedFile, PlanOptions, pl
 from galileo_cnc.plan.sides import union_box
 from galileo_cnc.plan.transform import reach_box
 from galileo_cnc.program.drills import Hole, Slot
+from galileo_cnc.program.ops import Program
 from galileo_cnc.readers import read_drill, read_file
 from galileo_cnc.readers.board import Board, BoardError, is_board, open_board
 
@@ -97,34 +97,38 @@ def _one(board: Board, role: str, required: bool) -> Path | None:
 
 
 def side_options(board: Board, choice: BoardChoice,
-                 options: PlanOptions = PlanOptions()) -> tuple[Path, PlanOptions]:
-    """The side's copper file and the options that plan it as part of the board."""
-    copper = _one(board, f"{choice.side}-copper", required=True)
-    outline_path = _one(board, "outline", required=False)
-    outline = read_file(outline_path) if outline_path is not None else None
-    boxes = [reach_box(read_file(path)) for role in ("top-copper", "bottom-copper")
-             if (path := _one(board, role, required=False)) is not None]
-    if outline is not None:
-        boxes.append(reach_box(outline))
+                 options: PlanOptions = PlanOptions()) -> tuple[Program, PlanOptions]:
+    """The side's copper, read, and the options that plan it as part of the board
+    (each layer read once: the side's copper is also one of the board's box)."""
+    side_path = _one(board, f"{choice.side}-copper", required=True)
+    copper = None
+    boxes = []
+    for role in ("top-copper", "bottom-copper", "outline"):
+        path = _one(board, role, required=False)
+        if path is None:
+            continue
+        program = read_file(path)
+        boxes.append(reach_box(program))
+        if path == side_path:
+            copper = program
+        if role == "outline":
+            options = dataclasses.replace(options, outline_program=program)
     return copper, dataclasses.replace(
         options, holes=tuple(board_holes(board)), drill_marks=choice.drill_marks,
         drill_mark_nm=choice.drill_mark_nm, side=choice.side, mirror_axis=choice.mirror_axis,
-        registration=choice.registration, outline_program=outline,
-        board_box_nm=union_box(*boxes))
+        registration=choice.registration, board_box_nm=union_box(*boxes))
 
 
 def plan_board(path: str | os.PathLike, config: MachineConfig | None = None,
                offset: OffsetChoice = "auto", *, choice: BoardChoice = BoardChoice(),
-               options: PlanOptions = PlanOptions(),
-               plan: Callable[..., PlannedFile] = plan_file, **kwargs) -> PlannedFile:
+               options: PlanOptions = PlanOptions(), **kwargs) -> PlannedFile:
     """The board at `path`, one side planned (plan_file's keywords pass through)."""
     board = open_board(path, choice.layers)
-    keep = board.root != Path(path) and Path(path).suffix.lower() == ".zip"
     try:
         copper, side = side_options(board, choice, options)
-        planned = plan(str(copper), config, offset, options=side, **kwargs)
+        planned = plan_file(copper, config, offset, options=side, **kwargs)
     finally:
-        if keep:
+        if Path(path).suffix.lower() == ".zip":
             _UNPACKED.append(board)
         else:
             board.close()
