@@ -18,9 +18,9 @@ from pathlib import Path
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.plan.drill_marks import DEFAULT_DRILL_MARK_NM
 from galileo_cnc.plan.pipeline import OffsetChoice, PlannedFile, PlanOptions, plan_file
-from galileo_cnc.plan.sides import union_box
 from galileo_cnc.plan.transform import reach_box
 from galileo_cnc.program.drills import Hole, Slot
+from galileo_cnc.program.extents import union_box
 from galileo_cnc.program.ops import Program
 from galileo_cnc.readers import read_drill, read_file
 from galileo_cnc.readers.board import Board, BoardError, is_board, open_board

@@ -40,7 +40,7 @@ from galileo_cnc.plan.planner import PlanError, plan_program
 from galileo_cnc.plan.transform import (NO_TRANSFORM, Transform, TransformError,
                                         apply_transform, reach_box)
 from galileo_cnc.program.drills import Hole, Slot, drills_box
-from galileo_cnc.program.extents import extents
+from galileo_cnc.program.extents import extents, union_box
 from galileo_cnc.program.ops import NM_PER_MM, Program
 from galileo_cnc.readers import read_file
 from galileo_cnc.readers.gerber.transformed import with_source_apertures
@@ -116,7 +116,7 @@ class PlanOptions:
     (the bottom mirrored about `mirror_axis`, ("x", nm) or ("y", nm) in board
     coordinates, default the vertical centre line of `outline_program`'s box, else
     of the holes'); with "auto" both sides take one offset, over `board_box_nm` (give
-    the box of every layer of the board, sides.union_box) or else the outline's and
+    the box of every layer of the board, extents.union_box) or else the outline's and
     the holes' box, and its mirror image. `holes`: the board's Hole and Slot objects in
     board coordinates (program/drills.py), left bare as `drill_marks` ("none", "small":
     dots `drill_mark_nm` wide, "actual": the holes) in the ink; `registration`: crosses
@@ -236,12 +236,6 @@ def resolve_offset(artwork: Artwork, choice: OffsetChoice) -> tuple[int, int]:
                           f"got {choice!r}") from None
 
 
-def _union_box(a: Box | None, b: Box | None) -> Box | None:
-    if a is None or b is None:
-        return a or b
-    return (min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3]))
-
-
 @dataclass(frozen=True)
 class _Side:
     """A board side as plan_file needs it: the axis, the holes and crosses as plotted
@@ -278,10 +272,10 @@ def _board_side(artwork: Artwork, options: PlanOptions) -> tuple[Artwork, _Side 
         raise PlanError(str(problem)) from None
     crosses = sides.registration_points(holes, outline_box) if options.registration else []
     arm = sides.CROSS_ARM_NM
-    crosses_box = sides.union_box(*[(x - arm, y - arm, x + arm, y + arm) for x, y in crosses])
-    board_box = options.board_box_nm or sides.union_box(outline_box, holes_box) or \
+    crosses_box = union_box(*[(x - arm, y - arm, x + arm, y + arm) for x, y in crosses])
+    board_box = options.board_box_nm or union_box(outline_box, holes_box) or \
         (axis.box(layer_box) if turned else layer_box)
-    board_box = sides.union_box(board_box, crosses_box)
+    board_box = union_box(board_box, crosses_box)
     if name == "bottom":
         holes = tuple(sides.mirror_drills(holes, axis))
         crosses = [axis.point(x, y) for x, y in crosses]
@@ -352,7 +346,7 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
             if offset == "auto" and not (side and side.turned_over):
                 # fills reach out to the copper's edges, past the centre lines and flash
                 # points the proposal was made from: the margin is kept from the ink
-                offset_nm = offset_for_box(_union_box(artwork.visited_box_nm, paths.box_nm()),
+                offset_nm = offset_for_box(union_box(artwork.visited_box_nm, paths.box_nm()),
                                            artwork.margin_nm)
             if side is not None and side.crosses:
                 # walks of the smallest pen, clear of the marks, of the centre lines' ink

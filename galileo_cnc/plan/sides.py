@@ -28,6 +28,7 @@ import numpy as np
 from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM, offset_for_box, offset_from_text
 from galileo_cnc.plan.transform import TransformError, mirrored
 from galileo_cnc.program.drills import Hole, Slot
+from galileo_cnc.program.extents import union_box
 from galileo_cnc.program.ops import (COLUMNS, KIND, TOOL, X, Y, Aperture, NM_PER_MM, OpKind,
                                      Program)
 
@@ -95,14 +96,6 @@ def parse_axis(text: str) -> tuple[str, int]:
     if nm is None:
         raise ValueError(f"--mirror-axis: expected x=MM or y=MM (board mm), got {text!r}")
     return name, nm
-
-
-def union_box(*boxes: Box | None) -> Box | None:
-    boxes = [b for b in boxes if b is not None]
-    if not boxes:
-        return None
-    return (min(b[0] for b in boxes), min(b[1] for b in boxes),
-            max(b[2] for b in boxes), max(b[3] for b in boxes))
 
 
 def default_axis(outline_box: Box | None, holes_box: Box | None,

@@ -99,6 +99,16 @@ def _grower(program: Program, with_apertures: bool):
     return grow
 
 
+def union_box(*boxes):
+    """The box (xmin, ymin, xmax, ymax) around every box given; None ones are left
+    out, and None for none at all."""
+    boxes = [b for b in boxes if b is not None]
+    if not boxes:
+        return None
+    return (min(b[0] for b in boxes), min(b[1] for b in boxes),
+            max(b[2] for b in boxes), max(b[3] for b in boxes))
+
+
 def _union(boxes: np.ndarray) -> tuple[int, int, int, int]:
     return (int(boxes[:, 0].min()), int(boxes[:, 1].min()),
             int(boxes[:, 2].max()), int(boxes[:, 3].max()))

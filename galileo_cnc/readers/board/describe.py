@@ -14,7 +14,7 @@ from typing import Callable
 
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.program.drills import DrillFile
-from galileo_cnc.program.extents import extents
+from galileo_cnc.program.extents import extents, union_box
 from galileo_cnc.program.ops import NM_PER_MM
 from galileo_cnc.readers import read_file
 from galileo_cnc.readers.board.board import Board, open_board
@@ -22,14 +22,6 @@ from galileo_cnc.readers.board.board import Board, open_board
 
 def _mm(nm: int) -> float:
     return round(nm / NM_PER_MM, 4)
-
-
-def _union(boxes):
-    boxes = [b for b in boxes if b is not None]
-    if not boxes:
-        return None
-    return (min(b[0] for b in boxes), min(b[1] for b in boxes),
-            max(b[2] for b in boxes), max(b[3] for b in boxes))
 
 
 def board_box_nm(board: Board, problems: list[str]) -> tuple[tuple[int, int, int, int] | None, str]:
@@ -43,7 +35,7 @@ def board_box_nm(board: Board, problems: list[str]) -> tuple[tuple[int, int, int
                 boxes.append(extents(read_file(layer.path), with_apertures=with_apertures))
             except GalileoError as problem:
                 problems.append(str(problem))
-        box = _union(boxes)
+        box = union_box(*boxes)
         if box is not None:
             return box, what
     return None, ""
@@ -83,7 +75,7 @@ def board_summary(board: Board, read_drill: Callable[[str], DrillFile] | None = 
     problems: list[str] = []
     box, measured = board_box_nm(board, problems)
     drills = read_drills(board, read_drill, problems) if read_drill is not None else []
-    holes_box = _union([drill.box_nm() for drill in drills])
+    holes_box = union_box(*[drill.box_nm() for drill in drills])
     if box is None and holes_box is not None:
         box, measured = holes_box, "holes"
     summary = {
