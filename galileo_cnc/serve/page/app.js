@@ -61,7 +61,7 @@ function showPrompt(p) {
   $("prompt-text").textContent = p.kind === "pen" ? `${p.text}, then press Done` : p.text;
   $("prompt-yes").textContent = p.kind === "pen" ? "Done" : "Yes, it is there";
   $("prompt-no").textContent = p.kind === "pen" ? "Stop the job" : "No";
-  if (!dialog.open) dialog.showModal();
+  if (!dialog.open) dialog.show();     // not modal: the stop button stays in reach
 }
 
 function showResumable(name) {
@@ -159,7 +159,6 @@ $("prompt-no").addEventListener("click", () => {
   if (!prompt) return;
   if (prompt.kind === "pen") api("/api/stop", {}); else api("/api/prompt", {id: prompt.id, answer: false});
 });
-$("prompt").addEventListener("cancel", (e) => e.preventDefault());   // Escape: answer it
 
 // Jog: a step of the chosen distance, or held: the request stays open while the button
 // is pressed; letting go (or leaving the page) closes it, and the server stops the head.

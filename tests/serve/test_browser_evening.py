@@ -1,0 +1,210 @@
+"""An evening in a real browser (issue 34): Debian's Chromium driven by Playwright opens
+the URL `galileo-cnc serve` printed, uploads a board, sees its preview, starts, puts a
+pen in, stops with the stop button, resumes, jogs and reads the position back, and
+finishes; then a second job. On sim:// and on our firmware in simavr.
+
+Outside CI the evenings skip, naming what is missing (Chromium, Playwright); in CI
+they must run. GALILEO_SCREENSHOTS=DIR saves the page at phone and desktop width (the
+README's pictures).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from contextlib import contextmanager
+from pathlib import Path
+
+import pytest
+
+from firmware_support import ELF, build_firmware, build_harness
+from conftest import board_zip
+
+CHROMIUM = Path("/usr/bin/chromium")
+REPO = Path(__file__).resolve().parents[2]
+#: a short drawing for the second job (G-code: one pen, no pen change)
+SECOND_JOB = "G21 G90\nG0 X1 Y1\nG1 X4 Y1 F300\nG1 X4 Y3\nM2\n"
+WAIT_MS = 15_000
+
+
+def _playwright():
+    missing = [] if CHROMIUM.exists() else [f"{CHROMIUM} (apt-get install chromium)"]
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        missing.append("playwright (pip install playwright; its browser download is not "
+                       "needed)")
+        sync_playwright = None
+    if missing:
+        message = f"the browser evening needs {' and '.join(missing)}"
+        if os.environ.get("CI"):
+            pytest.fail(message)
+        pytest.skip(message)
+    return sync_playwright
+
+
+@contextmanager
+def serve(port: str, home: Path):
+    """`galileo-cnc serve` as a user starts it; yields the URL it printed."""
+    env = {**os.environ, "GALILEO_CNC_HOME": str(home), "PYTHONPATH": str(REPO),
+           "GALILEO_CNC_NO_PROBE": "1"}
+    process = subprocess.Popen([sys.executable, "-m", "galileo_cnc", "serve", "--port", port,
+                                "--listen", "127.0.0.1:0"], env=env, stdout=subprocess.PIPE,
+                               stderr=subprocess.STDOUT, text=True)
+    printed = []
+    try:
+        for line in process.stdout:
+            printed.append(line)
+            if (found := re.search(r"http://127\.0\.0\.1:\d+/\?token=\S+", line)):
+                yield found.group(0)
+                break
+        else:
+            raise AssertionError("serve printed no URL:\n" + "".join(printed))
+    finally:
+        process.terminate()
+        process.wait(10)
+
+
+@contextmanager
+def browser_page(width: int = 1100, height: int = 900):
+    sync_playwright = _playwright()
+    with sync_playwright() as playwright:
+        browser = playwright.chromium.launch(executable_path=str(CHROMIUM))
+        try:
+            page = browser.new_page(viewport={"width": width, "height": height})
+            page.set_default_timeout(WAIT_MS)
+            yield page
+        finally:
+            browser.close()
+
+
+def _position(page) -> list[float]:
+    data = page.locator("#position")
+    return [float(data.get_attribute(f"data-{a}")) for a in "xyz"]
+
+
+def _standing(page) -> list[float]:
+    """The position once the head stands (the page hears it every quarter second)."""
+    seen = _position(page)
+    while True:
+        page.wait_for_timeout(600)
+        if (now := _position(page)) == seen:
+            return now
+        seen = now
+
+
+def _answer_pen(page) -> str:
+    page.wait_for_selector("#prompt[open]")
+    text = page.inner_text("#prompt-text")
+    page.click("#prompt-yes")
+    page.wait_for_function(f"() => !document.querySelector('#prompt').open || "
+                           f"document.querySelector('#prompt-text').textContent !== "
+                           f"{text!r}")
+    return text
+
+
+def _finish(page, results: int) -> None:
+    """Answer pen changes until the history has `results` rows that ended."""
+    while True:
+        page.wait_for_function(
+            f"() => document.querySelector('#prompt').open || "
+            f"[...document.querySelectorAll('#history tr td:nth-child(4)')]"
+            f".filter(td => td.textContent !== 'running').length >= {results}")
+        if not page.locator("#prompt[open]").count():
+            return
+        _answer_pen(page)
+
+
+def an_evening(page, url: str, tmp_path: Path, screenshots: Path | None = None) -> None:
+    page.goto(url)
+    assert "token=" not in page.url                     # kept in the cookie instead
+    page.wait_for_function("() => document.querySelector('#state').textContent === 'idle'")
+    board = tmp_path / "board.zip"
+    board.write_bytes(board_zip(tmp_path))
+    page.set_input_files("#upload", str(board))
+    page.wait_for_function("() => /board, sides top and bottom/"
+                           ".test(document.querySelector('#upload-info').textContent)")
+    page.select_option("#mode", "centre")
+    page.click("#plan")
+    page.wait_for_selector("#preview svg #head")         # the preview, the head on it
+    assert page.locator("#preview svg #strokes").count() == 1
+    assert "top side" in page.inner_text("#plan-lines")
+    if screenshots is not None:
+        _screenshots(page, screenshots)
+    page.click("#start")
+    first = _answer_pen(page)                           # a pen change, answered
+    assert first.startswith("insert ")
+    page.wait_for_selector("#prompt[open]")             # the next pen: stop here
+    page.click("#stop")
+    page.wait_for_function("() => !document.querySelector('#resume').disabled")
+    assert "stopped" in page.inner_text("#history")
+    page.click("#resume")
+    _finish(page, results=2)
+    rows = page.locator("#history tr").all_inner_texts()
+    assert "finished" in rows[0] and "stopped" in rows[1], rows
+    # a jog of a step, read back on the page and from the machine
+    page.wait_for_function("() => !document.querySelector('#home').disabled")
+    before = _standing(page)
+    page.select_option("#step", "1")
+    page.click("button.jog[data-axis='x'][data-dir='1']")
+    page.wait_for_function(f"() => Math.abs(Number(document.querySelector('#position')"
+                           f".dataset.x) - {before[0] + 1}) < 0.01")
+    machine = page.request.get(url.split("?")[0] + "api/state").json()["position"]
+    assert machine[0] == pytest.approx(before[0] + 1, abs=0.01)
+    assert machine[1] == pytest.approx(before[1], abs=0.01)
+    # held: Y moves while the button is down and stops when it is let go
+    page.select_option("#step", "")
+    page.hover("button.jog[data-axis='y'][data-dir='1']")
+    page.mouse.down()
+    page.wait_for_function(f"() => Number(document.querySelector('#position').dataset.y)"
+                           f" > {before[1] + 0.05}")
+    page.mouse.up()
+    page.wait_for_function("() => document.querySelector('#activity').textContent === ''")
+    held = _standing(page)
+    assert page.request.get(url.split("?")[0] + "api/state").json()["position"] == held
+    assert held[1] > before[1] + 0.05 and held[0] == pytest.approx(before[0] + 1, abs=0.01)
+    # the second job: another file
+    second = tmp_path / "second.nc"
+    second.write_text(SECOND_JOB)
+    page.set_input_files("#upload", str(second))
+    page.wait_for_function("() => /second.nc: gcode/"
+                           ".test(document.querySelector('#upload-info').textContent)")
+    page.click("#plan")
+    page.wait_for_function("() => /second.nc/.test(document.querySelector('#preview svg "
+                           "title').textContent) || document.querySelector('#plan-lines')"
+                           ".textContent.includes('commands')")
+    page.wait_for_function("() => !document.querySelector('#start').disabled")
+    page.click("#start")
+    _finish(page, results=3)
+    rows = page.locator("#history tr").all_inner_texts()
+    assert rows[0].startswith("second.nc") and "finished" in rows[0], rows
+    assert not page.locator("#messages li.error").count(), \
+        page.locator("#messages").inner_text()
+
+
+def _screenshots(page, folder: Path) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    page.screenshot(path=str(folder / "serve-desktop.png"))
+    size = page.viewport_size
+    page.set_viewport_size({"width": 390, "height": 844})
+    page.screenshot(path=str(folder / "serve-phone.png"))
+    page.set_viewport_size(size)
+
+
+def test_an_evening_in_the_browser_on_sim(tmp_path):
+    shots = os.environ.get("GALILEO_SCREENSHOTS")
+    with browser_page() as page, serve("sim://?speed=20", tmp_path / "home") as url:
+        an_evening(page, url, tmp_path, Path(shots) if shots else None)
+
+
+def test_an_evening_in_the_browser_on_the_firmware_in_simavr(tmp_path):
+    _playwright()                               # what is missing, said before building
+    build_firmware()
+    build_harness()
+    from galileo_cnc.simavr.board import SimulatedBoard
+
+    with SimulatedBoard(ELF) as board, browser_page() as page, \
+            serve(board.port, tmp_path / "home") as url:
+        an_evening(page, url, tmp_path)
