@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import re
+import shutil
 import subprocess
 import sys
 from contextlib import contextmanager
@@ -25,8 +26,8 @@ from conftest import board_zip
 CHROMIUM = Path("/usr/bin/chromium")
 REPO = Path(__file__).resolve().parents[2]
 #: a short drawing for the second job (G-code: one pen, no pen change)
-SECOND_JOB = "G21 G90\nG0 X1 Y1\nG1 X4 Y1 F300\nG1 X4 Y3\nM2\n"
-WAIT_MS = 15_000
+SECOND_JOB = "G21 G90\nG0 X1 Y1\nG1 X2 Y1 F300\nM2\n"
+WAIT_MS = 60_000
 
 
 def _playwright():
@@ -45,39 +46,61 @@ def _playwright():
     return sync_playwright
 
 
+@pytest.fixture(scope="module")
+def chromium():
+    """One browser for the evenings (each has a fresh context: no cookie shared)."""
+    sync_playwright = _playwright()
+    with sync_playwright() as playwright:
+        browser = playwright.chromium.launch(executable_path=str(CHROMIUM))
+        yield browser
+        browser.close()
+
+
 @contextmanager
-def serve(port: str, home: Path):
-    """`galileo-cnc serve` as a user starts it; yields the URL it printed."""
+def served_in_a_browser(browser, port: str, home: Path):
+    """`galileo-cnc serve` as a user starts it, and a page of a fresh browser context;
+    yields (the page, the URL serve printed)."""
     env = {**os.environ, "GALILEO_CNC_HOME": str(home), "PYTHONPATH": str(REPO),
            "GALILEO_CNC_NO_PROBE": "1"}
     process = subprocess.Popen([sys.executable, "-m", "galileo_cnc", "serve", "--port", port,
                                 "--listen", "127.0.0.1:0"], env=env, stdout=subprocess.PIPE,
                                stderr=subprocess.STDOUT, text=True)
-    printed = []
     try:
-        for line in process.stdout:
-            printed.append(line)
-            if (found := re.search(r"http://127\.0\.0\.1:\d+/\?token=\S+", line)):
-                yield found.group(0)
-                break
-        else:
-            raise AssertionError("serve printed no URL:\n" + "".join(printed))
+        context = browser.new_context(viewport={"width": 1100, "height": 900})
+        try:
+            page = context.new_page()
+            page.set_default_timeout(WAIT_MS)
+            yield page, _printed_url(process)
+        finally:
+            context.close()
     finally:
         process.terminate()
         process.wait(10)
 
 
-@contextmanager
-def browser_page(width: int = 1100, height: int = 900):
-    sync_playwright = _playwright()
-    with sync_playwright() as playwright:
-        browser = playwright.chromium.launch(executable_path=str(CHROMIUM))
-        try:
-            page = browser.new_page(viewport={"width": width, "height": height})
-            page.set_default_timeout(WAIT_MS)
-            yield page
-        finally:
-            browser.close()
+def _printed_url(process) -> str:
+    printed = []
+    for line in process.stdout:
+        printed.append(line)
+        if (found := re.search(r"http://127\.0\.0\.1:\d+/\?token=\S+", line)):
+            return found.group(0)
+    raise AssertionError("serve printed no URL:\n" + "".join(printed))
+
+
+def tiny_board(folder: Path) -> Path:
+    """A one-sided board of three features close to the origin, an aperture each (so
+    three pens in centre mode): few moves for the firmware in simavr, in real time."""
+    folder.mkdir()
+    header = "%FSLAX46Y46*%\n%MOMM*%\n%LPD*%\n"
+    (folder / "tiny-F_Cu.gbr").write_text(
+        f"%TF.FileFunction,Copper,L1,Top*%\n{header}%ADD10C,0.600000*%\n"
+        "%ADD11C,0.250000*%\n%ADD12R,0.800000X0.800000*%\nD10*\nX1000000Y1000000D03*\n"
+        "D11*\nX1000000Y1000000D02*\nX2000000Y1000000D01*\nD12*\nX2000000Y2000000D03*\n"
+        "M02*\n")
+    (folder / "tiny-Edge_Cuts.gbr").write_text(
+        f"%TF.FileFunction,Profile,NP*%\n{header}%ADD13C,0.100000*%\nD13*\nX0Y0D02*\n"
+        "X3000000Y0D01*\nX3000000Y3000000D01*\nX0Y3000000D01*\nX0Y0D01*\nM02*\n")
+    return Path(shutil.make_archive(str(folder), "zip", folder))
 
 
 def _position(page) -> list[float]:
@@ -89,7 +112,7 @@ def _standing(page) -> list[float]:
     """The position once the head stands (the page hears it every quarter second)."""
     seen = _position(page)
     while True:
-        page.wait_for_timeout(600)
+        page.wait_for_timeout(400)
         if (now := _position(page)) == seen:
             return now
         seen = now
@@ -117,20 +140,19 @@ def _finish(page, results: int) -> None:
         _answer_pen(page)
 
 
-def an_evening(page, url: str, tmp_path: Path, screenshots: Path | None = None) -> None:
+def an_evening(page, url: str, board: Path, sides: str, screenshots: Path | None = None
+               ) -> None:
     page.goto(url)
     assert "token=" not in page.url                     # kept in the cookie instead
     page.wait_for_function("() => document.querySelector('#state').textContent === 'idle'")
-    board = tmp_path / "board.zip"
-    board.write_bytes(board_zip(tmp_path))
     page.set_input_files("#upload", str(board))
-    page.wait_for_function("() => /board, sides top and bottom/"
-                           ".test(document.querySelector('#upload-info').textContent)")
+    page.wait_for_function(f"() => /board, sides {sides}$/"
+                           f".test(document.querySelector('#upload-info').textContent)")
     page.select_option("#mode", "centre")
     page.click("#plan")
     page.wait_for_selector("#preview svg #head")         # the preview, the head on it
     assert page.locator("#preview svg #strokes").count() == 1
-    assert "top side" in page.inner_text("#plan-lines")
+    assert "top side" in page.inner_text("#plan-lines") or sides == "top"
     if screenshots is not None:
         _screenshots(page, screenshots)
     page.click("#start")
@@ -166,7 +188,7 @@ def an_evening(page, url: str, tmp_path: Path, screenshots: Path | None = None) 
     assert page.request.get(url.split("?")[0] + "api/state").json()["position"] == held
     assert held[1] > before[1] + 0.05 and held[0] == pytest.approx(before[0] + 1, abs=0.01)
     # the second job: another file
-    second = tmp_path / "second.nc"
+    second = board.parent / "second.nc"
     second.write_text(SECOND_JOB)
     page.set_input_files("#upload", str(second))
     page.wait_for_function("() => /second.nc: gcode/"
@@ -193,18 +215,19 @@ def _screenshots(page, folder: Path) -> None:
     page.set_viewport_size(size)
 
 
-def test_an_evening_in_the_browser_on_sim(tmp_path):
+def test_an_evening_in_the_browser_on_sim(chromium, tmp_path):
     shots = os.environ.get("GALILEO_SCREENSHOTS")
-    with browser_page() as page, serve("sim://?speed=20", tmp_path / "home") as url:
-        an_evening(page, url, tmp_path, Path(shots) if shots else None)
+    board = tmp_path / "board.zip"
+    board.write_bytes(board_zip(tmp_path))
+    with served_in_a_browser(chromium, "sim://?speed=20", tmp_path / "home") as (page, url):
+        an_evening(page, url, board, "top and bottom", Path(shots) if shots else None)
 
 
-def test_an_evening_in_the_browser_on_the_firmware_in_simavr(tmp_path):
-    _playwright()                               # what is missing, said before building
+def test_an_evening_in_the_browser_on_the_firmware_in_simavr(chromium, tmp_path):
     build_firmware()
     build_harness()
     from galileo_cnc.simavr.board import SimulatedBoard
 
-    with SimulatedBoard(ELF) as board, browser_page() as page, \
-            serve(board.port, tmp_path / "home") as url:
-        an_evening(page, url, tmp_path)
+    with SimulatedBoard(ELF) as machine, \
+            served_in_a_browser(chromium, machine.port, tmp_path / "home") as (page, url):
+        an_evening(page, url, tiny_board(tmp_path / "tiny"), "top")
