@@ -226,7 +226,7 @@ class MachineService:
                 self._port_lost(gone)
                 raise
             except GalileoError as error:
-                self.publish("error", {"text": str(error)})
+                self.publish("failure", {"text": str(error)})
                 raise
             finally:
                 self._end()
@@ -422,7 +422,7 @@ class MachineService:
     # ---- a lost port, the journal, the history -----------------------------------------------
     def _port_lost(self, gone: PortGone) -> None:
         self.lost = f"the machine's port is gone ({gone})"
-        self.publish("error", {"text": f"{self.lost}; once the machine stands still, "
+        self.publish("failure", {"text": f"{self.lost}; once the machine stands still, "
                                        f"resume continues the job"})
 
     def _reconnect(self) -> None:
@@ -464,7 +464,7 @@ class MachineService:
             self.folder.mkdir(parents=True, exist_ok=True)
             self._history_path().write_text(json.dumps(self.history, indent=1))
         except OSError as error:
-            self.publish("error", {"text": f"the job history was not saved: {error}"})
+            self.publish("failure", {"text": f"the job history was not saved: {error}"})
         self.publish("job", {"job": record})
 
     def close(self) -> None:

@@ -186,6 +186,17 @@ def an_evening(page, url: str, board: Path, sides: str, screenshots: Path | None
     page.wait_for_function("() => document.querySelector('#activity').textContent === ''")
     held = _standing(page)
     assert page.request.get(url.split("?")[0] + "api/state").json()["position"] == held
+    # a second tab holds a jog (the first sees it), and is closed: the jog ends
+    tab = page.context.new_page()
+    tab.goto(url.split("?")[0])
+    tab.wait_for_function("() => !document.querySelector('#home').disabled")
+    tab.hover("button.jog[data-axis='y'][data-dir='-1']")
+    tab.mouse.down()
+    page.wait_for_function("() => document.querySelector('#activity').textContent === "
+                           "'(jog)'")
+    tab.close()
+    page.wait_for_function("() => document.querySelector('#activity').textContent === ''")
+    assert _standing(page)[1] < held[1]
     assert held[1] > before[1] + 0.05 and held[0] == pytest.approx(before[0] + 1, abs=0.01)
     # the second job: another file
     second = board.parent / "second.nc"

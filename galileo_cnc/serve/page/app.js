@@ -96,14 +96,15 @@ function connect() {
   events.addEventListener("prompt", (m) => showPrompt(JSON.parse(m.data).prompt));
   events.addEventListener("activity", (m) => showActivity(JSON.parse(m.data).activity));
   events.addEventListener("message", (m) => say(JSON.parse(m.data).text));
-  events.addEventListener("error", (m) => { if (m.data) say(JSON.parse(m.data).text, true); });
+  events.addEventListener("failure", (m) => say(JSON.parse(m.data).text, true));
   events.addEventListener("job", (m) => {
     const job = JSON.parse(m.data).job;
     history = history.filter((r) => r.id !== job.id || r.started !== job.started).concat([job]);
     showHistory(history);
     if (job.result !== "running") api("/api/state").then((s) => showResumable(s.resumable));
   });
-  events.onerror = () => { $("state").textContent = "server gone?"; };
+  // the browser's own error event: the stream broke (it connects again by itself)
+  events.onerror = () => { $("state").textContent = "no server?"; };
 }
 
 $("upload").addEventListener("change", async () => {
