@@ -10,11 +10,7 @@ import pytest
 
 from galileo_cnc.serve.uploads import MAX_UPLOAD_BYTES
 
-from conftest import board_zip
-
-GERBER = (b"%FSLAX46Y46*%\n%MOMM*%\n%ADD10C,0.500000*%\nD10*\nX0Y0D02*\n"
-          b"X5000000Y0D01*\nX5000000Y3000000D01*\nM02*\n")
-
+from serve_support import GERBER, board_zip, wait_for
 
 def _world(service, client) -> dict:
     """What a request could change."""
@@ -75,7 +71,7 @@ def test_every_route_refuses_without_the_token_a_wrong_one_and_a_foreign_origin(
     assert client.post("/api/feed", json={"mm_s": 7}).status_code == 200
     assert client.post("/api/jog", json={"axis": "x", "direction": 1,
                                          "distance_mm": 1}).status_code == 200
-    _wait(client, lambda s: s["position"] != before["position"])     # the next poll
+    wait_for(client, lambda s: s["position"] != before["position"])     # the next poll
 
 
 def test_the_printed_url_sets_a_cookie_and_the_page_needs_it(served):
@@ -133,29 +129,17 @@ def test_one_machine_never_runs_two_things(served, what, tmp_path):
                                               "mode": "centre"}).json()["id"]
     assert client.post("/api/jobs", json={"plan": plan_id}).status_code == 202
     # the job waits for its first pen: the machine is the job's
-    prompt = _wait(client, lambda s: s["prompt"])["prompt"]
+    prompt = wait_for(client, lambda s: s["prompt"])["prompt"]
     assert prompt["kind"] == "pen"
     again = {"job": lambda: client.post("/api/jobs", json={"plan": plan_id}),
              "jog": lambda: client.post("/api/jog", json={"axis": "x", "direction": 1})}
     answer = again[what]()
     assert answer.status_code == 409 and "busy (job)" in answer.json()["error"]
     assert client.post("/api/home").status_code == 409
-    while (prompt := _wait(client, lambda s: s["prompt"] or s["activity"] is None)
+    while (prompt := wait_for(client, lambda s: s["prompt"] or s["activity"] is None)
            ["prompt"]) is not None:
         assert client.post("/api/prompt", json={"id": prompt["id"],
                                                 "answer": True}).status_code == 200
-        _wait(client, lambda s, i=prompt["id"]: (s["prompt"] or {}).get("id") != i)
+        wait_for(client, lambda s, i=prompt["id"]: (s["prompt"] or {}).get("id") != i)
     history = client.get("/api/history").json()["history"]
     assert [h["result"] for h in history] == ["finished"]
-
-
-def _wait(client, ready, timeout_s: float = 30.0):
-    import time
-
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        state = client.get("/api/state").json()
-        if ready(state):
-            return state
-        time.sleep(0.02)
-    raise AssertionError(f"not reached: {state}")

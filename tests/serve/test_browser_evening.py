@@ -21,7 +21,7 @@ from pathlib import Path
 import pytest
 
 from firmware_support import ELF, build_firmware, build_harness
-from conftest import board_zip
+from serve_support import board_zip
 
 CHROMIUM = Path("/usr/bin/chromium")
 REPO = Path(__file__).resolve().parents[2]

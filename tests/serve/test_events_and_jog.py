@@ -15,8 +15,7 @@ import httpx
 
 from galileo_cnc.config.hardware import TICKS_PER_S
 
-from conftest import serving
-from test_api_security import GERBER, _wait
+from serve_support import GERBER, serving, wait_for
 
 WATCHERS = 5
 #: the issue's "at least once a second"; the server sends every TICK_S (0.25 s)
@@ -57,7 +56,7 @@ def test_five_pages_watch_a_job_and_hear_of_it_every_second(fresh_sim):
         for page in pages:
             page.join(60)
         assert not any(page.is_alive() for page in pages)
-        final = _wait(client, lambda s: s["activity"] is None)
+        final = wait_for(client, lambda s: s["activity"] is None)
     assert final["history"][-1]["result"] == "finished"
     total = final["history"][-1]["total"]
     for events in seen:
@@ -90,7 +89,7 @@ def test_a_held_jog_stops_within_0_3_s_when_its_client_goes_away(fresh_sim):
         closed_at = moving.total_ticks
         connection.sock.shutdown(socket.SHUT_RDWR)          # the tab is closed
         connection.close()
-        _wait(client, lambda s: s["activity"] is None, timeout_s=10)
+        wait_for(client, lambda s: s["activity"] is None, timeout_s=10)
         trace = simulated.trace()
     assert len(moving) > 0 and (moving.axis == 0).all()     # it moved, along X
     after = trace.tick[trace.tick > closed_at]

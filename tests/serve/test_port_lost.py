@@ -17,7 +17,7 @@ from galileo_cnc.transport.link import MachineLink
 from galileo_cnc.transport.port import open_port
 
 from faults import FaultyPort
-from test_api_security import GERBER, _wait
+from serve_support import GERBER, wait_for
 
 URL = "sim://serve-lost?speed=0"        # a named machine keeps its power in the process
 
@@ -44,15 +44,15 @@ def test_a_lost_port_stops_the_job_and_resume_finishes_it(fresh_sim):
             plan_id = client.post("/api/plans", json={"upload": upload}).json()["id"]
             job = service.get_plan(plan_id).planned.job
             assert client.post("/api/jobs", json={"plan": plan_id}).status_code == 202
-            lost = _wait(client, lambda s: s["activity"] is None and s["history"])
+            lost = wait_for(client, lambda s: s["activity"] is None and s["history"])
             assert lost["state"] == "port lost"
             assert lost["history"][-1]["result"].startswith("port lost")
             assert lost["resumable"] == "lines.gbr"            # the page offers resume
             assert client.post("/api/home").status_code == 409  # nothing else meanwhile
             assert client.post("/api/resume").status_code == 202
-            done = _wait(client, lambda s: s["activity"] is None and len(s["history"]) == 2
+            done = wait_for(client, lambda s: s["activity"] is None and len(s["history"]) == 2
                          and s["state"] != "port lost")
-            assert _wait(client, lambda s: s["state"] == "idle")       # polled again
+            assert wait_for(client, lambda s: s["state"] == "idle")       # polled again
     finally:
         server.shutdown()
         service.close()
