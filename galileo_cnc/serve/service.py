@@ -18,6 +18,7 @@ from __future__ import annotations
 import asyncio
 import itertools
 import json
+import re
 import threading
 import time
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -25,6 +26,7 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Callable
+from xml.sax.saxutils import escape
 
 from galileo_cnc.backends import Machine
 from galileo_cnc.config.machine import MachineConfig, pen_widths_from_text
@@ -101,11 +103,11 @@ class MachineService:
         self.operator: WebOperator | None = None
         self._job: dict | None = None         # the running job: name, total, start
         self._prompt: Prompt | None = None
-        self._view = None
         self.lost = ""                        # why the port is gone ("" while it is not)
         self.resumable = self._pending_name()
         self.history: list[dict] = self._load_history()
         self.closing = threading.Event()
+        self._view = self._ask_machine()      # a page's first state is the machine's
         self._poller = threading.Thread(target=self._poll, name="galileo-poller", daemon=True)
         self._poller.start()
 
@@ -182,15 +184,18 @@ class MachineService:
                 "eta": duration_text(eta) if eta is not None else None,
                 "elapsed_s": time.monotonic() - job["began"], "unit": job["unit"]}
 
+    def _ask_machine(self):
+        """Where the machine stands now (None: lost, or no answer)."""
+        if self.lost:
+            return None
+        try:
+            return self.machine.poll()
+        except GalileoError:
+            return None
+
     def _poll(self) -> None:
         while not self.closing.wait(self.tick_s):
-            view = None
-            if not self.lost:
-                try:
-                    view = self.machine.poll()
-                except GalileoError:
-                    view = None
-            self._view = view
+            self._view = view = self._ask_machine()
             self.publish("status", {"state": self._state_text(view),
                                     "position": self._position(view),
                                     "activity": self._activity})
@@ -266,6 +271,10 @@ class MachineService:
         preview.parent.mkdir(parents=True, exist_ok=True)
         info = render_svg(planned.program, planned.job, config, planned.offset_nm, preview,
                           copper=planned.copper)
+        # its title names the file as the client knows it, not where the server keeps it
+        svg = re.sub(r"<title>.*?</title>", f"<title>{escape(upload.name)}: galileo-cnc "
+                     f"preview (work mm)</title>", preview.read_text(encoding="utf-8"), 1)
+        preview.write_text(svg, encoding="utf-8")
         lines = [line for line in (getattr(planned, "side_line", ""),
                                    *getattr(planned, "feed_warnings", ()),
                                    f"offset {planned.offset_nm[0] / NM_PER_MM:.3f}, "

@@ -119,6 +119,10 @@ def test_uploads_are_checked_by_content_and_named_by_the_server(served, tmp_path
     assert len(list(service.store.folder.glob("*.json"))) == 2       # the two kept
     # ids are the server's: nothing else names a file
     assert client.post("/api/plans", json={"upload": "../uploads/x"}).status_code == 404
+    # and what comes back names the file as the client does, not where it is kept
+    plan = client.post("/api/plans", json={"upload": board["id"], "mode": "centre"}).json()
+    svg = client.get(plan["preview"]).text
+    assert "<title>board.zip:" in svg and str(service.store.folder) not in svg
 
 
 @pytest.mark.parametrize("what", ["job", "jog"])
