@@ -301,6 +301,8 @@ class MachineService:
         return self._submit("job", lambda: self._run_job(plan))
 
     def resume(self) -> Future:
+        if not self.lost:
+            self.machine.pending()      # GalileoError at once: none to resume, and why
         return self._submit("resume", self._resume)
 
     def stop(self) -> bool:
@@ -398,11 +400,10 @@ class MachineService:
         return self._submit("unlock", lambda: self._said(self.machine.unlock))
 
     def set_feed(self, mm_s: float) -> Future:
-        refused = self.machine.feed_refusal(self.config, mm_s)
-        if refused is not None:
-            raise GalileoError(f"feed {mm_s:g} mm/s {refused}")
-
         def work():
+            refused = self.machine.feed_refusal(self.config, mm_s)
+            if refused is not None:
+                raise GalileoError(f"feed {mm_s:g} mm/s {refused}")
             config = self.config.replace(feed_mm_s=mm_s)
             note = self.machine.set_feed(config, mm_s)
             self.machine.use_config(config)

@@ -147,3 +147,5 @@ def test_one_machine_never_runs_two_things(served, what, tmp_path):
         wait_for(client, lambda s, i=prompt["id"]: (s["prompt"] or {}).get("id") != i)
     history = client.get("/api/history").json()["history"]
     assert [h["result"] for h in history] == ["finished"]
+    nothing = client.post("/api/resume")
+    assert nothing.status_code == 422 and "no interrupted job" in nothing.json()["error"]
