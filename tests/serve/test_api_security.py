@@ -149,3 +149,17 @@ def test_one_machine_never_runs_two_things(served, what, tmp_path):
     assert [h["result"] for h in history] == ["finished"]
     nothing = client.post("/api/resume")
     assert nothing.status_code == 422 and "no interrupted job" in nothing.json()["error"]
+
+
+def test_serve_listens_on_loopback_unless_told():
+    from galileo_cnc.cli.main import build_parser
+    from galileo_cnc.errors import GalileoError
+    from galileo_cnc.serve.server import parse_listen
+
+    args = build_parser().parse_args(["serve", "--port", "sim://"])
+    assert parse_listen(args.listen) == ("127.0.0.1", 8765) and args.port == "sim://"
+    assert parse_listen("0.0.0.0:80") == ("0.0.0.0", 80)
+    assert parse_listen("[::1]:0") == ("::1", 0)
+    for wrong in ("8765", "localhost:http", "host:99999"):
+        with pytest.raises(GalileoError, match="--listen: expected HOST:PORT"):
+            parse_listen(wrong)
