@@ -155,9 +155,10 @@ def an_evening(page, url: str, board: Path, sides: str, screenshots: Path | None
     page.wait_for_selector("#preview svg #head")         # the preview, the head on it
     assert page.locator("#preview svg #strokes").count() == 1
     assert "top side" in page.inner_text("#plan-lines") or sides == "top"
-    if screenshots is not None:
-        _screenshots(page, screenshots)
     page.click("#start")
+    if screenshots is not None:                         # the job, its first pen asked for
+        page.wait_for_selector("#prompt[open]")
+        _screenshots(page, screenshots)
     first = _answer_pen(page)                           # a pen change, answered
     assert first.startswith("insert ")
     page.wait_for_selector("#prompt[open]")             # the next pen: stop here
