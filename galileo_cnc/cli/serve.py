@@ -52,7 +52,11 @@ def run_serve(args: argparse.Namespace) -> int:
                   f"drives the machine")
         print(f"open the page (the token in it is needed by every request):\n    {server.url}")
         sys.stdout.flush()
-        server.run()
+        try:
+            server.run()
+        except KeyboardInterrupt:       # Ctrl-C: how a server is ended, not a failure
+            pass
     finally:
         service.close()
+    print("galileo-cnc serve: stopped")
     return 0
