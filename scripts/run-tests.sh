@@ -4,8 +4,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# Debian packages for the firmware build and the simavr firmware-in-the-loop tests.
-DEBIAN_PACKAGES="gcc-avr avr-libc arduino-core-avr arduino-mk simavr libsimavr-dev"
+# Debian packages for the firmware build and the simavr firmware-in-the-loop tests, and
+# Chromium for the browser evenings of `serve` (Playwright drives it: its own browser
+# download is never used).
+DEBIAN_PACKAGES="gcc-avr avr-libc arduino-core-avr arduino-mk simavr libsimavr-dev chromium"
 missing=""
 for package in $DEBIAN_PACKAGES; do
     dpkg -s "$package" >/dev/null 2>&1 || missing="$missing $package"

@@ -24,8 +24,9 @@ STAGES = {
     "sim": 4, "stream": 4, "preview": 4, "firmware_headers": 4,
     "grbl": 5,                              # GRBL's job engine builds on stream/'s journal
     "backends": 6,                          # one Machine interface over stream/ and grbl/
-    "console": 7, "cli": 7,                 # the front ends: neither imports the other
-    "__main__": 8,                          # the program: starts either front end
+    "serve": 7,                             # the web front end (cli's `serve` starts it)
+    "console": 8, "cli": 8,                 # the front ends: neither imports the other
+    "__main__": 9,                          # the program: starts either front end
 }
 
 

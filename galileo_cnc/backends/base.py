@@ -47,6 +47,8 @@ class MachineView:
     alarm: bool = False         # locked: the console names it after a command
     moving: bool = False        # a command interrupted there must stop the head
     raw: Any = None             # the machine's own status
+    #: where the head is, work mm (X, Y, Z): what a page draws over the preview
+    position_mm: tuple[float, float, float] | None = None
 
 
 @dataclass

@@ -90,9 +90,12 @@ class GalileoMachine(Machine):
             status = self.link.status(timeout_s=timeout_s)
         except LinkError:
             return None
+        spm = self.link.config.steps_per_mm
         return MachineView(status.state, position_mm_text(status, self.link.config),
                            alarm=status.state == "alarm",
-                           moving=status.state in MOVING_STATES, raw=status)
+                           moving=status.state in MOVING_STATES, raw=status,
+                           position_mm=(status.x_steps / spm, status.y_steps / spm,
+                                        status.z_steps / spm))
 
     def after_command(self, view: MachineView | None) -> list[str]:
         if view is not None and view.alarm:

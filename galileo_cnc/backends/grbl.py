@@ -146,7 +146,8 @@ class GrblMachine(Machine):
             state += f", pins {status.pins}"        # a limit switch closed, say so
         self._last = MachineView(f"GRBL {state}", position_text(status.wpos_nm),
                                  alarm=status.state == "Alarm",
-                                 moving=status.state in MOVING_STATES, raw=status)
+                                 moving=status.state in MOVING_STATES, raw=status,
+                                 position_mm=tuple(nm / NM_PER_MM for nm in status.wpos_nm))
         return self._last
 
     def view(self, timeout_s: float = 1.0) -> MachineView | None:

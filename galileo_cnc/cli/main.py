@@ -10,6 +10,7 @@ import sys
 
 
 from galileo_cnc import __version__
+from galileo_cnc.cli.serve import add_serve_command
 from galileo_cnc.config.hardware import DEFAULT_BAUD
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.preview.formats import preview_kind
@@ -508,6 +509,8 @@ def build_parser() -> argparse.ArgumentParser:
                        "or GRBL (with its version)")
     ports.add_argument("--baud", type=int, default=DEFAULT_BAUD)
     ports.set_defaults(run=_run_ports)
+
+    add_serve_command(commands, _add_connection_options)
 
     console = commands.add_parser("console", help="the interactive console (the default)")
     _add_connection_options(console)
