@@ -107,6 +107,7 @@ class MachineService:
         self.resumable = self._pending_name()
         self.history: list[dict] = self._load_history()
         self.closing = threading.Event()
+        self._views = 0
         self._view = self._ask_machine()      # a page's first state is the machine's
         self._poller = threading.Thread(target=self._poll, name="galileo-poller", daemon=True)
         self._poller.start()
@@ -193,9 +194,21 @@ class MachineService:
         except GalileoError:
             return None
 
+    def _set_view(self, view, asked_at: int | None = None) -> Any:
+        """The view pages see; a poll's (`asked_at`: the views set when it began) only
+        when no fresher one came meanwhile: a machine busy with a command (GRBL) answers
+        a poll with its view from before, which must not hide the one taken as the
+        command ended."""
+        with self._lock:
+            if asked_at is None or asked_at == self._views:
+                self._view = view
+                self._views += 1
+            return self._view
+
     def _poll(self) -> None:
         while not self.closing.wait(self.tick_s):
-            self._view = view = self._ask_machine()
+            asked_at = self._views
+            view = self._set_view(self._ask_machine(), asked_at)
             self.publish("status", {"state": self._state_text(view),
                                     "position": self._position(view),
                                     "activity": self._activity})
@@ -234,6 +247,8 @@ class MachineService:
                 self.publish("failure", {"text": str(error)})
                 raise
             finally:
+                # where the machine stands now, before pages hear it is free
+                self._set_view(self._ask_machine())
                 self._end()
         return self._worker.submit(run)
 
