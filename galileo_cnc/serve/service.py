@@ -49,6 +49,8 @@ TICK_S = 0.25
 #: plans kept for `start` (each holds its job's commands)
 KEPT_PLANS = 8
 HISTORY_KEPT = 100
+#: a plan's modes (plan.pipeline.PlanOptions; auto picks one by the file)
+PLAN_MODES = ("auto", "ink", "centre")
 
 
 class Busy(GalileoError):
@@ -261,13 +263,22 @@ class MachineService:
              offset: str = "auto", allow_open: bool = False) -> Plan:
         """Plan an upload (in the caller's thread: seconds on a large board) and draw
         its preview; GalileoError says why it cannot be plotted."""
+        if not upload_id:
+            raise NotFound("plan: which upload? send {\"upload\": ID}, the id POST "
+                           "/api/uploads answered")
         upload = self.store.get(upload_id)
         path = self.store.path(upload)
         config = self.config
-        if pens:
-            config = config.replace(pen_widths_mm=pen_widths_from_text(pens))
+        if mode not in PLAN_MODES:
+            raise GalileoError(f"mode: expected {', '.join(PLAN_MODES[:-1])} or "
+                               f"{PLAN_MODES[-1]}, got {mode!r}")
         if side not in ("top", "bottom"):
             raise GalileoError(f"side: expected top or bottom, got {side!r}")
+        try:
+            if pens:
+                config = config.replace(pen_widths_mm=pen_widths_from_text(pens))
+        except GalileoError as error:
+            raise GalileoError(_as_field(str(error))) from None
         board = BoardChoice(side=side) if upload.kind == "board" else None
         try:
             planned = plan_source(path, config, offset or "auto", board=board,
@@ -280,7 +291,8 @@ class MachineService:
             if refused is not None:
                 raise GalileoError(refused)
         except GalileoError as error:
-            raise GalileoError(str(error).replace(str(path), upload.name)) from None
+            raise GalileoError(_as_field(str(error).replace(str(path), upload.name))) \
+                from None
         plan_id = f"p{next(self._plan_ids)}"
         preview = self.folder / "previews" / f"{plan_id}.svg"
         preview.parent.mkdir(parents=True, exist_ok=True)
@@ -295,7 +307,8 @@ class MachineService:
                                    f"offset {planned.offset_nm[0] / NM_PER_MM:.3f}, "
                                    f"{planned.offset_nm[1] / NM_PER_MM:.3f} mm",
                                    info.summary().split(" (open it")[0]) if line]
-        options = {"pens": pens, "mode": planned.mode, "side": side, "offset": offset}
+        options = {"pens": pens, "mode": planned.mode,
+                   "side": side if board is not None else None, "offset": offset}
         plan = Plan(plan_id, upload, planned, config, options, preview,
                     [line.replace(str(path), upload.name) for line in lines])
         with self._lock:
@@ -498,6 +511,13 @@ class MachineService:
         self.stop()
         self._worker.shutdown(wait=True)
         self.machine.close()
+
+
+def _as_field(text: str) -> str:
+    """A planning error as the API's client knows the option: `mode`, not `--mode`
+    (the command line's name, which the planner's messages use)."""
+    text = re.sub(r"^--(pens|mode|offset|side)\b", r"\1", text)
+    return re.sub(r"^config: pens widths_mm must be", "pens: expected", text)
 
 
 def _offer(queue: asyncio.Queue, event: dict) -> None:
