@@ -103,6 +103,7 @@ class MachineService:
         self._plans: dict[str, Plan] = {}
         self._plan_ids = itertools.count(1)
         self.operator: WebOperator | None = None
+        self._jog_cancel: threading.Event | None = None   # the running jog's, for stop
         self._job: dict | None = None         # the running job: name, total, start
         self._prompt: Prompt | None = None
         self.lost = ""                        # why the port is gone ("" while it is not)
@@ -334,8 +335,12 @@ class MachineService:
         return self._submit("resume", self._resume)
 
     def stop(self) -> bool:
-        """From any thread: stop the running job (the machine ramps down); False when
-        no job runs."""
+        """From any thread: stop the running job or jog (the machine ramps down);
+        False when neither runs."""
+        jogging = self._jog_cancel
+        if jogging is not None:
+            jogging.set()
+            return True
         operator = self.operator
         if operator is None:
             return False
@@ -454,8 +459,14 @@ class MachineService:
                     distance_mm: float | None = None) -> Future:
         from galileo_cnc.serve.jog import jog
 
-        return self._submit("jog", lambda: jog(self.machine, self.config, axis, direction,
-                                               cancelled, distance_mm, self.publish))
+        def work():
+            self._jog_cancel = cancelled
+            try:
+                return jog(self.machine, self.config, axis, direction, cancelled,
+                           distance_mm, self.publish)
+            finally:
+                self._jog_cancel = None
+        return self._submit("jog", work)
 
     # ---- a lost port, the journal, the history -----------------------------------------------
     def _port_lost(self, gone: PortGone) -> None:
