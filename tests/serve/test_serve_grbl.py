@@ -1,5 +1,5 @@
 """`galileo-cnc serve` drives stock GRBL 1.1h in simavr as it drives our machine (the
-machine interface is shared; issue 34): through the API alone, a three-pen board is
+machine interface is shared; issue 34): through the API alone, a two-pen board is
 uploaded, planned and started, the first pen answered, the job stopped with the stop
 button at the second pen, resumed (GRBL kept its position: the job goes on from
 there), and finished; where GRBL stands at the end is the job's end, the pen up, and
@@ -23,11 +23,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "grbl"))
 from grbl_support import CONFIG, QUICK_ACCEL, SCALE, SETTINGS, grbl_machine  # noqa: E402
 
 STEPS_PER_MM = 160
-#: three short lines in three pens: the job asks for a pen three times, so it can be
-#: stopped between drawing and more to draw
-THREE_PENS = b"%FSLAX26Y26*%\n%MOMM*%\n" + b"".join(
+#: two short lines in two pens: the job asks for a pen twice, so it can be stopped
+#: between drawing and more to draw
+TWO_PENS = b"%FSLAX26Y26*%\n%MOMM*%\n" + b"".join(
     b"%%ADD1%dC,0.%d*%%\nD1%d*\nX1000000Y%d000000D02*\nX4000000Y%d000000D01*\n"
-    % (pen, pen + 3, pen, pen + 1, pen + 1) for pen in range(3)) + b"M02*\n"
+    % (pen, pen + 3, pen, pen + 1, pen + 1) for pen in range(2)) + b"M02*\n"
 
 
 def _answer_pens(client, until: int = 0) -> list[str]:
@@ -52,12 +52,12 @@ def test_serve_runs_stops_and_resumes_a_job_on_grbl(fresh_sim):
         with serving(board.port, CONFIG, GRBL) as (server, service, client):
             state = client.get("/api/state").json()
             assert state["kind"] == "grbl" and "GRBL 1.1h" in state["machine"]
-            upload = client.post("/api/uploads", content=THREE_PENS,
-                                 headers={"x-filename": "three-pens.gbr"}).json()["id"]
+            upload = client.post("/api/uploads", content=TWO_PENS,
+                                 headers={"x-filename": "two-pens.gbr"}).json()["id"]
             answer = client.post("/api/plans", json={"upload": upload, "mode": "centre"})
             assert answer.status_code == 201, answer.text
             plan = answer.json()
-            assert plan["pen_changes"] == 3
+            assert plan["pen_changes"] == 2
             planned = service.get_plan(plan["id"]).planned
             lines = job_to_gcode(planned.job, SCALE, pen_from_config(CONFIG),
                                  feed_steps_per_s=CONFIG.feed_steps_per_s,
@@ -69,11 +69,11 @@ def test_serve_runs_stops_and_resumes_a_job_on_grbl(fresh_sim):
             assert client.post("/api/stop").json() == {"stopping": True}
             stopped = wait_for(client, lambda s: s["activity"] is None)
             assert stopped["history"][-1]["result"].startswith("stopped: ")
-            assert stopped["resumable"] == "three-pens.gbr"
+            assert stopped["resumable"] == "two-pens.gbr"
 
             assert client.post("/api/resume").status_code == 202
             # GRBL's queue was dropped: the resume goes back over it, to the first pen
-            assert _answer_pens(client) == ["D10", "D11", "D12"]
+            assert _answer_pens(client) == ["D10", "D11"]
             done = wait_for(client, lambda s: s["activity"] is None and
                             s["state"] == "GRBL Idle")
             board.stop()
