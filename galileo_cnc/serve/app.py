@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import math
 import threading
 from importlib import resources
 
@@ -175,10 +176,11 @@ async def unlock(request: Request) -> JSONResponse:
 
 async def feed(request: Request) -> JSONResponse:
     data = await _json(request)
-    try:
-        mm_s = float(data.get("mm_s"))
-    except (TypeError, ValueError):
-        raise GalileoError("feed: expected {\"mm_s\": N}") from None
+    mm_s = data.get("mm_s")
+    if isinstance(mm_s, bool) or not isinstance(mm_s, (int, float)) or \
+            not math.isfinite(mm_s):
+        raise GalileoError(f"feed: expected {{\"mm_s\": N}}, a number of mm/s, got "
+                           f"{json.dumps(mm_s)}")
     return await _done(_service(request).set_feed(mm_s))
 
 

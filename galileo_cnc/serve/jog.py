@@ -1,5 +1,5 @@
 """A jog from the page: held (a button pressed: the head moves until it is let go, or
-the page goes away) or a step of a distance.
+the page goes away) or a step of a distance; the stop button ends either.
 
 A held jog is short jogs, each a tenth of a second of travel at the machine's feed,
 sent so that the machine has never more than AHEAD_S of them queued: the head moves
@@ -29,6 +29,11 @@ def jog(machine, config, axis: int, direction: int, cancelled: threading.Event,
     name = f"{AXES[axis].upper()}{'+' if direction > 0 else '-'}"
     if distance_mm is not None:
         machine.jog(axis, direction * round(distance_mm * NM_PER_MM), feed)
+        # the stop button may end it while it runs at full feed (at least this long);
+        # only its ramp down at the end is waited out whatever comes
+        if cancelled.wait(distance_mm / feed):
+            machine.cancel_jog()
+            return [f"jog {name} {distance_mm:g} mm stopped"]
         machine.wait_still()
         return [f"jog {name} {distance_mm:g} mm"]
     chunk_nm = max(1, round(feed * CHUNK_S * NM_PER_MM))

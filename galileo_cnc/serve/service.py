@@ -49,6 +49,8 @@ TICK_S = 0.25
 #: plans kept for `start` (each holds its job's commands)
 KEPT_PLANS = 8
 HISTORY_KEPT = 100
+#: a plan's modes (plan.pipeline.PlanOptions; auto picks one by the file)
+PLAN_MODES = ("auto", "ink", "centre")
 
 
 class Busy(GalileoError):
@@ -101,12 +103,14 @@ class MachineService:
         self._plans: dict[str, Plan] = {}
         self._plan_ids = itertools.count(1)
         self.operator: WebOperator | None = None
+        self._jog_cancel: threading.Event | None = None   # the running jog's, for stop
         self._job: dict | None = None         # the running job: name, total, start
         self._prompt: Prompt | None = None
         self.lost = ""                        # why the port is gone ("" while it is not)
         self.resumable = self._pending_name()
         self.history: list[dict] = self._load_history()
         self.closing = threading.Event()
+        self._views = 0
         self._view = self._ask_machine()      # a page's first state is the machine's
         self._poller = threading.Thread(target=self._poll, name="galileo-poller", daemon=True)
         self._poller.start()
@@ -193,9 +197,21 @@ class MachineService:
         except GalileoError:
             return None
 
+    def _set_view(self, view, asked_at: int | None = None) -> Any:
+        """The view pages see; a poll's (`asked_at`: the views set when it began) only
+        when no fresher one came meanwhile: a machine busy with a command (GRBL) answers
+        a poll with its view from before, which must not hide the one taken as the
+        command ended."""
+        with self._lock:
+            if asked_at is None or asked_at == self._views:
+                self._view = view
+                self._views += 1
+            return self._view
+
     def _poll(self) -> None:
         while not self.closing.wait(self.tick_s):
-            self._view = view = self._ask_machine()
+            asked_at = self._views
+            view = self._set_view(self._ask_machine(), asked_at)
             self.publish("status", {"state": self._state_text(view),
                                     "position": self._position(view),
                                     "activity": self._activity})
@@ -234,6 +250,8 @@ class MachineService:
                 self.publish("failure", {"text": str(error)})
                 raise
             finally:
+                # where the machine stands now, before pages hear it is free
+                self._set_view(self._ask_machine())
                 self._end()
         return self._worker.submit(run)
 
@@ -246,13 +264,22 @@ class MachineService:
              offset: str = "auto", allow_open: bool = False) -> Plan:
         """Plan an upload (in the caller's thread: seconds on a large board) and draw
         its preview; GalileoError says why it cannot be plotted."""
+        if not upload_id:
+            raise NotFound("plan: which upload? send {\"upload\": ID}, the id POST "
+                           "/api/uploads answered")
         upload = self.store.get(upload_id)
         path = self.store.path(upload)
         config = self.config
-        if pens:
-            config = config.replace(pen_widths_mm=pen_widths_from_text(pens))
+        if mode not in PLAN_MODES:
+            raise GalileoError(f"mode: expected {', '.join(PLAN_MODES[:-1])} or "
+                               f"{PLAN_MODES[-1]}, got {mode!r}")
         if side not in ("top", "bottom"):
             raise GalileoError(f"side: expected top or bottom, got {side!r}")
+        try:
+            if pens:
+                config = config.replace(pen_widths_mm=pen_widths_from_text(pens))
+        except GalileoError as error:
+            raise GalileoError(_as_field(str(error))) from None
         board = BoardChoice(side=side) if upload.kind == "board" else None
         try:
             planned = plan_source(path, config, offset or "auto", board=board,
@@ -265,7 +292,8 @@ class MachineService:
             if refused is not None:
                 raise GalileoError(refused)
         except GalileoError as error:
-            raise GalileoError(str(error).replace(str(path), upload.name)) from None
+            raise GalileoError(_as_field(str(error).replace(str(path), upload.name))) \
+                from None
         plan_id = f"p{next(self._plan_ids)}"
         preview = self.folder / "previews" / f"{plan_id}.svg"
         preview.parent.mkdir(parents=True, exist_ok=True)
@@ -280,7 +308,8 @@ class MachineService:
                                    f"offset {planned.offset_nm[0] / NM_PER_MM:.3f}, "
                                    f"{planned.offset_nm[1] / NM_PER_MM:.3f} mm",
                                    info.summary().split(" (open it")[0]) if line]
-        options = {"pens": pens, "mode": planned.mode, "side": side, "offset": offset}
+        options = {"pens": pens, "mode": planned.mode,
+                   "side": side if board is not None else None, "offset": offset}
         plan = Plan(plan_id, upload, planned, config, options, preview,
                     [line.replace(str(path), upload.name) for line in lines])
         with self._lock:
@@ -306,8 +335,12 @@ class MachineService:
         return self._submit("resume", self._resume)
 
     def stop(self) -> bool:
-        """From any thread: stop the running job (the machine ramps down); False when
-        no job runs."""
+        """From any thread: stop the running job or jog (the machine ramps down);
+        False when neither runs."""
+        jogging = self._jog_cancel
+        if jogging is not None:
+            jogging.set()
+            return True
         operator = self.operator
         if operator is None:
             return False
@@ -426,8 +459,14 @@ class MachineService:
                     distance_mm: float | None = None) -> Future:
         from galileo_cnc.serve.jog import jog
 
-        return self._submit("jog", lambda: jog(self.machine, self.config, axis, direction,
-                                               cancelled, distance_mm, self.publish))
+        def work():
+            self._jog_cancel = cancelled
+            try:
+                return jog(self.machine, self.config, axis, direction, cancelled,
+                           distance_mm, self.publish)
+            finally:
+                self._jog_cancel = None
+        return self._submit("jog", work)
 
     # ---- a lost port, the journal, the history -----------------------------------------------
     def _port_lost(self, gone: PortGone) -> None:
@@ -483,6 +522,13 @@ class MachineService:
         self.stop()
         self._worker.shutdown(wait=True)
         self.machine.close()
+
+
+def _as_field(text: str) -> str:
+    """A planning error as the API's client knows the option: `mode`, not `--mode`
+    (the command line's name, which the planner's messages use)."""
+    text = re.sub(r"^--(pens|mode|offset|side)\b", r"\1", text)
+    return re.sub(r"^config: pens widths_mm must be", "pens: expected", text)
 
 
 def _offer(queue: asyncio.Queue, event: dict) -> None:

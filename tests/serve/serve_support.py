@@ -23,13 +23,14 @@ GERBER = (b"%FSLAX46Y46*%\n%MOMM*%\n%ADD10C,0.500000*%\nD10*\nX0Y0D02*\n"
 
 
 @contextmanager
-def serving(port: str, config=None):
-    """(server, service, client with the token) on `port`."""
+def serving(port: str, config=None, kind: str | None = None):
+    """(server, service, client with the token) on `port`; `kind`: what answers
+    there, known (not probed: seconds saved on a GRBL board)."""
     profile = load_profile(None, port=port)
     if config is not None:
         import dataclasses
         profile = dataclasses.replace(profile, config=config)
-    service = MachineService(lambda: open_machine(port, profile))
+    service = MachineService(lambda: open_machine(port, profile, kind=kind))
     server = WebServer(service, "127.0.0.1", 0)
     try:
         server.start()

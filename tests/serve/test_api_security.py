@@ -163,3 +163,57 @@ def test_serve_listens_on_loopback_unless_told():
     for wrong in ("8765", "localhost:http", "host:99999"):
         with pytest.raises(GalileoError, match="--listen: expected HOST:PORT"):
             parse_listen(wrong)
+
+
+def test_wrong_options_are_refused_naming_the_option_in_mm(served):
+    """What a client gets wrong is answered 4xx with the option named as the API names
+    it (not the command line's --option), in mm; nothing that looks like a path is
+    taken, and the server stays up for the next request."""
+    server, service, client = served
+    upload = client.post("/api/uploads", content=GERBER).json()["id"]
+    refused = {
+        ("/api/plans", '{"upload": "%s", "mode": "fast"}'):
+            "mode: expected auto, ink or centre, got 'fast'",
+        ("/api/plans", '{"upload": "%s", "pens": "abc"}'): "pens: expected widths in mm",
+        ("/api/plans", '{"upload": "%s", "pens": "NaN"}'): "pens: expected 1 to 8 widths",
+        ("/api/plans", '{"upload": "%s", "offset": "/etc/passwd"}'):
+            "offset: expected auto, none or X,Y in mm",
+        ("/api/plans", '{}'): "plan: which upload?",
+        ("/api/feed", '{"mm_s": "nan"}'): 'feed: expected {"mm_s": N}, a number of mm/s',
+        ("/api/feed", '{"mm_s": NaN}'): 'feed: expected {"mm_s": N}, a number of mm/s',
+        ("/api/feed", '{"mm_s": Infinity}'): 'feed: expected {"mm_s": N}, a number of mm/s',
+        ("/api/feed", '{"mm_s": 0}'): "feed 0 mm/s refused: the machine runs",
+    }
+    for (path, body), text in refused.items():
+        answer = client.post(path, content=body.replace("%s", upload),
+                             headers={"content-type": "application/json"})
+        assert answer.status_code in (404, 422), (path, body, answer.text)
+        assert answer.json()["error"].startswith(text), (path, body, answer.text)
+    state = client.get("/api/state").json()
+    assert state["activity"] is None and state["feed_mm_s"] == service.config.feed_mm_s
+    # a single file has no side: the plan does not claim one
+    plan = client.post("/api/plans", json={"upload": upload, "side": "bottom"}).json()
+    assert plan["options"]["side"] is None
+
+
+def test_a_job_survives_the_page_that_started_it(served, tmp_path):
+    """The page that started a job goes away (its event stream closes) while the job
+    waits for a pen: the job waits on, and another page finishes it."""
+    server, service, client = served
+    upload_id = client.post("/api/uploads", content=board_zip(tmp_path)).json()["id"]
+    plan_id = client.post("/api/plans", json={"upload": upload_id,
+                                              "mode": "centre"}).json()["id"]
+    base = f"http://127.0.0.1:{server.port}"
+    with httpx.Client(base_url=base, headers=client.headers, timeout=10) as page:
+        with page.stream("GET", "/api/events") as events:
+            assert next(events.iter_lines()).startswith("event: state")
+            assert page.post("/api/jobs", json={"plan": plan_id}).status_code == 202
+            first = wait_for(client, lambda s: s["prompt"])["prompt"]
+    wait_for(client, lambda s: service.subscribers == 0)           # the page is gone
+    state = client.get("/api/state").json()
+    assert state["activity"] == "job" and state["prompt"] == first  # the job waits on
+    while (prompt := wait_for(client, lambda s: s["prompt"] or s["activity"] is None)
+           ["prompt"]) is not None:
+        client.post("/api/prompt", json={"id": prompt["id"], "answer": True})
+        wait_for(client, lambda s, i=prompt["id"]: (s["prompt"] or {}).get("id") != i)
+    assert client.get("/api/history").json()["history"][-1]["result"] == "finished"

@@ -209,6 +209,30 @@ def an_evening(page, url: str, board: Path, sides: str, screenshots: Path | None
     assert rows[0].startswith("second.nc") and "finished" in rows[0], rows
     assert not page.locator("#messages li.error").count(), \
         page.locator("#messages").inner_text()
+    _fits_a_phone(page)
+
+
+#: the narrowest phone screens in use (CSS px): the page must need no sideways scroll
+PHONE_WIDTH = 320
+
+
+def _fits_a_phone(page) -> None:
+    """At a phone's width, with the evening's preview, messages and history on it:
+    nothing wider than the screen, so every control is reached by scrolling down."""
+    size = page.viewport_size
+    page.set_viewport_size({"width": PHONE_WIDTH, "height": 640})
+    try:
+        wider = page.evaluate("""() => {
+            const width = document.documentElement.clientWidth;
+            return [...document.querySelectorAll('body *')]
+              .filter(e => e.getClientRects().length &&
+                           e.getBoundingClientRect().right > width + 0.5)
+              .map(e => e.tagName.toLowerCase() + (e.id ? '#' + e.id : ''));
+        }""")
+        assert wider == [], wider
+        assert page.evaluate("() => document.documentElement.scrollWidth") <= PHONE_WIDTH
+    finally:
+        page.set_viewport_size(size)
 
 
 def _jog_in_a_closed_tab(page, url: str, held: list[float]) -> None:

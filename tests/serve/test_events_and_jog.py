@@ -98,3 +98,20 @@ def test_a_held_jog_stops_within_0_3_s_when_its_client_goes_away(fresh_sim):
     assert (after[-1] - closed_at) / TICKS_PER_S <= STOPS_WITHIN_S
     # and did not run the jogs it had queued: it ramped down
     assert trace.final_position[0] == trace.displacement()[0]
+
+
+def test_the_stop_button_ends_a_step_jog(fresh_sim):
+    """A 10 mm step (2 s at the machine's 5 mm/s) is under way: the stop button ramps
+    the head down where it is, as it would a job."""
+    with serving("sim://?speed=1") as (server, service, client):
+        start = client.get("/api/state").json()["position"][0]
+        answers = []
+        step = threading.Thread(target=lambda: answers.append(client.post(
+            "/api/jog", json={"axis": "x", "direction": 1, "distance_mm": 10})))
+        step.start()
+        wait_for(client, lambda s: s["activity"] == "jog" and s["position"][0] > start + 0.5)
+        assert client.post("/api/stop").json() == {"stopping": True}
+        step.join(10)
+        final = wait_for(client, lambda s: s["activity"] is None)
+    assert answers[0].json() == {"said": ["jog X+ 10 mm stopped"]}
+    assert start + 0.5 < final["position"][0] < start + 5          # well short of 10 mm
