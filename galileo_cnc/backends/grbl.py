@@ -162,8 +162,12 @@ class GrblMachine(Machine):
             return None
 
     def poll(self) -> MachineView | None:
-        """The toolbar's `?`, unless a command is using the link (then the last view)."""
+        """The toolbar's `?`, unless a command is using the link: then the view of the
+        last report that command read (a job or jog asks for them as it streams)."""
         if not self.lock.acquire(blocking=False):
+            latest = self.link.tracker.last
+            if latest is not None and (self._last is None or latest is not self._last.raw):
+                return self.make_view(latest)
             return self._last
         try:
             return self.view()
