@@ -31,7 +31,6 @@ import pyclipper as pc
 from galileo_cnc.plan.ink import clip
 from galileo_cnc.plan.ink.edges import EdgeIndex
 from galileo_cnc.plan.mill.isolate import Isolation, arc_tolerance_nm, join_sagitta_nm
-from galileo_cnc.plan.widths import mm_text
 
 #: The swept area inside the copper that still counts as none: Clipper's rounding.
 SWEPT_AREA_ALLOWED_NM2 = 1_000_000      # 1 um^2
@@ -56,8 +55,9 @@ class Proof:
 
     def describe(self) -> str:
         verdict = "no pass enters the copper" if self.holds else "A PASS ENTERS THE COPPER"
-        return (f"{verdict}: every pass keeps {mm_text(round(self.clearance_nm))} mm from it "
-                f"(the tool needs {mm_text(self.required_nm)} mm)")
+        # to 0.1 um: the margin that tells the two apart is a few um
+        return (f"{verdict}: every pass keeps {self.clearance_nm / 1e6:.4f} mm from it "
+                f"(the tool needs {self.required_nm / 1e6:.4f} mm)")
 
 
 def prove(isolation: Isolation, swept: bool = True) -> Proof:

@@ -128,3 +128,46 @@ def test_a_real_copper_layer_is_isolated_without_touching_its_copper():
         a, b = (polygons[k] for k in short.islands)
         assert middle.distance(a) == pytest.approx(short.gap_nm / 2, abs=2)
         assert middle.distance(b) == pytest.approx(short.gap_nm / 2, abs=2)
+
+
+def _cuts(text: str, depth_nm: int) -> list[np.ndarray]:
+    """The XY paths the G-code cuts at `depth_nm` below the copper's top, each a closed
+    ring of points (nm), read line by line as GRBL would (modal G0/G1, absolute mm)."""
+    x = y = z = 0.0
+    cuts, path = [], []
+    for line in text.splitlines():
+        words = dict((w[0], w[1:]) for w in line.split() if not line.startswith("("))
+        x, y = float(words.get("X", x)), float(words.get("Y", y))
+        z = float(words.get("Z", z))
+        cutting = abs(z * 1e6 + depth_nm) < 1
+        if cutting and ("X" in words or "Y" in words or not path):
+            path.append((round(x * 1e6), round(y * 1e6)))
+        elif not cutting and path:
+            cuts.append(np.array(path))
+            path = []
+    return cuts
+
+
+def test_the_g_code_cuts_the_proven_passes_at_depth_and_refuses_unaccepted_shorts(board):
+    from galileo_cnc.plan.mill.gcode import mill_gcode
+
+    with pytest.raises(ShortsError):
+        mill_gcode(board, VBIT)
+    accepted = mill_gcode(board, VBIT, accept_shorts=True)
+    assert "(short accepted: islands 0 and 1: 0.1 mm apart at X5.550 Y0.000 mm [work])" \
+        in accepted.splitlines()
+    mill = MillConfig(tool="endmill", diameter_nm=90_000, cut_depth_nm=50_000,
+                      safe_height_nm=1_500_000, spindle_rpm=9_000, feed_um_min=200_000,
+                      plunge_feed_um_min=40_000, passes=2)
+    text = mill_gcode(board, mill)
+    lines = text.splitlines()
+    assert "G21 G90 G17 G94" in lines and "M3 S9000" in lines and lines[-2:] == ["M5", "M2"]
+    plunges = [line for line in lines if line.startswith("G1 Z")]
+    assert plunges and set(plunges) == {"G1 Z-0.05 F40"}
+    assert lines.count("G0 Z1.5") == len(plunges) + 1
+    cuts = _cuts(text, 50_000)
+    isolation = isolate(board, mill)
+    assert len(cuts) == len(isolation.rings) == len(plunges)
+    assert all((cut[0] == cut[-1]).all() for cut in cuts)           # each ring closed
+    copper = _copper(isolation)
+    assert _shapely_clearance([cut[:-1] for cut in cuts], copper) >= 45_000 - 1_000
