@@ -5,7 +5,7 @@ offset of the copper by half the cut width (what a naive tool does), in one run.
     python3 bench/bench_mill.py --quick            # a handful of small copper layers
     python3 bench/bench_mill.py                    # every copper layer of the corpus
     python3 bench/bench_mill.py --files 'kicad/*' --tool endmill --diameter 0.3 --passes 2
-    python3 bench/bench_mill.py --json /tmp/mill.json --jobs 2
+    python3 bench/bench_mill.py --json /tmp/mill.json --jobs 2 --png /tmp/mill
 
 Copper layers: those bench_ink_union.py takes (`looks_like_copper` on the manifest's
 'real' and 'derived' files); --quick: bench_ink.py's six small ones (up to 40 kB). Each file is measured
@@ -113,6 +113,8 @@ def measure(rel: str, args) -> dict:
         left, unreported, alarms = raster.shorts(k, pairs)
         record[name] = {"cut_um2": cut, "deep_um2": deep, "left": left,
                         "unreported": unreported, "alarms": alarms}
+    if args.png:
+        pictures(raster, isolation, Path(args.png), rel)
     record["pitch_um"] = raster.pitch_nm / 1000
     record["unmeasured_islands"] = raster.unmeasured
     record["raster_s"] = time.perf_counter() - clock
@@ -241,6 +243,45 @@ class Raster:
         return left, unreported, alarms
 
 
+def pictures(raster: Raster, isolation, folder: Path, rel: str) -> None:
+    """Two PNGs of the layer: the whole of it (every --pitch-um pixel, or every n-th
+    to keep it within 1600 px), and a 3 mm window round the first reported short (else
+    round the middle) at the raster's pitch, drawn 3 px a pixel. Copper is orange, the
+    tool's swept area (ours) grey, copper it sweeps red; reported shorts are ringed red."""
+    from PIL import Image, ImageDraw
+
+    folder.mkdir(parents=True, exist_ok=True)
+    grid = raster.grid
+    copper = np.zeros((grid.height, grid.width), dtype=bool)
+    lows, highs = _y_bounds(raster.copper_rings)
+    for r0, r1 in raster._bands():
+        copper[r0:r1] = raster._polygon_mask(raster.copper_rings, r0, r1, lows, highs)
+    swept = raster.swept[0]
+    image = np.full((grid.height, grid.width, 3), 255, dtype=np.uint8)
+    image[swept] = (150, 150, 160)
+    image[copper] = (222, 140, 40)
+    image[copper & swept] = (220, 0, 0)
+    stem = rel.replace("/", "_")
+    shorts = [(float(grid.u(s.at_nm[0])), float(grid.v(s.at_nm[1]))) for s in isolation.shorts]
+    stride = max(1, math.ceil(max(grid.width, grid.height) / 1600))
+    whole = Image.fromarray(image[::stride, ::stride])
+    draw = ImageDraw.Draw(whole)
+    for u, v in shorts:
+        draw.ellipse([u / stride - 12, v / stride - 12, u / stride + 12, v / stride + 12],
+                     outline=(220, 0, 0), width=2)
+    whole.save(folder / f"{stem}.png")
+    half = int(1.5e6 / raster.pitch_nm)
+    cu, cv = (shorts[0] if shorts else (grid.width / 2, grid.height / 2))
+    c0, r0 = max(0, int(cu) - half), max(0, int(cv) - half)
+    window = Image.fromarray(image[r0:r0 + 2 * half, c0:c0 + 2 * half])
+    window = window.resize((window.width * 3, window.height * 3), Image.NEAREST)
+    draw = ImageDraw.Draw(window)
+    for u, v in shorts:
+        x, y = (u - c0) * 3, (v - r0) * 3
+        draw.ellipse([x - 30, y - 30, x + 30, y + 30], outline=(220, 0, 0), width=3)
+    window.save(folder / f"{stem}.window.png")
+
+
 def _y_bounds(rings):
     if not rings:
         return np.zeros(0), np.zeros(0)
@@ -348,13 +389,14 @@ def main() -> None:
     ap.add_argument("--timeout", type=float, default=600.0)
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--json", help="write the records here")
+    ap.add_argument("--png", help="write pictures of each layer to this folder")
     ap.add_argument("--child", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child:
         print(json.dumps(measure(args.child, args)))
         return
     argv = [a for a in sys.argv[1:] if a not in ("--quick",)]
-    for option in ("--json", "--files", "--limit", "--jobs", "--timeout"):
+    for option in ("--json", "--files", "--limit", "--jobs", "--timeout"):  # the parent's
         if option in argv:
             at = argv.index(option)
             del argv[at:at + 2]
