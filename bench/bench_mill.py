@@ -388,12 +388,18 @@ def main() -> None:
     ap.add_argument("--max-mpx", type=float, default=150.0)
     ap.add_argument("--timeout", type=float, default=600.0)
     ap.add_argument("--jobs", type=int, default=1)
-    ap.add_argument("--json", help="write the records here")
+    ap.add_argument("--json", help="write the records here (and each as it ends to "
+                    "JSON.lines)")
+    ap.add_argument("--table", help="print the table of a JSON.lines file and stop")
     ap.add_argument("--png", help="write pictures of each layer to this folder")
     ap.add_argument("--child", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child:
         print(json.dumps(measure(args.child, args)))
+        return
+    if args.table:
+        print_table([json.loads(line) for line in Path(args.table).read_text().splitlines()],
+                    args)
         return
     argv = [a for a in sys.argv[1:] if a not in ("--quick",)]
     for option in ("--json", "--files", "--limit", "--jobs", "--timeout"):  # the parent's
@@ -410,6 +416,9 @@ def main() -> None:
         # a line per layer as it ends: a long run shows where it is
         print(f"{rel}: {record.get('error') or 'plan %.2f s' % record['plan_s']}",
               file=sys.stderr, flush=True)
+        if args.json:                     # kept as they end: a stopped run keeps its layers
+            with open(f"{args.json}.lines", "a") as lines:
+                lines.write(json.dumps(record) + "\n")
         return record
 
     with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
