@@ -32,9 +32,9 @@ Per layer and tool (the profile's default V-bit unless told):
   longest raster span; an island with no pixel centre is not counted). "left" adds up
   islands - 1 per part; "unrep" is how many of those joins the reported shorts do not
   explain (the reported pairs joined by union-find, per part: groups - 1); "alarm" is
-  the reported pairs whose islands the tool did separate (an over-report: find_shorts
-  takes every gap under two first-pass radii, and round pads' passes meet in a cusp the
-  tool's disc may clear). A board whose raster would pass --max-mpx is measured at a
+  the reported pairs whose islands the raster sees parted (find_shorts takes every gap
+  under two first-pass radii; where the gap is barely under the cut, the disc sweeping
+  round both pads leaves a sliver thinner than a pixel between them). A board whose raster would pass --max-mpx is measured at a
   coarser pitch, printed in the row.
 
 Pixel centres count on an outline (closed sets, bench/ink_raster.py), so a pass exactly
