@@ -23,6 +23,7 @@ millidegrees. docs/mill.md.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any, Mapping
@@ -81,9 +82,11 @@ class MillConfig:
                 f"wide; {self.passes} pass(es), overlap {self.overlap_permille / 10:g} %")
 
     @classmethod
-    def from_table(cls, table: Mapping[str, Any], source: str = "profile") -> "MillConfig":
+    def from_table(cls, table: Mapping[str, Any], source: str = "profile",
+                   base: "MillConfig | None" = None) -> "MillConfig":
         """The `[mill]` table of `source` (a file name for messages); every error names
-        the key and the value."""
+        the key and the value. `base`: the config the keys not given keep (options on
+        the command line over the profile's table, in the table's keys and units)."""
         if not isinstance(table, Mapping):
             raise ConfigError(f"{source}: [mill] must be a table, got {table!r}")
         unknown = sorted(set(table) - set(_KEYS))
@@ -92,7 +95,7 @@ class MillConfig:
             raise ConfigError(f"{source}: [mill] has unknown key(s): {named} "
                               f"(known: {', '.join(_KEYS)})")
         values: dict[str, Any] = {}
-        tool = table.get("tool", "vbit")
+        tool = table.get("tool", base.tool if base is not None else "vbit")
         if tool not in TOOL_KINDS:
             raise ConfigError(f"{source}: [mill] tool = {tool!r}: must be one of "
                               f"{', '.join(repr(kind) for kind in TOOL_KINDS)}")
@@ -107,7 +110,7 @@ class MillConfig:
                 raise ConfigError(f"{source}: [mill] passes = {passes!r}: must be a whole "
                                   f"number 1..{MAX_PASSES}")
             values["passes"] = passes
-        config = cls(**values)
+        config = dataclasses.replace(base, **values) if base is not None else cls(**values)
         if config.tool == "vbit" and config.cut_width_nm <= 0:
             raise ConfigError(f"{source}: [mill] a V-bit with tip_mm = 0 and cut_depth_mm "
                               f"= 0 cuts nothing")

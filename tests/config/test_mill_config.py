@@ -55,3 +55,12 @@ def test_a_bad_mill_table_is_refused_naming_the_file_key_and_value(tmp_path, tex
         _profile(tmp_path, f"[mill]\n{text}\n")
     assert expected in str(caught.value)
     assert str(tmp_path / "profile.toml") in str(caught.value)
+
+
+def test_options_over_the_profile_keep_what_they_do_not_name(tmp_path):
+    mill = _profile(tmp_path, "[mill]\ntool = \"endmill\"\ndiameter_mm = 0.3\npasses = 2\n").mill
+    over = MillConfig.from_table({"passes": 4, "overlap": 0.5}, "command line", base=mill)
+    assert (over.tool, over.diameter_nm, over.passes, over.overlap_permille) == (
+        "endmill", 300_000, 4, 500)
+    with pytest.raises(ConfigError, match=r"command line: \[mill\] passes = 40: must be"):
+        MillConfig.from_table({"passes": 40}, "command line", base=mill)
