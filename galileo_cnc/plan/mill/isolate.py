@@ -19,9 +19,10 @@ two islands the tool cannot pass between: it goes round both.
 Those places are the shorts: two islands whose gap is under 2 r_1 (the tool does not
 fit) stay joined by the copper left between them. `shorts` lists each pair once with
 the narrowest gap and its midpoint (work coordinates), and `refuse_shorts` stops a job
-that has any unless the user accepts them. Islands under ink/islands.TOUCH_NM apart
-are one island, as the ink takes them (a vertex touch, a plane split no board house
-etches).
+that has any unless the user accepts them. Islands that touch (Clipper keeps copper
+that meets at a vertex as two pieces) are one; any gap at all between two islands is a
+short when the tool does not fit, even a plane split of a few um that no board house
+etches (the ink joins those below ink/islands.TOUCH_NM): the user is told and decides.
 
 proof.py proves that no pass enters the copper, before anything is cut.
 """
@@ -39,7 +40,7 @@ from galileo_cnc.errors import GalileoError
 from galileo_cnc.plan.ink import clip
 from galileo_cnc.plan.ink.edges import EdgeIndex, point_to_edges
 from galileo_cnc.plan.ink.geometry import dark_geometry
-from galileo_cnc.plan.ink.islands import TOUCH_NM, Islands, _joined
+from galileo_cnc.plan.ink.islands import Islands, _joined
 from galileo_cnc.plan.widths import mm_text
 from galileo_cnc.program.ops import Program
 
@@ -47,6 +48,8 @@ from galileo_cnc.program.ops import Program
 MILL_TOLERANCE_NM = 2_000
 #: Rounding to the nanometre, twice (the copper's vertices, the offset's).
 ROUNDING_NM = 2
+#: Islands closer than this touch (module doc): nothing but rounding lies between them.
+TOUCH_NM = 1
 #: A round join's chords stray up to this many times the arc tolerance (module doc).
 JOIN_SAGITTA_FACTOR = 2.25
 

@@ -171,3 +171,20 @@ def test_the_g_code_cuts_the_proven_passes_at_depth_and_refuses_unaccepted_short
     assert all((cut[0] == cut[-1]).all() for cut in cuts)           # each ring closed
     copper = _copper(isolation)
     assert _shapely_clearance([cut[:-1] for cut in cuts], copper) >= 45_000 - 1_000
+
+
+def _square(x0: int, y0: int, side: int = 1_000_000) -> list:
+    return [[x0, y0], [x0 + side, y0], [x0 + side, y0 + side], [x0, y0 + side]]
+
+
+def test_any_gap_is_a_short_but_copper_that_meets_at_a_corner_is_one_island():
+    from galileo_cnc.plan.mill.isolate import isolate_copper
+
+    # 3 um apart: under the ink's 5 um touch, still two islands the tool leaves joined
+    (short,) = isolate_copper([_square(0, 0), _square(1_003_000, 0)], VBIT).shorts
+    # parallel edges: every point between them is as narrow; one on the middle line
+    assert short.gap_nm == 3_000 and short.at_nm[0] == 1_001_500
+    assert 0 <= short.at_nm[1] <= 1_000_000
+    # meeting at a corner: Clipper keeps two pieces, the copper is one
+    corner = isolate_copper([_square(0, 0), _square(1_000_000, 1_000_000)], VBIT)
+    assert len(corner.islands.parts) == 2 and corner.shorts == []
