@@ -31,7 +31,8 @@ Per layer and tool (the profile's default V-bit unless told):
   hold two or more copper islands (each island found by the middle pixel of its
   longest raster span; an island with no pixel centre is not counted). "left" adds up
   islands - 1 per part; "unrep" is how many of those joins the reported shorts do not
-  explain (the reported pairs joined by union-find, per part: groups - 1); "alarm" is
+  explain (the reported pairs, and the pairs that touch by shapely, which are one
+  copper, joined by union-find, per part: groups - 1); "alarm" is
   the reported pairs whose islands the raster sees parted (find_shorts takes every gap
   under two first-pass radii; where the gap is barely under the cut, the disc sweeping
   round both pads leaves a sliver thinner than a pixel between them). A board whose raster would pass --max-mpx is measured at a
@@ -93,6 +94,8 @@ def measure(rel: str, args) -> dict:
     isolation = isolate(program, mill)
     proof = prove(isolation, swept=False)
     plan_s, plan_cpu_s = time.perf_counter() - clock, time.process_time() - cpu
+    if not isolation.islands.parts:
+        return {"file": rel, "empty": True}
     clock = time.perf_counter()
     naive = clip.rings_as_arrays(clip.offset(isolation.copper, mill.cut_width_nm // 2,
                                              arc_tolerance_nm(MILL_TOLERANCE_NM)))
@@ -235,12 +238,30 @@ class Raster:
                 n = group[n]
             return n
 
-        for a, b in reported:
+        for a, b in reported + self._touching(parts, measured):
             group[root(a)] = root(b)
         roots = np.array([root(n) for n in measured.tolist()], dtype=np.int64)
         unreported = len(np.unique(np.stack([parts, roots], axis=1), axis=0)) - len(np.unique(parts))
         alarms = sum(1 for a, b in reported if part[a] != part[b])
         return left, unreported, alarms
+
+
+    def _touching(self, parts: np.ndarray, measured: np.ndarray) -> list[tuple[int, int]]:
+        """Pairs of islands that touch (shapely: they intersect), in the parts of the
+        uncut area that hold more than one island: copper that touches is one island,
+        nothing to report."""
+        import shapely
+
+        found = []
+        for label in np.unique(parts).tolist():
+            members = measured[parts == label]
+            if len(members) < 2:
+                continue
+            polygons = [shapely.Polygon(*self.isolation.islands.parts[n]) for n in members.tolist()]
+            a, b = shapely.STRtree(polygons).query(polygons, predicate="intersects")
+            keep = a < b
+            found += list(zip(members[a[keep]].tolist(), members[b[keep]].tolist()))
+        return found
 
 
 def pictures(raster: Raster, isolation, folder: Path, rel: str) -> None:
@@ -344,6 +365,9 @@ def print_table(records: list[dict], args) -> None:
         if "error" in r:
             print(f"{name:44s} FAILED: {r['error']}")
             continue
+        if r.get("empty"):
+            print(f"{name:44s} no copper: nothing to isolate")
+            continue
         o, n = r["ours"], r["naive"]
         pitch = "" if r["pitch_um"] == args.pitch_um else f"  (raster {r['pitch_um']:.1f} um)"
         print(f"{name:44s} {r['islands']:5d} {r['plan_s']:6.2f} {r['plan_cpu_s']:5.2f} "
@@ -352,12 +376,14 @@ def print_table(records: list[dict], args) -> None:
               f"{o['unreported']:5d} {o['alarms']:5d} | {r['naive_clearance_mm']:8.4f} "
               f"{n['cut_um2']:9.0f} {n['deep_um2']:6.0f} "
               f"{n['left']:4d} {n['unreported']:5d}{pitch}")
-    done = [r for r in records if "error" not in r]
+    done = [r for r in records if "error" not in r and not r.get("empty")]
+    empty = sum(1 for r in records if r.get("empty"))
     if not done:
         return
     print("-" * len(head))
     worst = max(done, key=lambda r: r["plan_cpu_s"])
-    print(f"{len(done)} layers ({len(records) - len(done)} failed): "
+    print(f"{len(done)} layers ({len(records) - len(done) - empty} failed, {empty} without "
+          f"copper): "
           f"ours: copper cut {sum(r['ours']['cut_um2'] for r in done):.0f} um2, beyond "
           f"{args.allow_um:g} um {sum(r['ours']['deep_um2'] for r in done):.0f} um2; shorts left "
           f"{sum(r['ours']['left'] for r in done)}, unreported "
@@ -414,8 +440,9 @@ def main() -> None:
     def one(rel: str) -> dict:
         record = run_child(rel, argv, args.timeout)
         # a line per layer as it ends: a long run shows where it is
-        print(f"{rel}: {record.get('error') or 'plan %.2f s' % record['plan_s']}",
-              file=sys.stderr, flush=True)
+        said = record.get("error") or ("no copper" if record.get("empty")
+                                       else f"plan {record['plan_s']:.2f} s")
+        print(f"{rel}: {said}", file=sys.stderr, flush=True)
         if args.json:                     # kept as they end: a stopped run keeps its layers
             with open(f"{args.json}.lines", "a") as lines:
                 lines.write(json.dumps(record) + "\n")

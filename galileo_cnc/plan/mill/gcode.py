@@ -31,13 +31,16 @@ from galileo_cnc.readers.gcode.writer import mm
 
 
 class MillError(GalileoError):
-    """Passes the proof does not clear: nothing is written."""
+    """Nothing to mill, or passes the proof does not clear: nothing is written."""
 
 
 def mill_gcode(program: Program, mill: MillConfig, accept_shorts: bool = False) -> str:
     """The isolation G-code of a Gerber copper layer (module doc); ShortsError when it
-    has shorts the user did not accept, MillError when a pass would enter the copper."""
+    has shorts the user did not accept, MillError when it has no copper or a pass would
+    enter the copper."""
     isolation = isolate(program, mill)
+    if not isolation.islands.parts:
+        raise MillError(f"{program.source}: no copper on this layer: nothing to isolate")
     refuse_shorts(isolation, accept_shorts)
     proof = prove(isolation, swept=False)
     if not proof.holds:

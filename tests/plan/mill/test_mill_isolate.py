@@ -188,3 +188,12 @@ def test_any_gap_is_a_short_but_copper_that_meets_at_a_corner_is_one_island():
     # meeting at a corner: Clipper keeps two pieces, the copper is one
     corner = isolate_copper([_square(0, 0), _square(1_000_000, 1_000_000)], VBIT)
     assert len(corner.islands.parts) == 2 and corner.shorts == []
+
+
+def test_a_layer_without_copper_is_refused(tmp_path):
+    from galileo_cnc.plan.mill.gcode import MillError, mill_gcode
+
+    path = tmp_path / "empty.gtl"
+    path.write_text("%FSLAX46Y46*%\n%MOMM*%\nM02*\n")
+    with pytest.raises(MillError, match="no copper on this layer: nothing to isolate"):
+        mill_gcode(read_file(str(path)), MillConfig())
