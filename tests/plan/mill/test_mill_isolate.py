@@ -66,7 +66,7 @@ def test_every_pass_keeps_half_the_cut_and_each_next_steps_out_a_cut_less_the_ov
     assert clearances[0] <= width / 2 + isolation.margin_nm
     assert np.allclose(np.diff(clearances), step, atol=isolation.margin_nm)
     proof = prove(isolation)
-    assert proof.holds and proof.inside_nm == 0 and proof.swept_in_copper_nm2 == 0
+    assert proof.holds and proof.entries == 0 and proof.swept_in_copper_nm2 == 0
     assert proof.clearance_nm == pytest.approx(clearances[0], abs=1)
 
 
@@ -197,3 +197,20 @@ def test_a_layer_without_copper_is_refused(tmp_path):
     path.write_text("%FSLAX46Y46*%\n%MOMM*%\nM02*\n")
     with pytest.raises(MillError, match="no copper on this layer: nothing to isolate"):
         mill_gcode(read_file(str(path)), MillConfig())
+
+
+def test_the_proof_sees_a_pass_inside_a_pour_and_one_across_a_trace():
+    from galileo_cnc.plan.mill.isolate import isolate_copper
+
+    pour = isolate_copper([_square(0, 0, 10_000_000)], MillConfig())
+    # a ring deep inside the pour: 4 mm from every edge, yet in the copper
+    pour.passes = [[np.array(_square(4_000_000, 4_000_000, 2_000_000))]]
+    proof = prove(pour)
+    assert proof.clearance_nm == 4_000_000 and proof.entries == 4 and not proof.holds
+    # a ring whose side crosses a 0.2 mm trace: every vertex 2 mm or more from it
+    trace = [[0, 0], [10_000_000, 0], [10_000_000, 200_000], [0, 200_000]]
+    across = isolate_copper([trace], MillConfig())
+    across.passes = [[np.array(_square(4_000_000, -2_000_000, 4_000_000))]]
+    proof = prove(across)
+    assert proof.entries == 4 and not proof.holds       # two sides, each over both edges
+    assert proof.swept_in_copper_nm2 > 0                # the second witness agrees
