@@ -118,9 +118,9 @@ def test_a_real_copper_layer_is_isolated_without_touching_its_copper():
     # under two first-pass radii apart (by shapely) is a short, at its gap
     wide = isolate(program, MillConfig(tool="endmill", diameter_nm=300_000))
     polygons = [shapely.Polygon(outer, holes) for outer, holes in wide.islands.parts]
-    close = {(a, b): polygons[a].distance(polygons[b])
-             for a in range(len(polygons)) for b in range(a + 1, len(polygons))
-             if polygons[a].distance(polygons[b]) < 2 * wide.radii_nm[0]}
+    gaps = {(a, b): polygons[a].distance(polygons[b])
+            for a in range(len(polygons)) for b in range(a + 1, len(polygons))}
+    close = {pair: gap for pair, gap in gaps.items() if gap < 2 * wide.radii_nm[0]}
     assert len(close) == 31
     assert {short.islands: short.gap_nm for short in wide.shorts} == pytest.approx(close, abs=2)
     for short in wide.shorts:                # the midpoint lies between the two islands
