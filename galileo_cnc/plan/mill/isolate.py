@@ -48,6 +48,9 @@ from galileo_cnc.program.ops import Program
 MILL_TOLERANCE_NM = 2_000
 #: Rounding to the nanometre, twice (the copper's vertices, the offset's).
 ROUNDING_NM = 2
+#: Shorts listed in the refusal: a dense board under a wide cut has thousands (LimeSDR's
+#: top: 2,322 under the 0.154 mm V-bit).
+SHOWN_SHORTS = 20
 #: Islands closer than this touch (module doc): nothing but rounding lies between them.
 TOUCH_NM = 1
 #: A round join's chords stray up to this many times the arc tolerance (module doc).
@@ -192,7 +195,11 @@ def refuse_shorts(isolation: Isolation, accept_shorts: bool = False) -> None:
     """ShortsError listing every short, unless there are none or the user accepts them."""
     if not isolation.shorts or accept_shorts:
         return
-    listed = "\n".join(f"  {short.describe()}" for short in isolation.shorts)
+    shown = isolation.shorts[:SHOWN_SHORTS]
+    listed = "\n".join(f"  {short.describe()}" for short in shown)
+    if len(isolation.shorts) > len(shown):
+        listed += (f"\n  ... and {len(isolation.shorts) - len(shown)} more "
+                   f"(Isolation.shorts holds them all)")
     raise ShortsError(
         f"{isolation.source}: {len(isolation.shorts)} place(s) where two copper islands are "
         f"closer than the {mm_text(isolation.cut_width_nm)} mm cut: the tool cannot pass "

@@ -214,3 +214,17 @@ def test_the_proof_sees_a_pass_inside_a_pour_and_one_across_a_trace():
     proof = prove(across)
     assert proof.entries == 4 and not proof.holds       # two sides, each over both edges
     assert proof.swept_in_copper_nm2 > 0                # the second witness agrees
+
+
+def test_a_refusal_lists_the_first_shorts_and_counts_the_rest():
+    from galileo_cnc.plan.mill.isolate import SHOWN_SHORTS, isolate_copper
+
+    # a row of squares 0.1 mm apart: one short between each two
+    row = [_square(k * 1_100_000, 0) for k in range(SHOWN_SHORTS + 6)]
+    isolation = isolate_copper(row, VBIT, source="row.gtl")
+    assert len(isolation.shorts) == SHOWN_SHORTS + 5
+    with pytest.raises(ShortsError) as refused:
+        refuse_shorts(isolation)
+    text = str(refused.value)
+    assert text.startswith(f"row.gtl: {SHOWN_SHORTS + 5} place(s)")
+    assert text.count("mm (work)") == SHOWN_SHORTS and "... and 5 more" in text
