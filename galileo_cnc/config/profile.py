@@ -7,6 +7,9 @@ pitch_mm = 1.25
 junction_deviation_mm = 0.01     # speed through corners (docs/motion.md §5.7); 0: stop at each
 vertex_speed_change_mm_s = 1.6   # the largest per-axis speed change at a vertex
 
+[mill]               # a mill's tool and cut (galileo_cnc/config/mill.py, docs/mill.md)
+tool = "vbit"
+
 [serial]
 port = "/dev/ttyACM0"   # COMx, /dev/tty..., a pty path or a pyserial URL; absent: auto-detect
 baud = 115200
@@ -25,11 +28,13 @@ from pathlib import Path
 
 from galileo_cnc.config.hardware import BAUD_RATES, DEFAULT_BAUD
 from galileo_cnc.config.machine import ConfigError, MachineConfig, read_toml, unknown_key_text
+from galileo_cnc.config.mill import MillConfig
 from galileo_cnc.config.userdirs import config_dir
 
 PROFILE_NAME = "profile.toml"
-#: the profile's tables: the machine, its pens, a GRBL board's pen, how to reach it
-TABLES = ("machine", "pens", "grbl", "serial")
+#: the profile's tables: the machine, its pens, a GRBL board's pen, a mill's tool, how to
+#: reach it
+TABLES = ("machine", "pens", "grbl", "mill", "serial")
 TABLE_NAMES = tuple(f"[{name}]" for name in TABLES)
 
 
@@ -39,6 +44,7 @@ class Profile:
     port: str | None = None
     baud: int = DEFAULT_BAUD
     path: Path | None = None
+    mill: MillConfig = MillConfig()      # the [mill] table, else a 30 deg V-bit's defaults
 
 
 def load_profile(path: str | os.PathLike | None = None, *, port: str | None = None,
@@ -72,4 +78,5 @@ def load_profile(path: str | os.PathLike | None = None, *, port: str | None = No
     if profile_port is not None and not isinstance(profile_port, str):
         raise ConfigError(f"{found}: [serial] port must be text (a name, path or URL), "
                           f"got {profile_port!r}")
-    return Profile(config, port or profile_port or None, baud, found)
+    mill = MillConfig.from_table(data["mill"], str(found)) if "mill" in data else MillConfig()
+    return Profile(config, port or profile_port or None, baud, found, mill)

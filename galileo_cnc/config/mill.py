@@ -1,0 +1,149 @@
+"""The mill: the tool in the spindle and how it cuts (a `[mill]` table in the profile).
+
+```toml
+[mill]
+tool = "vbit"              # the tool in the spindle: "vbit" or "endmill"
+tip_mm = 0.1               # V-bit: the flat at its tip
+angle_deg = 30             # V-bit: the included angle of its point
+diameter_mm = 0.8          # end mill: its diameter
+cut_depth_mm = 0.1         # below the copper's top (Z = 0)
+safe_height_mm = 2.0       # above it, for every move between cuts
+spindle_rpm = 10000
+feed_mm_min = 120          # cutting
+plunge_feed_mm_min = 60    # Z down into the board
+passes = 1                 # isolation passes round every copper island
+overlap = 0.25             # each next pass overlaps the one before by this share of the cut
+```
+
+A V-bit at depth d cuts tip + 2 d tan(angle / 2) wide at the copper's top; an end mill
+cuts its diameter. Lengths are mm in the file and in every message and integer nm
+here (`tip_nm`, `cut_width_nm`, ...); feeds are kept in um/min, the angle in
+millidegrees. docs/mill.md.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+from galileo_cnc.config.machine import ConfigError, unknown_key_text
+
+NM_PER_MM = 1_000_000
+TOOL_KINDS = ("vbit", "endmill")
+#: GRBL's S word is scaled by its $30 (max spindle speed); no hobby spindle turns faster.
+MAX_SPINDLE_RPM = 100_000
+#: Passes round an island: more than this is a pocket, not isolation.
+MAX_PASSES = 20
+#: Overlap as a share of the cut width: at 0.9 a pass moves a tenth of the cut.
+MAX_OVERLAP = 0.9
+#: The sizes a table may give, in mm: a tool wider than this is no PCB tool.
+MAX_TOOL_MM = 10.0
+MAX_HEIGHT_MM = 100.0
+
+
+@dataclass(frozen=True, slots=True)
+class MillConfig:
+    """The tool in the spindle and its cut, integer units (module doc)."""
+
+    tool: str = "vbit"                  # one of TOOL_KINDS
+    tip_nm: int = 100_000
+    angle_mdeg: int = 30_000
+    diameter_nm: int = 800_000
+    cut_depth_nm: int = 100_000
+    safe_height_nm: int = 2_000_000
+    spindle_rpm: int = 10_000
+    feed_um_min: int = 120_000
+    plunge_feed_um_min: int = 60_000
+    passes: int = 1
+    overlap_permille: int = 250
+
+    @property
+    def cut_width_nm(self) -> int:
+        """The width the tool cuts at the copper's top (module doc)."""
+        if self.tool == "endmill":
+            return self.diameter_nm
+        half_angle = math.radians(self.angle_mdeg / 1000) / 2
+        return self.tip_nm + round(2 * self.cut_depth_nm * math.tan(half_angle))
+
+    @property
+    def step_nm(self) -> int:
+        """How much further out each next pass runs: the cut less the overlap."""
+        return max(1, self.cut_width_nm * (1000 - self.overlap_permille) // 1000)
+
+    def describe(self) -> str:
+        """The tool and its cut, as a user reads it."""
+        if self.tool == "endmill":
+            tool = f"end mill {_mm(self.diameter_nm)} mm"
+        else:
+            tool = f"V-bit {self.angle_mdeg / 1000:g} deg, tip {_mm(self.tip_nm)} mm"
+        return (f"{tool}, {_mm(self.cut_depth_nm)} mm deep: cuts {_mm(self.cut_width_nm)} mm "
+                f"wide; {self.passes} pass(es), overlap {self.overlap_permille / 10:g} %")
+
+    @classmethod
+    def from_table(cls, table: Mapping[str, Any], source: str = "profile",
+                   base: "MillConfig | None" = None) -> "MillConfig":
+        """The `[mill]` table of `source` (a file name for messages); every error names
+        the key and the value. `base`: the config the keys not given keep (options on
+        the command line over the profile's table, in the table's keys and units)."""
+        if not isinstance(table, Mapping):
+            raise ConfigError(f"{source}: [mill] must be a table, got {table!r}")
+        unknown = sorted(set(table) - set(_KEYS))
+        if unknown:
+            named = ", ".join(unknown_key_text(key, _KEYS, table[key]) for key in unknown)
+            raise ConfigError(f"{source}: [mill] has unknown key(s): {named} "
+                              f"(known: {', '.join(_KEYS)})")
+        values: dict[str, Any] = {}
+        tool = table.get("tool", base.tool if base is not None else "vbit")
+        if tool not in TOOL_KINDS:
+            raise ConfigError(f"{source}: [mill] tool = {tool!r}: must be one of "
+                              f"{', '.join(repr(kind) for kind in TOOL_KINDS)}")
+        values["tool"] = tool
+        for key, (field, scale, low, high, low_open) in _NUMBERS.items():
+            if key in table:
+                values[field] = _number(source, key, table[key], scale, low, high, low_open)
+        if "passes" in table:
+            passes = table["passes"]
+            if isinstance(passes, bool) or not isinstance(passes, int) \
+                    or not 1 <= passes <= MAX_PASSES:
+                raise ConfigError(f"{source}: [mill] passes = {passes!r}: must be a whole "
+                                  f"number 1..{MAX_PASSES}")
+            values["passes"] = passes
+        config = dataclasses.replace(base, **values) if base is not None else cls(**values)
+        if config.tool == "vbit" and config.cut_width_nm <= 0:
+            raise ConfigError(f"{source}: [mill] a V-bit with tip_mm = 0 and cut_depth_mm "
+                              f"= 0 cuts nothing")
+        return config
+
+
+def _mm(nm: int) -> str:
+    return f"{nm / NM_PER_MM:.3f}".rstrip("0").rstrip(".") or "0"
+
+
+def _number(source: str, key: str, value: Any, scale: int, low: float, high: float,
+            low_open: bool) -> int:
+    """`value` (in the key's unit) checked against low..high and made an integer."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) \
+            or not math.isfinite(value):
+        raise ConfigError(f"{source}: [mill] {key} = {value!r}: must be a number")
+    if value < low or (low_open and value == low) or value > high:
+        bound = f"> {low:g}" if low_open else f">= {low:g}"
+        raise ConfigError(f"{source}: [mill] {key} = {value!r}: must be {bound} and "
+                          f"<= {high:g}")
+    return round(value * scale)
+
+
+#: key -> (field, scale to the field's unit, lowest, highest, lowest excluded)
+_NUMBERS = {
+    "tip_mm": ("tip_nm", NM_PER_MM, 0.0, MAX_TOOL_MM, False),
+    "angle_deg": ("angle_mdeg", 1000, 0.0, 179.0, True),
+    "diameter_mm": ("diameter_nm", NM_PER_MM, 0.0, MAX_TOOL_MM, True),
+    "cut_depth_mm": ("cut_depth_nm", NM_PER_MM, 0.0, MAX_TOOL_MM, True),
+    "safe_height_mm": ("safe_height_nm", NM_PER_MM, 0.0, MAX_HEIGHT_MM, True),
+    "spindle_rpm": ("spindle_rpm", 1, 0.0, MAX_SPINDLE_RPM, False),
+    "feed_mm_min": ("feed_um_min", 1000, 1.0, 100_000.0, False),
+    "plunge_feed_mm_min": ("plunge_feed_um_min", 1000, 1.0, 100_000.0, False),
+    "overlap": ("overlap_permille", 1000, 0.0, MAX_OVERLAP, False),
+}
+_KEYS = ("tool", *_NUMBERS, "passes")
