@@ -95,7 +95,7 @@ PLAN_STAGES = {
     "transform": 0, "feeds": 0,
     "order": 1, "sides": 1,
     "ink": 2, "planner": 2,
-    "open_traces": 3, "drill_marks": 3,
+    "open_traces": 3, "drill_marks": 3, "board_lines": 3,
     "pipeline": 4, "board_plan": 5,
     "gcode_writer": 5,
 }
