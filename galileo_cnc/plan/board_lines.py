@@ -111,8 +111,20 @@ def keep_out(copper: list, lines: Sequence[np.ndarray], line_radius_nm: int, bar
 
 
 def clear_of(role: str, strokes: Sequence[np.ndarray], forbidden: list) -> BoardLines:
-    """The strokes cut to outside `forbidden`, and how much was cut away."""
-    kept = clip.open_difference(list(strokes), forbidden)
+    """The strokes cut to outside `forbidden`, and how much was cut away.
+
+    A stroke whose box meets no ring's box is kept whole without Clipper: Clipper
+    loses a horizontal open path that lies below every clip polygon (the bottom edge
+    of an outline round a board whose copper stops short of it, pyclipper 1.3)."""
+    boxes = np.array([(*np.min(ring, axis=0), *np.max(ring, axis=0)) for ring in forbidden],
+                     dtype=np.int64).reshape(-1, 4)
+    clear, near = [], []
+    for stroke in strokes:
+        low, high = np.min(stroke, axis=0), np.max(stroke, axis=0)
+        meets = (boxes[:, 0] <= high[0]) & (boxes[:, 2] >= low[0]) & \
+            (boxes[:, 1] <= high[1]) & (boxes[:, 3] >= low[1])
+        (near if meets.any() else clear).append(stroke)
+    kept = [_distinct(stroke) for stroke in clear] + clip.open_difference(near, forbidden)
     dots_before = sum(1 for s in strokes if len(_distinct(s)) == 1)
     dots_after = sum(1 for s in kept if len(s) == 1)
     dropped = max(0, round(_length(strokes) - _length(kept)))

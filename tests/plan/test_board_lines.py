@@ -180,3 +180,24 @@ def test_svg_preview_draws_outline_and_silk_apart_with_their_legend(planned, tmp
     x_mm = plan.axis.twice_nm / NM_PER_MM - x_mm
     ox, oy = (v / NM_PER_MM for v in plan.offset_nm)
     assert f'<circle cx="{x_mm - ox:.4f}" cy="{y_mm - oy:.4f}" r="0.2000"' in silk
+
+
+def test_clear_of_cuts_lines_across_copper_and_keeps_one_below_it_whole():
+    # a 10 mm square of keep-out: a line across it loses its 10 mm inside, a line below
+    # it is kept whole (Clipper alone loses a horizontal open path below every
+    # polygon: flashpads' outline is four lines, its bottom one below all copper)
+    from galileo_cnc.plan.board_lines import clear_of
+
+    mm = NM_PER_MM
+    square = [[[0, 0], [10 * mm, 0], [10 * mm, 10 * mm], [0, 10 * mm]]]
+    strokes = [np.array([[-5 * mm, -2 * mm], [15 * mm, -2 * mm]]),
+               np.array([[-5 * mm, 5 * mm], [15 * mm, 5 * mm]]),
+               np.array([[5 * mm, 5 * mm]]), np.array([[20 * mm, 5 * mm]])]
+    lines = clear_of("silk", strokes, square)
+    assert lines.dropped_nm == 10 * mm and lines.dropped_dots == 1
+    kept = sorted(sorted(map(tuple, s.tolist())) for s in lines.strokes)
+    assert kept == [[(-5 * mm, -2 * mm), (15 * mm, -2 * mm)], [(-5 * mm, 5 * mm), (0, 5 * mm)],
+                    [(10 * mm, 5 * mm), (15 * mm, 5 * mm)], [(20 * mm, 5 * mm)]]
+    assert lines.warning(400_000, 50_000) == (
+        "--silk: 10.00 mm of the silk and 1 dot left out within 0.250 mm of copper or a "
+        "drill mark (its ink there would join copper islands)")
