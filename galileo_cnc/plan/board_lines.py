@@ -14,7 +14,9 @@ pen of the profile (or of --pens): the lines are a drawing, not copper to fill.
   copper, the centre lines and registration crosses drawn past its edge) and of any
   drill mark: then it touches no island, and joins none;
 - `clear_of` cuts the lines to the keep-out and says how much length it cut away;
-- `with_lines` appends them to the side's program, one tool each, in path order.
+- `with_lines` appends them to the side's program, one tool each, in path order, the
+  chords of each arc (and of a circle the file drew as lines) fitted back into arcs
+  within the same tolerance, as the ink's walks are (ink/arcs.py).
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ import numpy as np
 
 from galileo_cnc.plan import curves
 from galileo_cnc.plan.ink import clip
+from galileo_cnc.plan.ink.arcs import fit_paths
 from galileo_cnc.plan.order import paths as path_order
 from galileo_cnc.program.extents import dark_mask, start_points
 from galileo_cnc.program.ops import COLUMNS, I, J, KIND, NM_PER_MM, TOOL, X, Y, Aperture, \
@@ -141,11 +144,13 @@ def _length(strokes: Sequence[np.ndarray]) -> float:
 
 
 def with_lines(program: Program, layers: Sequence[BoardLines], pen_nm: int,
-               join_nm: int) -> tuple[Program, dict[int, str], list[tuple[int, list[int]]]]:
+               join_nm: int, tolerance_nm: int
+               ) -> tuple[Program, dict[int, str], list[tuple[int, list[int]]]]:
     """`program` with each layer's lines appended after everything else, one new
     aperture (a round pen of `pen_nm`) a layer, each layer's paths in path order
-    (plan/order/paths.py) from where the rows before it end. (The program, tool ->
-    role, the appended rows in plotting order as (op index, row) pairs.)"""
+    (plan/order/paths.py) from where the rows before it end, arcs fitted within
+    `tolerance_nm` (the one the chords were made with). (The program, tool -> role,
+    the appended rows in plotting order as (op index, row) pairs.)"""
     tool = max(program.apertures, default=0) + 1
     apertures = dict(program.apertures)
     tables = [program.table]
@@ -156,7 +161,7 @@ def with_lines(program: Program, layers: Sequence[BoardLines], pen_nm: int,
     ordered: list[tuple[int, list[int]]] = []
     r = pen_nm // 2
     for layer in layers:
-        rows = _rows(layer.strokes, tool, here)
+        rows = _rows(layer.strokes, tool, here, tolerance_nm)
         if len(rows) <= 1:
             continue
         apertures[tool] = Aperture(tool, "circle", (pen_nm,), extent_nm=(-r, -r, r, r))
@@ -174,20 +179,25 @@ def with_lines(program: Program, layers: Sequence[BoardLines], pen_nm: int,
             roles, ordered)
 
 
-def _rows(strokes: Sequence[np.ndarray], tool: int, here: tuple[int, int]) -> np.ndarray:
-    """A SELECT of `tool`, then each stroke as a MOVE and LINEs, a dot as a FLASH."""
+def _rows(strokes: Sequence[np.ndarray], tool: int, here: tuple[int, int],
+          tolerance_nm: int) -> np.ndarray:
+    """A SELECT of `tool`, then each stroke as a MOVE and its lines and arcs, a dot as
+    a FLASH."""
     strokes = [_distinct(s) for s in strokes if len(s)]
-    count = 1 + sum(len(s) for s in strokes)
+    fitted = fit_paths(strokes, tolerance_nm, rows=True)
+    count = 1 + sum(1 if segments is None else 1 + len(segments) for segments in fitted)
     rows = np.zeros((count, len(COLUMNS)), dtype=np.int64)
     rows[:, TOOL] = tool
     rows[0, KIND] = _SELECT
     rows[0, [X, Y]] = here
     n = 1
-    for stroke in strokes:
-        rows[n:n + len(stroke), [X, Y]] = stroke
-        rows[n, KIND] = _FLASH if len(stroke) == 1 else _MOVE
-        rows[n + 1:n + len(stroke), KIND] = _LINE
-        n += len(stroke)
+    for stroke, segments in zip(strokes, fitted):
+        rows[n, [X, Y]] = stroke[0]
+        rows[n, KIND] = _FLASH if segments is None else _MOVE
+        n += 1
+        if segments is not None:
+            rows[n:n + len(segments)][:, [KIND, X, Y, I, J]] = segments
+            n += len(segments)
     return rows
 
 

@@ -419,7 +419,7 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
             drawn_lines = [clear_of(layer.role, layer.strokes, forbidden)
                            for layer in drawn_lines]
             plotted, roles, line_rows = with_lines(plotted, drawn_lines, pen,
-                                                   config.nm_per_step)
+                                                   config.nm_per_step, INK_TOLERANCE_NM)
             if ordered is not None and line_rows:
                 ordered = _ordered_with(ordered, line_rows)
         job = plan_program(plotted, config, offset_nm, group=not file_order,
