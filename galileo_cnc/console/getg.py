@@ -141,9 +141,9 @@ def _options(console, arguments: list[str]):
     """`--mode ink|centre`, `--pens 0.3,0.8` (the profile's pens otherwise), a DXF
     drawing's `--layers A,B` and `--units mm|in`, and `--optimize` (order G-code's
     paths too), before the file name; a board's `--side`, `--drill-marks`,
-    `--mirror-axis`, `--registration`, `--outline`, `--silk` and `--layer FILE=ROLE`; GalileoError for
-    anything else that starts with --. (PlanOptions, config, the board's choices as
-    BoardChoice's keywords, the rest)."""
+    `--mirror-axis`, `--registration`, `--outline`, `--silk` and `--layer FILE=ROLE`;
+    GalileoError for anything else that starts with --. (PlanOptions, config, the
+    board's choices as BoardChoice's keywords, the rest)."""
     mode, config, rest = "auto", console.config, list(arguments)
     layers: tuple[str, ...] = ()
     units = None
@@ -179,8 +179,7 @@ def _options(console, arguments: list[str]):
                                "[--units mm|in] [--optimize] [--scale F] [--rotate 90|180|270] "
                                "[--fit] [--side top|bottom] [--drill-marks none|small|actual] "
                                "[--mirror-axis x=MM] [--registration] [--outline] [--silk] "
-                               "[--layer FILE=ROLE] "
-                               "[FILE])")
+                               "[--layer FILE=ROLE] [FILE])")
     return PlanOptions(mode=mode, layers=layers, units=units, optimize=optimize,
                        transform=Transform.asked(scale, rotate, fit)), config, board, rest
 

@@ -196,7 +196,7 @@ def _rows(strokes: Sequence[np.ndarray], tool: int, here: tuple[int, int],
         rows[n, KIND] = _FLASH if segments is None else _MOVE
         n += 1
         if segments is not None:
-            rows[n:n + len(segments)][:, [KIND, X, Y, I, J]] = segments
+            rows[n:n + len(segments), [KIND, X, Y, I, J]] = segments
             n += len(segments)
     return rows
 

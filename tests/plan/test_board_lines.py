@@ -64,6 +64,13 @@ def test_outline_then_silk_after_all_copper_each_with_a_pen_change(planned):
         assert job.pen_labels[tool["outline"]] == "the outline pen (0.4 mm)"
         assert job.pen_labels[tool["silk"]] == "the silk pen (0.4 mm)"
         assert job.pen_widths_nm[tool["silk"]] == PEN_NM
+    # the top silk's half circle (1 mm radius) is one arc, not its chords
+    top = planned["top"]
+    silk = next(key for key, role in top.pen_roles.items() if role == "silk")
+    arcs = [c for c, key in zip(top.job.commands, top.job.aperture)
+            if isinstance(c, ArcTo) and key == silk]
+    assert len(arcs) == 1 and np.hypot(arcs[0].i_steps, arcs[0].j_steps) == \
+        pytest.approx(NM_PER_MM / CONFIG.nm_per_step, abs=1)
 
 
 def _pen_down_nm(plan, tool: int) -> np.ndarray:
