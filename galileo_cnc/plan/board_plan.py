@@ -114,6 +114,9 @@ def side_options(board: Board, choice: BoardChoice,
     if choice.silk and not any(board.files(role) for role in roles[3:]):
         raise BoardError(f"{board.source}: --silk: no file is top-silk or bottom-silk "
                          f"(info BOARD lists the files; --layer FILE=top-silk places one)")
+    if choice.outline and not board.files("outline"):
+        raise BoardError(f"{board.source}: --outline: no file is outline (info BOARD "
+                         f"lists the files; --layer FILE=outline places one)")
     for role in roles:
         path = _one(board, role, required=False)
         if path is None:
@@ -141,6 +144,10 @@ def plan_board(path: str | os.PathLike, config: MachineConfig | None = None,
     try:
         copper, side = side_options(board, choice, options)
         planned = plan_file(copper, config, offset, options=side, **kwargs)
+        if choice.silk and side.silk_program is None:
+            planned = dataclasses.replace(planned, line_warnings=(
+                *planned.line_warnings, f"--silk: no file is {choice.side}-silk: no silk "
+                f"on the {choice.side} side"))
     finally:
         if Path(path).suffix.lower() == ".zip":
             _UNPACKED.append(board)

@@ -208,3 +208,17 @@ def test_clear_of_cuts_lines_across_copper_and_keeps_one_below_it_whole():
     assert lines.warning(400_000, 50_000) == (
         "--silk: 10.00 mm of the silk and 1 dot left out within 0.250 mm of copper or a "
         "drill mark (its ink there would join copper islands)")
+
+
+def test_a_side_without_silk_says_so_and_a_board_without_an_outline_refuses_it(tmp_path):
+    from galileo_cnc.readers.board import BoardError
+
+    board = make_board(tmp_path / "board", silk=True)
+    (board / "board-B_SilkS.gbr").unlink()
+    bottom = plan_board(board, CONFIG, choice=BoardChoice(side="bottom", silk=True))
+    assert bottom.line_warnings == ("--silk: no file is bottom-silk: no silk on the bottom "
+                                    "side",)
+    assert not bottom.pen_roles
+    (board / "board-Edge_Cuts.gbr").unlink()
+    with pytest.raises(BoardError, match="--outline: no file is outline"):
+        plan_board(board, CONFIG, choice=BoardChoice(outline=True))
