@@ -405,17 +405,8 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
         drawn_lines = _board_lines(side, options) if side is not None else []
         roles: dict[int, str] = {}
         if drawn_lines:
-            if ink is not None:
-                forbidden = keep_out(ink.copper.native, inked_over + [
-                    piece for feature in ink.narrow for piece in feature.pieces], pen // 2,
-                    ink.bare, pen, CLEARANCE_NM, INK_TOLERANCE_NM)
-            else:
-                forbidden = keep_out(dark_geometry(artwork.program, INK_TOLERANCE_NM).native,
-                                     centre_lines(plotted, INK_TOLERANCE_NM),
-                                     max(options.pens_nm or config.pen_widths_nm) // 2,
-                                     [ring for mark in marks
-                                      for ring in mark.polygons(INK_TOLERANCE_NM)],
-                                     pen, CLEARANCE_NM, INK_TOLERANCE_NM)
+            forbidden = _lines_keep_out(ink, inked_over, artwork.program, plotted, marks, pen,
+                                        max(options.pens_nm or config.pen_widths_nm))
             drawn_lines = [clear_of(layer.role, layer.strokes, forbidden)
                            for layer in drawn_lines]
             plotted, roles, line_rows = with_lines(plotted, drawn_lines, pen,
@@ -457,6 +448,22 @@ def _board_lines(side: _Side, options: PlanOptions) -> list[BoardLines]:
         program = sides.side_program(program, side.name, side.axis)
         layers.append(BoardLines(role, tuple(centre_lines(program, INK_TOLERANCE_NM))))
     return layers
+
+
+def _lines_keep_out(ink: InkPlan | None, inked_over: list, copper: Program, plotted: Program,
+                    marks: list, pen_nm: int, widest_pen_nm: int) -> list:
+    """Where the outline and silk must not go (board_lines.keep_out): in ink mode the
+    ink's copper, its centre lines and crosses (the smallest pen's) and the bare marks;
+    in centre mode the copper and every centre line as the widest pen would draw it
+    (which pen an aperture gets is the user's), and the marks."""
+    if ink is not None:
+        lines = inked_over + [piece for feature in ink.narrow for piece in feature.pieces]
+        return keep_out(ink.copper.native, lines, pen_nm // 2, ink.bare, pen_nm,
+                        CLEARANCE_NM, INK_TOLERANCE_NM)
+    bare = [ring for mark in marks for ring in mark.polygons(INK_TOLERANCE_NM)]
+    return keep_out(dark_geometry(copper, INK_TOLERANCE_NM).native,
+                    centre_lines(plotted, INK_TOLERANCE_NM), widest_pen_nm // 2, bare, pen_nm,
+                    CLEARANCE_NM, INK_TOLERANCE_NM)
 
 
 def _ordered_with(ordered, rows: list[tuple[int, list[int]]]):
