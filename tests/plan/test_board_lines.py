@@ -217,6 +217,20 @@ def test_clear_of_cuts_lines_across_copper_and_keeps_one_below_it_whole():
         "drill mark (its ink there would join copper islands)")
 
 
+def test_clear_of_keeps_a_dot_in_a_hole_of_the_keep_out():
+    # a 10 mm square with a 2 mm hole (clockwise): a dot in the hole is off the copper
+    from galileo_cnc.plan.board_lines import clear_of
+
+    mm = NM_PER_MM
+    ring = [[[0, 0], [10 * mm, 0], [10 * mm, 10 * mm], [0, 10 * mm]],
+            [[4 * mm, 4 * mm], [4 * mm, 6 * mm], [6 * mm, 6 * mm], [6 * mm, 4 * mm]]]
+    dots = [np.array([[5 * mm, 5 * mm]]), np.array([[2 * mm, 2 * mm]]),
+            np.array([[4 * mm - 1, 5 * mm]])]
+    lines = clear_of("silk", dots, ring)
+    assert [s.tolist() for s in lines.strokes] == [[[5 * mm, 5 * mm]]]
+    assert lines.dropped_dots == 2 and lines.dropped_nm == 0
+
+
 def test_a_side_without_silk_says_so_and_a_board_without_an_outline_refuses_it(tmp_path):
     from galileo_cnc.readers.board import BoardError
 
