@@ -36,6 +36,10 @@ from galileo_cnc.program.ops import COLUMNS, I, J, KIND, NM_PER_MM, TOOL, X, Y, 
     OpKind, Program
 
 OUTLINE, SILK = "outline", "silk"
+#: the keep-out's curves are flattened within this, and it is grown by what the
+#: flattening and cleaning may take (keep_out): a fifth of the time of the ink's 2 um
+#: on arduino-uno's pours, for 20 to 30 um more left out
+KEEP_OUT_TOLERANCE_NM = 10_000
 #: what a pen change asks for (with the pen's width)
 PEN_NAMES = {OUTLINE: "the outline pen", SILK: "the silk pen"}
 
@@ -103,14 +107,17 @@ def centre_lines(program: Program, tolerance_nm: int) -> list[np.ndarray]:
 
 
 def keep_out(copper: list, lines: Sequence[np.ndarray], line_radius_nm: int, bare: list,
-             pen_nm: int, clearance_nm: int, tolerance_nm: int) -> list:
+             pen_nm: int, clearance_nm: int) -> list:
     """Where a line drawn with a pen of `pen_nm` must not go, a pyclipper set: within
     the pen's radius plus `clearance_nm` of the copper, of the centre lines inked past
-    it (`lines`, drawn `line_radius_nm` wide each side) and of the bare drill marks."""
-    inked = clip.stroke_in_strips([line for line in lines if len(line)], line_radius_nm,
-                                  tolerance_nm) if len(lines) else []
-    reach = pen_nm // 2 + clearance_nm + tolerance_nm
-    return clip.offset(clip.union(copper, inked, bare), reach, tolerance_nm)
+    it (`lines`, drawn `line_radius_nm` wide each side) and of the bare drill marks
+    (Clipper's flattened curves lie inside the true ones: grown by what they may
+    miss, KEEP_OUT_TOLERANCE_NM, it holds them all)."""
+    tolerance = KEEP_OUT_TOLERANCE_NM
+    inked = clip.stroke_in_strips([line for line in lines if len(line)],
+                                  line_radius_nm + tolerance, tolerance) if len(lines) else []
+    reach = pen_nm // 2 + clearance_nm + 2 * tolerance
+    return clip.offset(clip.union(copper, inked, bare), reach, tolerance)
 
 
 def clear_of(role: str, strokes: Sequence[np.ndarray], forbidden: list) -> BoardLines:
@@ -222,6 +229,8 @@ def _rows(strokes: Sequence[np.ndarray], tool: int, here: tuple[int, int],
 def _distinct(stroke: np.ndarray) -> np.ndarray:
     """The polyline without a point repeated right after itself (a dot: one point)."""
     points = np.asarray(stroke, dtype=np.int64).reshape(-1, 2)
+    if len(points) < 2:                 # a dot (most of a logo's flashes)
+        return points
     keep = np.ones(len(points), dtype=bool)
     keep[1:] = np.any(points[1:] != points[:-1], axis=1)
     return points[keep]

@@ -458,12 +458,11 @@ def _lines_keep_out(ink: InkPlan | None, inked_over: list, copper: Program, plot
     (which pen an aperture gets is the user's), and the marks."""
     if ink is not None:
         lines = inked_over + [piece for feature in ink.narrow for piece in feature.pieces]
-        return keep_out(ink.copper.native, lines, pen_nm // 2, ink.bare, pen_nm,
-                        CLEARANCE_NM, INK_TOLERANCE_NM)
+        return keep_out(ink.copper.native, lines, pen_nm // 2, ink.bare, pen_nm, CLEARANCE_NM)
     bare = [ring for mark in marks for ring in mark.polygons(INK_TOLERANCE_NM)]
     return keep_out(dark_geometry(copper, INK_TOLERANCE_NM).native,
                     centre_lines(plotted, INK_TOLERANCE_NM), widest_pen_nm // 2, bare, pen_nm,
-                    CLEARANCE_NM, INK_TOLERANCE_NM)
+                    CLEARANCE_NM)
 
 
 def _ordered_with(ordered, rows: list[tuple[int, list[int]]]):
