@@ -97,7 +97,7 @@ PLAN_STAGES = {
     "order": 1, "sides": 1,
     "ink": 2, "planner": 2,
     "mill": 3,                              # milling builds on the ink's exact copper
-    "open_traces": 3, "drill_marks": 3,
+    "open_traces": 3, "drill_marks": 3, "board_lines": 3,
     "pipeline": 4, "board_plan": 5,
     "gcode_writer": 5,
 }

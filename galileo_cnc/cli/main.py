@@ -107,8 +107,9 @@ def _feed_notes(program, config) -> list[str]:
 
 
 def _say_feed_warnings(planned) -> None:
-    """preview and convert: their result goes to stdout, the feed warnings to stderr."""
-    for warning in planned.feed_warnings:
+    """preview and convert: their result goes to stdout, the feed warnings (and a
+    board's outline and silk left out near copper) to stderr."""
+    for warning in (*planned.feed_warnings, *getattr(planned, "line_warnings", ())):
         print(warning, file=sys.stderr)
 
 
@@ -219,14 +220,16 @@ def _run_preview(args: argparse.Namespace) -> int:
         if kind == "svg":               # from the job's commands: nothing to step
             from galileo_cnc.preview.svg import render_svg
             info = render_svg(planned.program, planned.job, config, planned.offset_nm,
-                              args.output, copper=planned.copper)
+                              args.output, copper=planned.copper,
+                              pen_roles=getattr(planned, "pen_roles", None))
         else:
             # the job's path from its commands: the reference machine's steps to
             # within one, without planning or stepping them (docs/preview.md, "Cost")
             path = JobPath(planned.job.commands, config)
             info = render_preview(planned.program, path, config, planned.offset_nm,
                                   args.output, job=planned.job, copper=planned.copper,
-                                  marks=planned.marks)
+                                  marks=planned.marks,
+                                  pen_roles=getattr(planned, "pen_roles", None))
     except OSError as problem:
         raise GalileoError(f"--output {args.output}: cannot write: {problem.strerror}") from None
     print(f"{args.output}: {info.summary()}")
@@ -368,6 +371,13 @@ def _add_board_options(parser: argparse.ArgumentParser) -> None:
                         "(default: the vertical centre line of the outline, else of the holes)")
     parser.add_argument("--registration", action="store_true",
                         help="a board: crosses drawn on both sides to check the turn-over")
+    parser.add_argument("--outline", action="store_true",
+                        help="a board: draw the outline as a centre line after the copper, "
+                        "with a pen of its own (the finest pen), kept off the copper")
+    parser.add_argument("--silk", action="store_true",
+                        help="a board: draw the side's silkscreen as centre lines after the "
+                        "copper and the outline, with a pen of its own (the finest pen), "
+                        "kept off the copper")
     _add_layer_option(parser)
 
 
@@ -384,6 +394,7 @@ def _board_choice(args: argparse.Namespace):
              else round(args.drill_mark_size * NM_PER_MM),
              "mirror_axis": axis,
              "registration": args.registration or None,
+             "outline": args.outline or None, "silk": args.silk or None,
              "layers": tuple(args.layer) if args.layer else None}
     given = {key: value for key, value in given.items() if value is not None}
     return BoardChoice(**given) if given else None

@@ -328,7 +328,8 @@ def _say_place(planned, out: TextIO) -> None:
     offset = planned.offset_nm
     if getattr(planned, "side_line", ""):
         out.write(f"{planned.side_line}\n")
-    for warning in warnings_to_show(getattr(planned, "drill_mark_warnings", ())):
+    for warning in (*warnings_to_show(getattr(planned, "drill_mark_warnings", ())),
+                    *getattr(planned, "line_warnings", ())):
         out.write(f"{warning}\n")
     if box is not None:
         done = planned.artwork.transform.describe()
@@ -368,7 +369,8 @@ def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO)
     if svg:
         from galileo_cnc.preview.svg import render_svg      # from the commands: no trace
         info = render_svg(planned.program, planned.job, config, planned.offset_nm,
-                          options.preview, copper=planned.copper)
+                          options.preview, copper=planned.copper,
+                          pen_roles=getattr(planned, "pen_roles", None))
         out.write(f"preview: {options.preview}: {info.summary()}\n")
     if options.trace:
         reported = recorder.trace()
@@ -387,5 +389,6 @@ def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO)
         from galileo_cnc.preview.render import render_preview
         info = render_preview(planned.program, JobPath(planned.job.commands, config), config,
                               planned.offset_nm, options.preview, job=planned.job,
-                              copper=planned.copper, marks=planned.marks)
+                              copper=planned.copper, marks=planned.marks,
+                              pen_roles=getattr(planned, "pen_roles", None))
         out.write(f"preview: {options.preview}: {info.summary()}{machine.preview_note}\n")

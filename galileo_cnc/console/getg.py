@@ -38,9 +38,9 @@ def run(console, arguments: list[str]) -> None:
         _board(console, os.path.expanduser(path), options, config, board)
         return
     if board:
-        raise GalileoError(f"getg: --side, --drill-marks, --mirror-axis, --registration and "
-                           f"--layer are for a board (a folder, .zip or .gbrjob); {path} is "
-                           f"one file")
+        raise GalileoError(f"getg: --side, --drill-marks, --mirror-axis, --registration, "
+                           f"--outline, --silk and --layer are for a board (a folder, .zip "
+                           f"or .gbrjob); {path} is one file")
     artwork = load_artwork(os.path.expanduser(path), layers=options.layers,
                            units=options.units, transform=options.transform,
                            config=console.config)     # GalileoError: one message, no traceback
@@ -117,7 +117,8 @@ def _board(console, path: str, options: PlanOptions, config, board: dict) -> Non
                                      options=options, on_stage=console.say_stage)
             offset = planned.offset_nm      # the other side: the same offset
         console.say(planned.side_line)
-        for warning in warnings_to_show(planned.drill_mark_warnings):
+        for warning in (*warnings_to_show(planned.drill_mark_warnings),
+                        *planned.line_warnings):
             console.say(warning)
         if side == "bottom" and not one_side:
             if not console.confirm(f"turn the blank over about {turn_over_line(planned)} "
@@ -140,9 +141,9 @@ def _options(console, arguments: list[str]):
     """`--mode ink|centre`, `--pens 0.3,0.8` (the profile's pens otherwise), a DXF
     drawing's `--layers A,B` and `--units mm|in`, and `--optimize` (order G-code's
     paths too), before the file name; a board's `--side`, `--drill-marks`,
-    `--mirror-axis`, `--registration` and `--layer FILE=ROLE`; GalileoError for
-    anything else that starts with --. (PlanOptions, config, the board's choices as
-    BoardChoice's keywords, the rest)."""
+    `--mirror-axis`, `--registration`, `--outline`, `--silk` and `--layer FILE=ROLE`;
+    GalileoError for anything else that starts with --. (PlanOptions, config, the
+    board's choices as BoardChoice's keywords, the rest)."""
     mode, config, rest = "auto", console.config, list(arguments)
     layers: tuple[str, ...] = ()
     units = None
@@ -154,8 +155,8 @@ def _options(console, arguments: list[str]):
         if flag in ("--optimize", "--fit"):       # the options without a value
             optimize, fit = optimize or flag == "--optimize", fit or flag == "--fit"
             continue
-        if flag == "--registration":
-            board["registration"] = True
+        if flag in ("--registration", "--outline", "--silk"):
+            board[flag[2:]] = True
             continue
         value = rest.pop(0) if rest else ""
         if flag in BOARD_FLAGS:
@@ -177,8 +178,8 @@ def _options(console, arguments: list[str]):
                                + " (getg [--mode ink|centre] [--pens MM,MM] [--layers A,B] "
                                "[--units mm|in] [--optimize] [--scale F] [--rotate 90|180|270] "
                                "[--fit] [--side top|bottom] [--drill-marks none|small|actual] "
-                               "[--mirror-axis x=MM] [--registration] [--layer FILE=ROLE] "
-                               "[FILE])")
+                               "[--mirror-axis x=MM] [--registration] [--outline] [--silk] "
+                               "[--layer FILE=ROLE] [FILE])")
     return PlanOptions(mode=mode, layers=layers, units=units, optimize=optimize,
                        transform=Transform.asked(scale, rotate, fit)), config, board, rest
 

@@ -1,9 +1,11 @@
 """A board's side as one job: `plot BOARD --side top|bottom`, `getg BOARD`.
 
 The board (readers/board/: a folder, a .zip or a .gbrjob) gives the side's copper,
-every drill file's holes and slots (readers/excellon/), and the outline; plan_file
-then leaves the holes' drill marks bare in the ink, mirrors the bottom about the
-axis and offsets both sides by one offset (pipeline.py, sides.py, drill_marks.py).
+every drill file's holes and slots (readers/excellon/), the outline and, asked for,
+the side's silkscreen; plan_file then leaves the holes' drill marks bare in the ink,
+mirrors the bottom about the axis, offsets both sides by one offset and draws the
+outline and silk after the copper (pipeline.py, sides.py, drill_marks.py,
+board_lines.py).
 The job's source becomes the board and `job.board` the user's choices
 (BoardChoice), so the journal keeps both and a resume plans the same side again.
 """
@@ -34,7 +36,8 @@ _UNPACKED: list[Board] = []
 class BoardChoice:
     """What the user chose for a board: the side, the drill marks, the mirror axis
     (("x" | "y", nm) in board coordinates; None: the default), registration
-    crosses, and `FILE=ROLE` overrides of the files' roles."""
+    crosses, `FILE=ROLE` overrides of the files' roles, and whether the outline and
+    the side's silkscreen are drawn after the copper."""
 
     side: str = "top"
     drill_marks: str = "small"
@@ -42,6 +45,8 @@ class BoardChoice:
     mirror_axis: tuple[str, int] | None = None
     registration: bool = False
     layers: tuple[str, ...] = ()
+    outline: bool = False
+    silk: bool = False
 
     def as_dict(self) -> dict:
         """For job.board and the journal (JSON)."""
@@ -103,7 +108,16 @@ def side_options(board: Board, choice: BoardChoice,
     side_path = _one(board, f"{choice.side}-copper", required=True)
     copper = None
     boxes = []
-    for role in ("top-copper", "bottom-copper", "outline"):
+    # with --silk both sides' silk counts in the box: the one offset fits both sides
+    roles = ("top-copper", "bottom-copper", "outline") + \
+        (("top-silk", "bottom-silk") if choice.silk else ())
+    if choice.silk and not any(board.files(role) for role in roles[3:]):
+        raise BoardError(f"{board.source}: --silk: no file is top-silk or bottom-silk "
+                         f"(info BOARD lists the files; --layer FILE=top-silk places one)")
+    if choice.outline and not board.files("outline"):
+        raise BoardError(f"{board.source}: --outline: no file is outline (info BOARD "
+                         f"lists the files; --layer FILE=outline places one)")
+    for role in roles:
         path = _one(board, role, required=False)
         if path is None:
             continue
@@ -113,10 +127,13 @@ def side_options(board: Board, choice: BoardChoice,
             copper = program
         if role == "outline":
             options = dataclasses.replace(options, outline_program=program)
+        if role == f"{choice.side}-silk":
+            options = dataclasses.replace(options, silk_program=program)
     return copper, dataclasses.replace(
         options, holes=tuple(board_holes(board)), drill_marks=choice.drill_marks,
         drill_mark_nm=choice.drill_mark_nm, side=choice.side, mirror_axis=choice.mirror_axis,
-        registration=choice.registration, board_box_nm=union_box(*boxes))
+        registration=choice.registration, board_box_nm=union_box(*boxes),
+        outline=choice.outline)
 
 
 def plan_board(path: str | os.PathLike, config: MachineConfig | None = None,
@@ -127,6 +144,10 @@ def plan_board(path: str | os.PathLike, config: MachineConfig | None = None,
     try:
         copper, side = side_options(board, choice, options)
         planned = plan_file(copper, config, offset, options=side, **kwargs)
+        if choice.silk and side.silk_program is None:
+            planned = dataclasses.replace(planned, line_warnings=(
+                *planned.line_warnings, f"--silk: no file is {choice.side}-silk: no silk "
+                f"on the {choice.side} side"))
     finally:
         if Path(path).suffix.lower() == ".zip":
             _UNPACKED.append(board)
@@ -157,6 +178,6 @@ def plan_source(source: str | os.PathLike, config: MachineConfig | None = None,
                           options=options, **kwargs)
     if board is not None:
         raise BoardError(f"{os.fsdecode(source)}: --side, --drill-marks, --mirror-axis, "
-                         f"--registration and --layer are for a board (a folder, .zip or "
-                         f".gbrjob), and this is one file")
+                         f"--registration, --outline, --silk and --layer are for a board "
+                         f"(a folder, .zip or .gbrjob), and this is one file")
     return plan_file(source, config, offset, options=options, **kwargs)

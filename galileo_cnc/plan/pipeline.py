@@ -13,7 +13,8 @@ said in `PlannedFile.feed_warnings`.
 A board's side (`PlanOptions.side`, docs/boards.md): the bottom is
 mirrored about the axis (sides.py) as it is read, its holes with it, and both sides
 take one offset; the holes' drill marks are left bare in the ink (drill_marks.py), and
-registration crosses drawn after the copper.
+registration crosses drawn after the copper; then the outline and the silkscreen as
+centre lines, each with a pen of its own, kept off the copper (board_lines.py).
 """
 
 from __future__ import annotations
@@ -23,20 +24,27 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence, Union
 
+import numpy as np
+
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.job import Job
 from galileo_cnc.plan.collector import collector_paused
 from galileo_cnc.plan.feeds import check_feeds
 from galileo_cnc.plan import sides
+from galileo_cnc.plan.board_lines import (PEN_NAMES, OUTLINE, SILK, BoardLines, centre_lines,
+                                          clear_of, keep_out, with_lines)
 from galileo_cnc.plan.drill_marks import (DEFAULT_DRILL_MARK_NM, DRILL_MARK_MODES, MarkCutter,
                                           clear_centre_lines, clear_strokes, marks_for,
                                           ring_flashes)
 from galileo_cnc.plan.ink.islands import CLEARANCE_NM
+from galileo_cnc.plan.ink.geometry import dark_geometry
 from galileo_cnc.plan.ink.inking import (DEFAULT_EDGE_MARGIN_NM, INK_TOLERANCE_NM, InkPlan,
                                          ink_paths)
+from galileo_cnc.plan.order.apertures import OrderedRows
 from galileo_cnc.plan.offsets import (DEFAULT_MARGIN_NM, OffsetError, offset_for_box,
                                       offset_from_text)
 from galileo_cnc.plan.planner import PlanError, plan_program
+from galileo_cnc.plan.widths import mm_text
 from galileo_cnc.plan.transform import (NO_TRANSFORM, Transform, TransformError,
                                         apply_transform, reach_box)
 from galileo_cnc.program.drills import Hole, Slot, drills_box
@@ -120,7 +128,10 @@ class PlanOptions:
     the holes' box, and its mirror image. `holes`: the board's Hole and Slot objects in
     board coordinates (program/drills.py), left bare as `drill_marks` ("none", "small":
     dots `drill_mark_nm` wide, "actual": the holes) in the ink; `registration`: crosses
-    on holes far apart (else outside the outline) after the copper, on both sides."""
+    on holes far apart (else outside the outline) after the copper, on both sides.
+    `outline`: `outline_program` drawn as centre lines after the copper, and
+    `silk_program` (the side's silkscreen, board coordinates) after it, each with a
+    pen of its own as wide as the finest pen, cut away near copper (board_lines.py)."""
 
     mode: str = "auto"
     pens_nm: tuple[int, ...] = ()
@@ -137,6 +148,8 @@ class PlanOptions:
     registration: bool = False
     outline_program: Program | None = None
     board_box_nm: Box | None = None
+    outline: bool = False
+    silk_program: Program | None = None
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -150,6 +163,9 @@ class PlanOptions:
             raise PlanError("--drill-mark-size: expected a width above 0 mm")
         if self.side is not None and self.side not in sides.SIDES:
             raise PlanError(f"--side: expected top or bottom, got {self.side!r}")
+        if self.outline and self.outline_program is None:
+            raise PlanError("--outline: the board has no outline file (info BOARD lists "
+                            "the files; --layer FILE=outline places one)")
         if self.on_board and not self.transform.is_identity:
             raise PlanError("--scale, --rotate and --fit change a drawing, not a board's side: "
                             "its holes and its other side would no longer match")
@@ -192,6 +208,11 @@ class PlannedFile:
     marks: list = dataclasses.field(default_factory=list)
     #: a board's side: the line it turns over about (sides.MirrorAxis; None: a file)
     axis: object = None
+    #: the outline and silk left out near copper, one line each (board_lines.py)
+    line_warnings: tuple[str, ...] = ()
+    #: the tools of the outline and the silk: tool -> "outline" | "silk" (previews
+    #: colour them)
+    pen_roles: dict = dataclasses.field(default_factory=dict)
 
     @property
     def program(self) -> Program:
@@ -334,6 +355,7 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
         pen = _smallest_pen(options, config)
         mark_warnings: list[str] = []
         cutter = None
+        inked_over: list = []      # centre lines inked past the copper's edge, and crosses
         if mode == "ink":
             # a mark leaves a ring the smallest pen fills: its width and the edge margins
             # (the ink's own limit for what it fills, inking.py)
@@ -352,9 +374,11 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
                 # walks of the smallest pen, clear of the marks, of the centre lines' ink
                 # and of every island but the hole's own pad
                 lines = [piece for feature in paths.narrow for piece in feature.pieces]
-                paths.add_strokes(clear_strokes(sides.cross_strokes(side.crosses),
-                                                paths.copper.native, paths.bare, pen,
-                                                CLEARANCE_NM, INK_TOLERANCE_NM, lines))
+                crosses = clear_strokes(sides.cross_strokes(side.crosses),
+                                        paths.copper.native, paths.bare, pen,
+                                        CLEARANCE_NM, INK_TOLERANCE_NM, lines)
+                paths.add_strokes(crosses)
+                inked_over += crosses
             # path order from the walks' ends meanwhile (walk_order.py), as
             # plan_program would order the rows, while their arcs are fitted
             order = paths.start_order(offset_nm, config.nm_per_step) \
@@ -378,8 +402,21 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
                 # centre lines: the crosses with a pen of their own, last
                 plotted = sides.with_strokes(plotted, sides.cross_strokes(side.crosses),
                                              max(plotted.apertures, default=0) + 1, pen)
+        drawn_lines = _board_lines(side, options) if side is not None else []
+        roles: dict[int, str] = {}
+        if drawn_lines:
+            forbidden = _lines_keep_out(ink, inked_over, artwork.program, plotted, marks, pen,
+                                        max(options.pens_nm or config.pen_widths_nm))
+            drawn_lines = [clear_of(layer.role, layer.strokes, forbidden)
+                           for layer in drawn_lines]
+            plotted, roles, line_rows = with_lines(plotted, drawn_lines, pen,
+                                                   config.nm_per_step, INK_TOLERANCE_NM)
+            if ordered is not None and line_rows:
+                ordered = _ordered_with(ordered, line_rows)
         job = plan_program(plotted, config, offset_nm, group=not file_order,
                            on_progress=on_progress, optimize=optimize, ordered=ordered)
+        for tool, role in roles.items():
+            job.pen_labels[tool] = f"{PEN_NAMES[role]} ({mm_text(pen)} mm)"
         # freed before the collector runs again: its first collection walks what was
         # made while it was paused and is still held (hellboard: 0.15 s with these rows)
         ordered = None
@@ -392,6 +429,47 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
                                tuple(feed_warnings))
         bare = cutter.fitted.bare(INK_TOLERANCE_NM, 0) if cutter is not None else []
         line = side.axis.describe(side.name, offset_nm) if side.turned_over else ""
+        line_warnings = tuple(w for layer in drawn_lines
+                              if (w := layer.warning(pen, CLEARANCE_NM)) is not None)
         return PlannedFile(artwork, offset_nm, job, plotted, mode, ink, tuple(feed_warnings),
                            line, tuple(mark_warnings), side.holes, bare,
-                           side.axis if side.turned_over else None)
+                           side.axis if side.turned_over else None, line_warnings, roles)
+
+
+def _board_lines(side: _Side, options: PlanOptions) -> list[BoardLines]:
+    """The outline (if asked for) and the side's silk as centre lines, as plotted on
+    the side (the bottom's mirrored about its axis), before they are kept off copper."""
+    wanted = [(OUTLINE, options.outline_program if options.outline else None),
+              (SILK, options.silk_program)]
+    layers = []
+    for role, program in wanted:
+        if program is None:
+            continue
+        program = sides.side_program(program, side.name, side.axis)
+        layers.append(BoardLines(role, tuple(centre_lines(program, INK_TOLERANCE_NM))))
+    return layers
+
+
+def _lines_keep_out(ink: InkPlan | None, inked_over: list, copper: Program, plotted: Program,
+                    marks: list, pen_nm: int, widest_pen_nm: int) -> list:
+    """Where the outline and silk must not go (board_lines.keep_out): in ink mode the
+    ink's copper, its centre lines and crosses (the smallest pen's) and the bare marks;
+    in centre mode the copper and every centre line as the widest pen would draw it
+    (which pen an aperture gets is the user's), and the marks."""
+    if ink is not None:
+        lines = inked_over + [piece for feature in ink.narrow for piece in feature.pieces]
+        return keep_out(ink.copper.native, lines, pen_nm // 2, ink.bare, pen_nm, CLEARANCE_NM)
+    bare = [ring for mark in marks for ring in mark.polygons(INK_TOLERANCE_NM)]
+    return keep_out(dark_geometry(copper, INK_TOLERANCE_NM).native,
+                    centre_lines(plotted, INK_TOLERANCE_NM), widest_pen_nm // 2, bare, pen_nm,
+                    CLEARANCE_NM)
+
+
+def _ordered_with(ordered, rows: list[tuple[int, list[int]]]):
+    """The ink's rows in plotting order, then `rows` (the outline's and silk's)."""
+    if isinstance(ordered, OrderedRows):
+        return OrderedRows(np.concatenate([ordered.indices,
+                                           np.array([i for i, _ in rows], dtype=np.int64)]),
+                           np.concatenate([ordered.table,
+                                           np.array([r for _, r in rows], dtype=np.int64)]))
+    return list(ordered) + rows

@@ -11,7 +11,9 @@
 3. given the `job`, each pen's strokes at that pen's width (round ends, a flash
    as the pen's disc); given the `copper` as well (an ink plan's), the copper the
    ink leaves bare and the ink outside the copper in colours of their own, with
-   their areas in PreviewInfo (docs/preview.md, "Ink").
+   their areas in PreviewInfo (docs/preview.md, "Ink"); a board's outline and silk
+   pens (`pen_roles`) in colours of their own (LINE_COLOURS), not counted as ink
+   outside the copper: they are drawn off it on purpose (docs/boards.md).
 
 Artwork coordinates are the file's (nm); subtracting `offset_nm` gives work
 coordinates, the frame the job and its trace use (docs/preview.md).
@@ -51,6 +53,8 @@ TRAVEL = (190, 190, 190)        # light grey
 UNINKED = (255, 120, 0)         # orange: copper the ink leaves bare
 OUTSIDE = (220, 0, 200)         # magenta: ink outside the copper
 DRILL_MARK = (255, 255, 255)    # white: a drill mark the ink leaves bare, as the hole will be
+#: a board's outline and silkscreen pens (plan/board_lines.py): green and ochre
+LINE_COLOURS = {"outline": (0, 140, 70), "silk": (200, 150, 0)}
 
 DEFAULT_PX_PER_MM = 20.0
 DEFAULT_MAX_PX = 4000
@@ -104,7 +108,7 @@ def render_preview(program: Program, trace: Steps, config: MachineConfig,
                    pygerber_limit: int = DEFAULT_PYGERBER_LIMIT,
                    job: Job | None = None, pen_widths_nm: dict[int, int] | None = None,
                    copper=None, ink_tolerance_nm: int | None = None,
-                   marks=None) -> PreviewInfo:
+                   marks=None, pen_roles: dict[int, str] | None = None) -> PreviewInfo:
     """Draw the trace's pen strokes over the artwork and save the image (PNG etc.).
 
     `trace` must be the run of the job planned from `program` with `offset_nm`,
@@ -124,6 +128,9 @@ def render_preview(program: Program, trace: Steps, config: MachineConfig,
     within `ink_tolerance_nm` (default one motor step) are not counted. `marks` (a
     board's drill marks, a pyclipper polygon set in program nm) are painted in
     DRILL_MARK where no stroke covers them, and are not counted as bare copper.
+    `pen_roles` (pen key -> "outline" | "silk", PlannedFile.pen_roles): those pens'
+    strokes are painted in LINE_COLOURS over the rest, and are neither ink outside
+    the copper nor ink over it.
     """
     if pen_widths_nm is not None and job is None:
         raise ValueError("pen_widths_nm needs the job: it says which pen draws when")
@@ -159,13 +166,19 @@ def render_preview(program: Program, trace: Steps, config: MachineConfig,
         # each pen's sweep, exactly (_SweepPainter): one painter per pen width
         ink = np.zeros((size[1], size[0]), dtype=np.uint8)
         default_nm = round(pen_width_mm * NM_PER_MM)
+        keys = [None] * len(runs.strokes) if job is None else \
+            pen_stretches(job, config, start, trace).key_at(runs.strokes[:, 0])
         widths = np.full(len(runs.strokes), default_nm, dtype=np.int64) if job is None else \
-            _stroke_widths_nm(runs.strokes, job, config, start, default_nm,
-                              job.pen_widths_nm if pen_widths_nm is None else pen_widths_nm,
-                              trace)
-        strokes = [_SweepPainter(runs.strokes[widths == w], ink, w / 2 / NM_PER_MM * scale,
-                                 to_px, spm, sample)
-                   for w in (np.unique(widths).tolist() or [default_nm])]
+            _stroke_widths_nm(keys, default_nm,
+                              job.pen_widths_nm if pen_widths_nm is None else pen_widths_nm)
+        # the outline's and silk's strokes on masks of their own, painted over the ink
+        roles = np.array([(pen_roles or {}).get(key, "") for key in keys], dtype=object)
+        lines = {role: np.zeros_like(ink) for role in set(roles.tolist()) - {""}}
+        pens = sorted(set(zip(widths.tolist(), roles.tolist()))) or [(default_nm, "")]
+        strokes = [_SweepPainter(runs.strokes[(widths == w) & (roles == role)],
+                                 lines.get(role, ink), w / 2 / NM_PER_MM * scale, to_px, spm,
+                                 sample)
+                   for w, role in pens]
     else:
         stroke_mask = Image.new("L", size, 0)
         pen_px = max(1, round(pen_width_mm * scale))
@@ -193,7 +206,9 @@ def render_preview(program: Program, trace: Steps, config: MachineConfig,
         bare, stray = _paint_ink(canvas, ink, outlines, mark_edges)
         if copper is not None:
             uninked, outside = bare / scale ** 2, stray / scale ** 2
-        del ink
+        for role, mask in sorted(lines.items()):
+            canvas.paste(LINE_COLOURS.get(role, STROKE), (0, 0) + size, Image.fromarray(mask))
+        del ink, lines
     else:
         canvas.paste(STROKE, (0, 0) + size, stroke_mask)
     canvas.save(out_path)
@@ -265,12 +280,10 @@ def pen_stretches(job: Job, config: MachineConfig, start: tuple[int, int, int] =
     return PenStretches(np.asarray(firsts, dtype=np.int64), keys)
 
 
-def _stroke_widths_nm(strokes: np.ndarray, job: Job, config: MachineConfig,
-                      start: tuple[int, int, int], default_nm: int,
-                      widths_nm: dict[int, int], trace: Steps) -> np.ndarray:
-    """Pen width (nm) of each stroke run (first, last events): the pen in the holder
-    at its first event; `default_nm` for a pen of width 0 or unknown."""
-    keys = pen_stretches(job, config, start, trace).key_at(strokes[:, 0])
+def _stroke_widths_nm(keys: list[int | None], default_nm: int,
+                      widths_nm: dict[int, int]) -> np.ndarray:
+    """Pen width (nm) of each stroke run, given the pen in the holder at its first
+    event (`keys`, PenStretches.key_at); `default_nm` for a pen of width 0 or unknown."""
     width = {key: int(widths_nm.get(key) or 0) for key in set(keys)}
     return np.array([width[key] if width[key] > 0 else default_nm for key in keys],
                     dtype=np.int64)

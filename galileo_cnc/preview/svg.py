@@ -10,7 +10,8 @@ on the largest boards), in work mm with Y up (a flipped group; texts outside it)
    Given the copper, the copper is painted in UNINKED under the strokes (what stays
    orange is bare copper), the strokes inside it in STROKE and outside it in OUTSIDE
    (the same strokes drawn twice, each clipped to one side of the copper's edge);
-4. a legend (ink, bare copper, ink outside, travel), a scale bar, and the origin
+   a board's outline and silk pens (`pen_roles`) in render.LINE_COLOURS, unclipped;
+4. a legend (ink, bare copper, ink outside, outline, silk, travel), a scale bar, and the origin
    (work X 0, Y 0) as a cross.
 
 The file's width and height are in mm: printed at 100 % it is the plot's size.
@@ -30,7 +31,8 @@ import numpy as np
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.job import ArcTo, Flash, Job, LineTo, PenDown, PenUp, Rapid
 from galileo_cnc.preview.artwork import ART, path_width_mm
-from galileo_cnc.preview.render import OUTSIDE, STROKE, TRAVEL, UNINKED, copper_rings
+from galileo_cnc.preview.render import (LINE_COLOURS, OUTSIDE, STROKE, TRAVEL, UNINKED,
+                                        copper_rings)
 from galileo_cnc.program.extents import extents, start_points
 from galileo_cnc.program.ops import I, J, KIND, NM_PER_MM, TOOL, VALUE, X, Y, OpKind, Program
 
@@ -66,6 +68,9 @@ class _Paths:
     def __init__(self) -> None:
         self.down: dict[int, list[str]] = {}     # pen width nm -> path pieces
         self.dots: dict[int, list[tuple[float, float]]] = {}
+        # a board's outline and silk: role -> their own `down` and `dots`
+        self.lines: dict[str, tuple[dict[int, list[str]],
+                                    dict[int, list[tuple[float, float]]]]] = {}
         self.travel: list[str] = []
         self.strokes = 0
         self.drawn_mm = self.travel_mm = 0.0
@@ -77,8 +82,10 @@ class _Paths:
         self.hi = [max(self.hi[0], x), max(self.hi[1], y)]
 
 
-def job_paths(job: Job, config: MachineConfig, widths_nm: dict[int, int]) -> _Paths:
-    """Walk the job from work (0, 0): pen state, pen in the holder, each move's path."""
+def job_paths(job: Job, config: MachineConfig, widths_nm: dict[int, int],
+              pen_roles: dict[int, str] | None = None) -> _Paths:
+    """Walk the job from work (0, 0): pen state, pen in the holder, each move's path
+    (the pens of `pen_roles` apart, in `lines`)."""
     mm = 1 / config.steps_per_mm
     default_nm = round(DEFAULT_PEN_MM * NM_PER_MM)
     paths = _Paths()
@@ -93,12 +100,15 @@ def job_paths(job: Job, config: MachineConfig, widths_nm: dict[int, int]) -> _Pa
         if index in changes:
             pen = changes[index]
         width = int(widths_nm.get(pen) or 0) or default_nm
+        role = (pen_roles or {}).get(pen)
+        down_at, dots_at = (paths.down, paths.dots) if role is None else \
+            paths.lines.setdefault(role, ({}, {}))
         if isinstance(command, (PenUp, Rapid)):
             down, run = False, None
         if isinstance(command, PenDown):
             down = True
         elif isinstance(command, Flash):
-            paths.dots.setdefault(width, []).append((x * mm, y * mm))
+            dots_at.setdefault(width, []).append((x * mm, y * mm))
             paths.strokes += 1
             down, run = False, None
         elif isinstance(command, (Rapid, LineTo, ArcTo)):
@@ -108,7 +118,7 @@ def job_paths(job: Job, config: MachineConfig, widths_nm: dict[int, int]) -> _Pa
             if down:
                 if run is None:
                     run = [f"M{x * mm:.4f} {y * mm:.4f}"]
-                    paths.down.setdefault(width, []).append(run)  # type: ignore[arg-type]
+                    down_at.setdefault(width, []).append(run)  # type: ignore[arg-type]
                     paths.strokes += 1
                 run.append(step)
                 paths.drawn_mm += length
@@ -155,22 +165,28 @@ def _length(command, x: int, y: int) -> float:
 
 def render_svg(program: Program, job: Job, config: MachineConfig, offset_nm: tuple[int, int],
                out_path: str | os.PathLike, *, copper=None,
-               pen_widths_nm: dict[int, int] | None = None) -> SvgInfo:
+               pen_widths_nm: dict[int, int] | None = None,
+               pen_roles: dict[int, str] | None = None) -> SvgInfo:
     """Write the vector preview of `job` (planned from `program` with `offset_nm`);
-    `copper` (an ink plan's, program nm): bare copper and ink outside shown."""
+    `copper` (an ink plan's, program nm): bare copper and ink outside shown;
+    `pen_roles` (PlannedFile.pen_roles): a board's outline and silk pens in colours of
+    their own."""
     widths = job.pen_widths_nm if pen_widths_nm is None else pen_widths_nm
-    paths = job_paths(job, config, widths)
+    paths = job_paths(job, config, widths, pen_roles)
     ox, oy = offset_nm[0] / NM_PER_MM, offset_nm[1] / NM_PER_MM
     box = extents(program, with_apertures=True)
     if box is not None:
         paths.see(box[0] / NM_PER_MM - ox, box[1] / NM_PER_MM - oy)
         paths.see(box[2] / NM_PER_MM - ox, box[3] / NM_PER_MM - oy)
-    widest = max([*paths.down, *paths.dots], default=0) / NM_PER_MM
+    widest = max([*paths.down, *paths.dots,
+                  *(w for down, dots in paths.lines.values() for w in (*down, *dots))],
+                 default=0) / NM_PER_MM
     pad = MARGIN_MM + widest / 2
     x0, y0 = paths.lo[0] - pad, paths.lo[1] - pad
     x1, y1 = paths.hi[0] + pad, paths.hi[1] + pad
     view = (x0, y0, x1, y1)
-    legend_h = (3.5 + 1.4 * len(_legend(copper is not None))) * _text_mm(view)   # below it
+    legend_h = (3.5 + 1.4 * len(_legend(copper is not None, paths.lines))) * \
+        _text_mm(view)                               # below it
     with open(out_path, "w", encoding="utf-8") as out:
         _write(out, program, paths, offset_nm, copper, view, legend_h)
     return SvgInfo(str(out_path), paths.strokes, paths.drawn_mm, paths.travel_mm, view,
@@ -196,14 +212,7 @@ def _write(out: TextIO, program: Program, paths: _Paths, offset_nm, copper, view
               f'height="{height:.4f}" fill="#ffffff"/>\n')
     out.write('<defs>\n<g id="strokes" fill="none" stroke-linecap="round" '
               'stroke-linejoin="round">\n')
-    for width_nm, runs in sorted(paths.down.items()):
-        data = "".join("".join(run) for run in runs)
-        out.write(f'<path stroke-width="{width_nm / NM_PER_MM:.4f}" stroke="currentColor" '
-                  f'd="{data}"/>\n')
-    for width_nm, dots in sorted(paths.dots.items()):
-        r = width_nm / NM_PER_MM / 2
-        for x, y in dots:
-            out.write(f'<circle cx="{x:.4f}" cy="{y:.4f}" r="{r:.4f}" fill="currentColor"/>\n')
+    _write_strokes(out, paths.down, paths.dots)
     out.write('</g>\n')
     rings = copper_rings(copper) if copper is not None else None
     if rings is not None:
@@ -231,14 +240,31 @@ def _write(out: TextIO, program: Program, paths: _Paths, offset_nm, copper, view
                   'clip-path="url(#off-copper)"/>\n')
     else:
         out.write(f'<use id="ink" xlink:href="#strokes" color="{_colour(STROKE)}"/>\n')
+    for role, (down, dots) in sorted(paths.lines.items()):
+        out.write(f'<g id="{escape(role)}" fill="none" stroke-linecap="round" '
+                  f'stroke-linejoin="round" color="{_colour(LINE_COLOURS.get(role, STROKE))}">\n')
+        _write_strokes(out, down, dots)
+        out.write('</g>\n')
     arm = 1.5 * text_mm
     out.write(f'<g id="origin" stroke="#d00000" stroke-width="{2 * hairline:.4f}">'
               f'<path d="M{-arm:.3f} 0H{arm:.3f}M0 {-arm:.3f}V{arm:.3f}"/></g>\n')
     out.write('</g>\n')
     out.write(f'<text x="{arm * 0.6:.3f}" y="{-arm * 0.6:.3f}" font-size="{text_mm:.2f}" '
               f'font-family="sans-serif" fill="#d00000">origin X 0, Y 0 (work)</text>\n')
-    _write_scale_and_legend(out, view, text_mm, rings is not None)
+    _write_scale_and_legend(out, view, text_mm, _legend(rings is not None, paths.lines))
     out.write('</svg>\n')
+
+
+def _write_strokes(out: TextIO, down: dict[int, list], dots: dict[int, list]) -> None:
+    """Runs at their pen's width and dots as the pen's disc, in currentColor."""
+    for width_nm, runs in sorted(down.items()):
+        data = "".join("".join(run) for run in runs)
+        out.write(f'<path stroke-width="{width_nm / NM_PER_MM:.4f}" stroke="currentColor" '
+                  f'd="{data}"/>\n')
+    for width_nm, points in sorted(dots.items()):
+        r = width_nm / NM_PER_MM / 2
+        for x, y in points:
+            out.write(f'<circle cx="{x:.4f}" cy="{y:.4f}" r="{r:.4f}" fill="currentColor"/>\n')
 
 
 def _frame_against(rings, view) -> str:
@@ -270,10 +296,9 @@ def _rings_data(rings, offset_nm) -> str:
     return "".join(parts)
 
 
-def _write_scale_and_legend(out: TextIO, view, u: float, copper: bool) -> None:
-    """Below the drawing: a scale bar of a round length, then the legend (bare copper
-    and ink outside only where the copper is shown); `u` is the text size (mm), the
-    unit of the layout (_text_mm)."""
+def _write_scale_and_legend(out: TextIO, view, u: float, legend) -> None:
+    """Below the drawing: a scale bar of a round length, then the legend (_legend);
+    `u` is the text size (mm), the unit of the layout (_text_mm)."""
     x0, y0, x1, _ = view
     bar = _round_length((x1 - x0) / 4)
     left, top = x0 + u, -y0 + 1.5 * u                # SVG y of the row below the drawing
@@ -284,7 +309,7 @@ def _write_scale_and_legend(out: TextIO, view, u: float, copper: bool) -> None:
               f'y="{top + 0.35 * u:.3f}" font-size="{u:.3f}" stroke="none" '
               f'font-family="sans-serif">{bar:g} mm</text></g>\n')
     out.write('<g id="legend" font-family="sans-serif">\n')
-    for row, (label, colour) in enumerate(_legend(copper)):
+    for row, (label, colour) in enumerate(legend):
         y = top + (1.5 + 1.4 * row) * u
         out.write(f'<rect x="{left:.3f}" y="{y - 0.45 * u:.3f}" width="{1.8 * u:.3f}" '
                   f'height="{0.9 * u:.3f}" fill="{_colour(colour)}"/><text '
@@ -293,8 +318,12 @@ def _write_scale_and_legend(out: TextIO, view, u: float, copper: bool) -> None:
     out.write('</g>\n')
 
 
-def _legend(copper: bool):
-    return [item for item in LEGEND if copper or item[1] not in (UNINKED, OUTSIDE)]
+def _legend(copper: bool, lines=()):
+    """The legend's rows: bare copper and ink outside only where the copper is shown,
+    the outline and silk where they are drawn."""
+    shown = [item for item in LEGEND if copper or item[1] not in (UNINKED, OUTSIDE)]
+    return shown[:-1] + [(role, LINE_COLOURS.get(role, STROKE)) for role in sorted(lines)] + \
+        shown[-1:]
 
 
 def _text_mm(view) -> float:

@@ -53,6 +53,9 @@ def test_layer_places_a_file_and_a_wrong_role_is_named(board):
     axis = galileo("convert", str(board), "--mirror-axis", "z=3", "-o", "/dev/null")
     assert axis.returncode != 0 and "Traceback" not in axis.stderr
     assert "--mirror-axis: expected x=MM or y=MM" in axis.stderr
+    lone = galileo("convert", str(board / "Flashpads-F_Cu.gbr"), "--silk", "-o", "/dev/null")
+    assert lone.returncode != 0 and "Traceback" not in lone.stderr
+    assert "--outline, --silk and --layer are for a board" in lone.stderr
 
 
 def test_plot_both_sides_lands_the_bottom_holes_on_the_top_ones_and_inks_no_mark(tmp_path):
@@ -93,16 +96,30 @@ def test_plot_both_sides_lands_the_bottom_holes_on_the_top_ones_and_inks_no_mark
 
 
 def test_convert_and_preview_of_a_side(tmp_path):
+    import re
+
+    # with the outline and the silk: each after the copper and a pen change that names
+    # it, and the silk left off the copper said in mm (tests/plan/test_board_lines.py)
     from boards import make_board
 
-    board = make_board(tmp_path / "board")
+    board = make_board(tmp_path / "board", silk=True)
     gcode = tmp_path / "bottom.nc"
-    converted = galileo("convert", str(board), "--side", "bottom", "-o", str(gcode))
+    converted = galileo("convert", str(board), "--side", "bottom", "--outline", "--silk",
+                        "-o", str(gcode))
     assert converted.returncode == 0, converted.stderr
-    assert "; bottom side, mirrored about the vertical line X 6.0000 mm (board)" in \
-        gcode.read_text()
+    text = gcode.read_text()
+    assert "; bottom side, mirrored about the vertical line X 6.0000 mm (board)" in text
+    assert text.index("insert the 0.4 mm pen") < text.index("insert the outline pen (0.4 mm)") \
+        < text.index("insert the silk pen (0.4 mm)")
+    # the line across the 3 mm pad: the pad and 0.25 mm each side (and up to 30 um of
+    # the keep-out's tolerance, board_lines.KEEP_OUT_TOLERANCE_NM)
+    cut = re.search(r"--silk: ([\d.]+) mm of the silk left out within 0\.250 mm of copper",
+                    converted.stderr)
+    assert cut and 3.5 <= float(cut.group(1)) <= 3.56, converted.stderr
     picture = tmp_path / "bottom.png"
-    previewed = galileo("preview", str(board), "--side", "bottom", "-o", str(picture))
+    previewed = galileo("preview", str(board), "--side", "bottom", "--outline", "--silk",
+                        "-o", str(picture))
     assert previewed.returncode == 0, previewed.stderr
     assert "a board's bottom side is drawn mirrored" in previewed.stdout
     assert picture.stat().st_size > 0
+
