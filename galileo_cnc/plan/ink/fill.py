@@ -61,6 +61,9 @@ MAIN_GAP_SHARE = 0.45
 #: 0.012 % of before, and the corpus at 2 um (16 um here) as at 1 um (docs/ink.md,
 #: "Measured on the corpus").
 DEEP_TOLERANCE = 8
+#: Share of the largest corner radius that leaves no new gap (_corner_radius).
+CORNER_SHARE = 0.9
+SQRT2 = 2 ** 0.5
 
 
 @dataclass
@@ -293,7 +296,8 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     # half its vertices (chords of arcs at the fine tolerance; hellboard at 1 um:
     # 122k -> 58k) and two thirds of the first offset's work
     start = clip.clean(centre_area, deep) or centre_area
-    first = clip.offset(start, -spacing, deep, cleaned=True)
+    corner = _corner_radius(radius, spacing)
+    first = _shrunk(start, spacing, corner, deep, tolerance_nm)
     big = sum(len(ring) for ring in centre_area) >= BACKGROUND_VERTICES
     # the gap tests (a third of a large pour's fill) in second processes: depth 0's
     # (the largest) while the deeper rings are made, then most of the others while the
@@ -302,7 +306,7 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     outermost = Deferred(_gaps, [start, first], radius, deep, 0, 1, fork=big)
     deeper = None
     try:
-        coarse = [start] + _concentric(first, spacing, deep)
+        coarse = [start] + _concentric(first, spacing, deep, corner, tolerance_nm)
         areas = [centre_area] + coarse[1:]
         split = _gap_split(coarse)
         deeper = Deferred(_gaps, coarse, radius, deep, 1, split, fork=big)
@@ -334,15 +338,45 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     return fill
 
 
-def _concentric(centre_area: list, spacing: int, tolerance_nm: int) -> list[list]:
-    """E0, E1, ... (polygon sets), until nothing is left."""
+def _concentric(centre_area: list, spacing: int, tolerance_nm: int, corner_nm: int = 0,
+                corner_tolerance_nm: int | None = None) -> list[list]:
+    """E0, E1, ... (polygon sets), until nothing is left; the ones after `centre_area`
+    with their convex corners rounded to `corner_nm` (_shrunk)."""
     areas = []
     area = centre_area
     # the emptiness test only: the rings are made into arrays once, by the caller
     while any(len(ring) >= 3 for ring in area):
         areas.append(area)
-        area = clip.offset(area, -spacing, tolerance_nm, cleaned=True)
+        area = _shrunk(area, spacing, corner_nm, tolerance_nm, corner_tolerance_nm)
     return areas
+
+
+def _corner_radius(radius: int, spacing: int) -> int:
+    """The radius the convex corners of the rings inside E0 are rounded to: a right
+    angle is a stop for the machine (docs/motion.md §5.7: each axis changes speed by
+    the whole speed there), a quarter circle of this radius is not.
+
+    Rounding ring k+1's corner leaves its neighbours' ink as it was but at the corner:
+    on the bisector of a right angle, at depth t inside ring k's corner, ring k is t
+    away and ring k+1's rounded corner √2 (s + ρ − t) − ρ. Every such point is within
+    r of one of them (no new gap) while ρ (√2 − 1) ≤ r (1 + √2) − √2 s: 0.365 r at
+    the default spacing s = 1.6 r. A share of that bound is taken; whatever a corner
+    of another angle leaves is found by the gap tests, which run on the rounded areas."""
+    bound = (radius * (1 + SQRT2) - SQRT2 * spacing) / (SQRT2 - 1)
+    return max(0, int(CORNER_SHARE * min(bound, radius)))
+
+
+def _shrunk(area: list, spacing: int, corner_nm: int, tolerance_nm: int,
+            corner_tolerance_nm: int | None = None) -> list:
+    """The area shrunk by the spacing, its convex corners rounded to `corner_nm`: the
+    opening of the shrunk area, (E − (s + ρ)) + ρ, inside the shrunk area and so inside
+    E0. The corners' arcs are made to `corner_tolerance_nm` (finer than the rings': a
+    corner of a few chords would turn by 30-45 degrees at each)."""
+    if corner_nm <= 0:
+        return clip.offset(area, -spacing, tolerance_nm, cleaned=True)
+    core = clip.offset(area, -(spacing + corner_nm), tolerance_nm, cleaned=True)
+    return clip.offset(core, corner_nm, corner_tolerance_nm or tolerance_nm,
+                       cleaned=True) if core else []
 
 
 # ---- joins and the walk ---------------------------------------------------------------
