@@ -61,9 +61,14 @@ MAIN_GAP_SHARE = 0.45
 #: 0.012 % of before, and the corpus at 2 um (16 um here) as at 1 um (docs/ink.md,
 #: "Measured on the corpus").
 DEEP_TOLERANCE = 8
-#: Share of the largest corner radius that leaves no new gap (_corner_radius).
+#: Rounding the convex corners of the rings inside E0 (_rounded): the share of the
+#: largest radius that opens no gap (_corner_radius), the least turn rounded (a turn of
+#: 20 degrees passes at the feed: docs/motion.md §5.7), the largest turn of the arc's
+#: chords, and the shortest cut worth making (nm).
 CORNER_SHARE = 0.9
-SQRT2 = 2 ** 0.5
+CORNER_TURN = np.radians(20)
+CORNER_STEP = np.radians(15)
+CORNER_LEAST_NM = 2_000
 
 
 @dataclass
@@ -296,8 +301,7 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     # half its vertices (chords of arcs at the fine tolerance; hellboard at 1 um:
     # 122k -> 58k) and two thirds of the first offset's work
     start = clip.clean(centre_area, deep) or centre_area
-    corner = _corner_radius(radius, spacing)
-    first = _shrunk(start, spacing, corner, deep, tolerance_nm)
+    first = _shrunk(start, spacing, deep, radius)
     big = sum(len(ring) for ring in centre_area) >= BACKGROUND_VERTICES
     # the gap tests (a third of a large pour's fill) in second processes: depth 0's
     # (the largest) while the deeper rings are made, then most of the others while the
@@ -306,7 +310,7 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     outermost = Deferred(_gaps, [start, first], radius, deep, 0, 1, fork=big)
     deeper = None
     try:
-        coarse = [start] + _concentric(first, spacing, deep, corner, tolerance_nm)
+        coarse = [start] + _concentric(first, spacing, deep, radius)
         areas = [centre_area] + coarse[1:]
         split = _gap_split(coarse)
         deeper = Deferred(_gaps, coarse, radius, deep, 1, split, fork=big)
@@ -338,45 +342,93 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     return fill
 
 
-def _concentric(centre_area: list, spacing: int, tolerance_nm: int, corner_nm: int = 0,
-                corner_tolerance_nm: int | None = None) -> list[list]:
-    """E0, E1, ... (polygon sets), until nothing is left; the ones after `centre_area`
-    with their convex corners rounded to `corner_nm` (_shrunk)."""
+def _concentric(centre_area: list, spacing: int, tolerance_nm: int,
+                radius: int = 0) -> list[list]:
+    """E0, E1, ... (polygon sets), until nothing is left; with `radius` (the pen's),
+    the ones after `centre_area` with their convex corners rounded (_shrunk)."""
     areas = []
     area = centre_area
     # the emptiness test only: the rings are made into arrays once, by the caller
     while any(len(ring) >= 3 for ring in area):
         areas.append(area)
-        area = _shrunk(area, spacing, corner_nm, tolerance_nm, corner_tolerance_nm)
+        area = _shrunk(area, spacing, tolerance_nm, radius)
     return areas
 
 
-def _corner_radius(radius: int, spacing: int) -> int:
-    """The radius the convex corners of the rings inside E0 are rounded to: a right
-    angle is a stop for the machine (docs/motion.md §5.7: each axis changes speed by
-    the whole speed there), a quarter circle of this radius is not.
-
-    Rounding ring k+1's corner leaves its neighbours' ink as it was but at the corner:
-    on the bisector of a right angle, at depth t inside ring k's corner, ring k is t
-    away and ring k+1's rounded corner √2 (s + ρ − t) − ρ. Every such point is within
-    r of one of them (no new gap) while ρ (√2 − 1) ≤ r (1 + √2) − √2 s: 0.365 r at
-    the default spacing s = 1.6 r. A share of that bound is taken; whatever a corner
-    of another angle leaves is found by the gap tests, which run on the rounded areas."""
-    bound = (radius * (1 + SQRT2) - SQRT2 * spacing) / (SQRT2 - 1)
-    return max(0, int(CORNER_SHARE * min(bound, radius)))
+def _shrunk(area: list, spacing: int, tolerance_nm: int, radius: int = 0) -> list:
+    """The area shrunk by the spacing, and with `radius` its convex corners rounded
+    (_rounded)."""
+    shrunk = clip.offset(area, -spacing, tolerance_nm, cleaned=True)
+    return _rounded(shrunk, radius, spacing) if radius > 0 else shrunk
 
 
-def _shrunk(area: list, spacing: int, corner_nm: int, tolerance_nm: int,
-            corner_tolerance_nm: int | None = None) -> list:
-    """The area shrunk by the spacing, its convex corners rounded to `corner_nm`: the
-    opening of the shrunk area, (E − (s + ρ)) + ρ, inside the shrunk area and so inside
-    E0. The corners' arcs are made to `corner_tolerance_nm` (finer than the rings': a
-    corner of a few chords would turn by 30-45 degrees at each)."""
-    if corner_nm <= 0:
-        return clip.offset(area, -spacing, tolerance_nm, cleaned=True)
-    core = clip.offset(area, -(spacing + corner_nm), tolerance_nm, cleaned=True)
-    return clip.offset(core, corner_nm, corner_tolerance_nm or tolerance_nm,
-                       cleaned=True) if core else []
+def _corner_radius(radius: int, spacing: int, half_angle: np.ndarray) -> np.ndarray:
+    """How far a convex corner of a ring inside E0 (its inside angle 2β) may be rounded
+    without opening a gap, times CORNER_SHARE; 0 where it may not.
+
+    The ring outside it, k, is s away and has a corner there too (or runs straight,
+    which is farther). On the bisector, at depth t inside ring k's corner, ring k is
+    t·sin β away, ring k+1's arc of radius ρ (s + ρ)/sin β − ρ − t. Every such point is
+    within r of one of them while ρ (1 − sin β) ≤ r (1 + sin β) − s: at a right angle
+    0.365 r with the default spacing s = 1.6 r, at 135° 4.2 r, below about 74° nothing.
+    Whatever the rounding leaves elsewhere is found by the gap tests, which run on the
+    rounded areas."""
+    sin = np.sin(half_angle)
+    room = radius * (1 + sin) - spacing
+    with np.errstate(divide="ignore", invalid="ignore"):
+        bound = np.where(room > 0, room / np.maximum(1 - sin, 1e-9), 0.0)
+    return CORNER_SHARE * np.minimum(bound, radius)
+
+
+def _rounded(area: list, radius: int, spacing: int) -> list:
+    """The area with each convex corner that turns by more than CORNER_TURN cut by an
+    arc tangent to its two edges (_corner_radius, and at most half of either edge
+    used), as chords that turn by at most CORNER_STEP each. The arc lies inside the
+    corner, so the area only shrinks: it stays inside the shrunk area and so inside
+    E0; thin parts are never dropped (an opening would drop them, and a gap stroke,
+    straight, cannot follow a curved strip). A right angle is a stop for the machine
+    (docs/motion.md §5.7), a quarter circle is not."""
+    out = []
+    for ring in area:
+        p = np.asarray(ring, dtype=np.float64)
+        if len(p) < 3:
+            out.append(ring)
+            continue
+        into = p - np.roll(p, 1, axis=0)
+        out_of = np.roll(p, -1, axis=0) - p
+        l_in, l_out = np.hypot(*into.T), np.hypot(*out_of.T)
+        if not (l_in > 0).all() or not (l_out > 0).all():
+            out.append(ring)
+            continue
+        u, w = into / l_in[:, None], out_of / l_out[:, None]
+        # the turn, left positive: with the area on the left of every ring (outlines
+        # counter-clockwise, holes clockwise), a left turn is a convex corner
+        turn = np.arctan2(u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0], (u * w).sum(axis=1))
+        rho = _corner_radius(radius, spacing, (np.pi - np.abs(turn)) / 2)
+        tan_half = np.tan(np.clip(turn, 0, np.pi - 1e-6) / 2)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rho = np.minimum(rho, np.where(tan_half > 0, 0.5 * np.minimum(l_in, l_out)
+                                           / tan_half, 0.0))
+        cut = (turn > CORNER_TURN) & (rho * tan_half >= CORNER_LEAST_NM)
+        if not cut.any():
+            out.append(ring)
+            continue
+        points = []
+        for k in range(len(p)):
+            if not cut[k]:
+                points.append(p[k])
+                continue
+            d = rho[k] * tan_half[k]
+            first = p[k] - u[k] * d
+            centre = first + np.array([-u[k, 1], u[k, 0]]) * rho[k]
+            start = np.arctan2(first[1] - centre[1], first[0] - centre[0])
+            steps = int(np.ceil(turn[k] / CORNER_STEP))
+            angles = start + turn[k] * np.arange(steps + 1) / steps
+            points.extend(centre + rho[k] * np.column_stack([np.cos(angles), np.sin(angles)]))
+        rounded = np.rint(np.array(points)).astype(np.int64)
+        keep = np.any(rounded != np.roll(rounded, 1, axis=0), axis=1)
+        out.append(rounded[keep].tolist())
+    return out
 
 
 # ---- joins and the walk ---------------------------------------------------------------
