@@ -343,8 +343,8 @@ def test_inner_rings_round_their_corners_and_leave_no_gap(tmp_path):
     assert len(areas) >= 4
     for area in areas:
         (ring,) = area
-        assert len(ring) > 4 * 6                            # each corner an arc of chords
-        assert _turns_deg(np.asarray(ring + ring[:2])).max() < 16
+        assert len(ring) > 4 * 4                            # each corner an arc of chords
+        assert _turns_deg(np.asarray(ring + ring[:2])).max() < 23
     fill = fill_region([square(0, 0, 3 * MM, 3 * MM)], 300_000, 2_000)
     assert fill.rings == len(areas) + 1 and fill.gap_strokes == 0
     planned, ink = plot(tmp_path, "%ADD10R,3X3*%\nD10*\nX5000000Y5000000D03*\n")
