@@ -320,34 +320,3 @@ def test_strokes_in_strips_cover_what_one_stroke_covers():
     window = [[[5 * MM, 5 * MM], [30 * MM, 5 * MM], [30 * MM, 30 * MM], [5 * MM, 30 * MM]]]
     assert clip.area_nm2(clip.intersection(strips, window)) == pytest.approx(
         clip.area_nm2(clip.intersection(whole, window)), rel=1e-9)
-
-
-def _turns_deg(path: np.ndarray) -> np.ndarray:
-    """The turn at each vertex of a polyline, in degrees (repeated points left out)."""
-    d = np.diff(path.astype(np.float64), axis=0)
-    d = d[np.hypot(d[:, 0], d[:, 1]) > 0]
-    u = d / np.hypot(d[:, 0], d[:, 1])[:, None]
-    return np.degrees(np.arccos(np.clip((u[:-1] * u[1:]).sum(axis=1), -1, 1)))
-
-
-def test_inner_rings_round_their_corners_and_leave_no_gap(tmp_path):
-    # a 3 mm square with a 0.3 mm pen: E0 keeps its right angles (the pen reaches the
-    # copper's corners), the rings inside it turn their corners in arcs (a right angle
-    # is a stop for the machine); no gap opens at a corner and the pad is inked whole
-    from galileo_cnc.plan.ink.fill import _concentric, _corner_radius, _shrunk
-    r, spacing = 150_000, 240_000
-    assert 0.3 * r < _corner_radius(r, spacing, np.array([np.pi / 4]))[0] < 0.365 * r
-    assert _corner_radius(r, spacing, np.array([np.pi / 6]))[0] == 0    # 60 degrees: none
-    e0 = [square(152_000, 152_000, 3 * MM - 152_000, 3 * MM - 152_000)]
-    areas = _concentric(_shrunk(e0, spacing, 16_000, r), spacing, 16_000, r)
-    assert len(areas) >= 4
-    for area in areas:
-        (ring,) = area
-        assert len(ring) > 4 * 4                            # each corner an arc of chords
-        assert _turns_deg(np.asarray(ring + ring[:2])).max() < 23
-    fill = fill_region([square(0, 0, 3 * MM, 3 * MM)], 300_000, 2_000)
-    assert fill.rings == len(areas) + 1 and fill.gap_strokes == 0
-    planned, ink = plot(tmp_path, "%ADD10R,3X3*%\nD10*\nX5000000Y5000000D03*\n")
-    pad = [square(3_500_000, 3_500_000, 6_500_000, 6_500_000)]
-    uninked = clip.area_nm2(clip.difference(pad, ink))
-    assert uninked <= 4 * (1 - math.pi / 4) * r * r * 1.05 + 4 * 3 * MM * 4_000

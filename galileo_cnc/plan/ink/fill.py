@@ -61,15 +61,6 @@ MAIN_GAP_SHARE = 0.45
 #: 0.012 % of before, and the corpus at 2 um (16 um here) as at 1 um (docs/ink.md,
 #: "Measured on the corpus").
 DEEP_TOLERANCE = 8
-#: Rounding the convex corners of the rings inside E0 (_rounded): the share of the
-#: largest radius that opens no gap (_corner_radius), the least turn rounded (a turn of
-#: 20 degrees passes at the feed: docs/motion.md §5.7), the largest turn of the arc's
-#: chords (22 degrees: each axis changes by 0.38 of the speed, 1.9 mm/s at 5 mm/s, within
-#: the default 2 mm/s), and the shortest cut worth making (nm).
-CORNER_SHARE = 0.9
-CORNER_TURN = np.radians(20)
-CORNER_STEP = np.radians(22)
-CORNER_LEAST_NM = 2_000
 
 
 @dataclass
@@ -302,7 +293,7 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     # half its vertices (chords of arcs at the fine tolerance; hellboard at 1 um:
     # 122k -> 58k) and two thirds of the first offset's work
     start = clip.clean(centre_area, deep) or centre_area
-    first = _shrunk(start, spacing, deep, radius)
+    first = clip.offset(start, -spacing, deep, cleaned=True)
     big = sum(len(ring) for ring in centre_area) >= BACKGROUND_VERTICES
     # the gap tests (a third of a large pour's fill) in second processes: depth 0's
     # (the largest) while the deeper rings are made, then most of the others while the
@@ -311,7 +302,7 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     outermost = Deferred(_gaps, [start, first], radius, deep, 0, 1, fork=big)
     deeper = None
     try:
-        coarse = [start] + _concentric(first, spacing, deep, radius)
+        coarse = [start] + _concentric(first, spacing, deep)
         areas = [centre_area] + coarse[1:]
         split = _gap_split(coarse)
         deeper = Deferred(_gaps, coarse, radius, deep, 1, split, fork=big)
@@ -343,106 +334,15 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     return fill
 
 
-def _concentric(centre_area: list, spacing: int, tolerance_nm: int,
-                radius: int = 0) -> list[list]:
-    """E0, E1, ... (polygon sets), until nothing is left; with `radius` (the pen's),
-    the ones after `centre_area` with their convex corners rounded (_shrunk)."""
+def _concentric(centre_area: list, spacing: int, tolerance_nm: int) -> list[list]:
+    """E0, E1, ... (polygon sets), until nothing is left."""
     areas = []
     area = centre_area
     # the emptiness test only: the rings are made into arrays once, by the caller
     while any(len(ring) >= 3 for ring in area):
         areas.append(area)
-        area = _shrunk(area, spacing, tolerance_nm, radius)
+        area = clip.offset(area, -spacing, tolerance_nm, cleaned=True)
     return areas
-
-
-def _shrunk(area: list, spacing: int, tolerance_nm: int, radius: int = 0) -> list:
-    """The area shrunk by the spacing, and with `radius` its convex corners rounded
-    (_rounded)."""
-    shrunk = clip.offset(area, -spacing, tolerance_nm, cleaned=True)
-    return _rounded(shrunk, radius, spacing) if radius > 0 else shrunk
-
-
-def _corner_radius(radius: int, spacing: int, half_angle: np.ndarray) -> np.ndarray:
-    """How far a convex corner of a ring inside E0 (its inside angle 2β) may be rounded
-    without opening a gap, times CORNER_SHARE; 0 where it may not.
-
-    The ring outside it, k, is s away and has a corner there too (or runs straight,
-    which is farther). On the bisector, at depth t inside ring k's corner, ring k is
-    t·sin β away, ring k+1's arc of radius ρ (s + ρ)/sin β − ρ − t. Every such point is
-    within r of one of them while ρ (1 − sin β) ≤ r (1 + sin β) − s: at a right angle
-    0.365 r with the default spacing s = 1.6 r, at 135° 4.2 r, below about 74° nothing.
-    Whatever the rounding leaves elsewhere is found by the gap tests, which run on the
-    rounded areas."""
-    sin = np.sin(half_angle)
-    room = radius * (1 + sin) - spacing
-    with np.errstate(divide="ignore", invalid="ignore"):
-        bound = np.where(room > 0, room / np.maximum(1 - sin, 1e-9), 0.0)
-    return CORNER_SHARE * np.minimum(bound, radius)
-
-
-def _rounded(area: list, radius: int, spacing: int) -> list:
-    """The area with each convex corner that turns by more than CORNER_TURN cut by an
-    arc tangent to its two edges (_corner_radius, and at most half of either edge
-    used), as chords that turn by at most CORNER_STEP each. The arc lies inside the
-    corner, so the area only shrinks: it stays inside the shrunk area and so inside
-    E0; thin parts are never dropped (an opening would drop them, and a gap stroke,
-    straight, cannot follow a curved strip). A right angle is a stop for the machine
-    (docs/motion.md §5.7), a quarter circle is not."""
-    rings = [np.asarray(ring, dtype=np.float64).reshape(-1, 2) for ring in area]
-    sizes = np.array([len(ring) for ring in rings], dtype=np.int64)
-    if not len(rings) or sizes.min() < 3:
-        return area
-    # every ring's vertices at once: each vertex's edge in and edge out
-    p = np.concatenate(rings)
-    first = np.cumsum(sizes) - sizes
-    before = np.arange(len(p)) - 1
-    before[first] = first + sizes - 1
-    after = np.arange(len(p)) + 1
-    after[first + sizes - 1] = first
-    into, out_of = p - p[before], p[after] - p
-    l_in, l_out = np.hypot(*into.T), np.hypot(*out_of.T)
-    if not ((l_in > 0).all() and (l_out > 0).all()):
-        return area
-    u, w = into / l_in[:, None], out_of / l_out[:, None]
-    # the turn, left positive: with the area on the left of every ring (outlines
-    # counter-clockwise, holes clockwise), a left turn is a convex corner
-    turn = np.arctan2(u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0], (u * w).sum(axis=1))
-    tan_half = np.tan(np.clip(turn, 0, np.pi - 1e-6) / 2)
-    rho = _corner_radius(radius, spacing, (np.pi - np.abs(turn)) / 2)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        rho = np.minimum(rho, np.where(tan_half > 0, 0.5 * np.minimum(l_in, l_out)
-                                       / tan_half, 0.0))
-    cut = (turn > CORNER_TURN) & (rho * tan_half >= CORNER_LEAST_NM)
-    if not cut.any():
-        return area
-    # per cut corner its arc's points, all at once: from the tangent point on the edge
-    # in, round the centre on the area's side, `steps` chords
-    k = np.flatnonzero(cut)
-    d = rho[k] * tan_half[k]
-    start = p[k] - u[k] * d[:, None]
-    centre = start + np.column_stack([-u[k, 1], u[k, 0]]) * rho[k][:, None]
-    phase = np.arctan2(start[:, 1] - centre[:, 1], start[:, 0] - centre[:, 0])
-    steps = np.ceil(turn[k] / CORNER_STEP).astype(np.int64)
-    count = np.ones(len(p), dtype=np.int64)
-    count[k] = steps + 1
-    arc = np.repeat(np.arange(len(k)), steps + 1)
-    j = np.arange(int(count[k].sum())) - np.repeat(np.cumsum(steps + 1) - steps - 1, steps + 1)
-    angle = phase[arc] + turn[k][arc] * j / steps[arc]
-    points = np.repeat(p, count, axis=0)
-    points[np.repeat(cut, count)] = centre[arc] + rho[k][arc][:, None] * np.column_stack(
-        [np.cos(angle), np.sin(angle)])
-    points = np.rint(points).astype(np.int64)
-    ring_of = np.repeat(np.repeat(np.arange(len(rings)), sizes), count)
-    keep = np.ones(len(points), dtype=bool)
-    keep[1:] = np.any(points[1:] != points[:-1], axis=1) | (ring_of[1:] != ring_of[:-1])
-    kept = np.bincount(ring_of[keep], minlength=len(rings))
-    touched = np.bincount(np.repeat(np.arange(len(rings)), sizes)[k], minlength=len(rings))
-    out = []
-    for ring, original, part in zip(np.split(points[keep], np.cumsum(kept)[:-1]), area,
-                                    touched.tolist()):
-        out.append(ring.tolist() if part else original)
-    return out
 
 
 # ---- joins and the walk ---------------------------------------------------------------
