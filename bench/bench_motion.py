@@ -5,6 +5,7 @@ speeds, side by side in one run (docs/motion.md §5.7, issue 33).
     python3 bench/bench_motion.py --quick            # the samples only
     python3 bench/bench_motion.py --files 'kicad/*' --modes ink
     python3 bench/bench_motion.py --deviation 0.02 --axis-change 2.5 --json /tmp/m.json
+    python3 bench/bench_motion.py --quick --modes ink --breakdown   # where the time goes
 
 Per file and mode the job is planned once (`plan_file`, the default MachineConfig with
 2 m of travel so every board fits) and its moves are timed on the reference machine
@@ -19,7 +20,11 @@ Per file and mode the job is planned once (`plan_file`, the default MachineConfi
 
 Columns: whole-job seconds and their ratio to the ideal; pen-down time (XY moves not at
 the rapid feed) against pen-down length / feed; junction / stops for the whole job.
-Numbers are printed, never asserted.
+`--breakdown` adds per file where the junction-speed time over the ideal goes
+(`breakdown`): pen-down time lost at the strokes' ends, turns back, turns of 45-90
+degrees and gentle vertices (each move's loss split between its two ends), the share
+in moves shorter than a ramp, and travel and Z time. Numbers are printed, never
+asserted.
 """
 
 from __future__ import annotations
