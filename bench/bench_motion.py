@@ -5,6 +5,7 @@ speeds, side by side in one run (docs/motion.md §5.7, issue 33).
     python3 bench/bench_motion.py --quick            # the samples only
     python3 bench/bench_motion.py --files 'kicad/*' --modes ink
     python3 bench/bench_motion.py --deviation 0.02 --axis-change 2.5 --json /tmp/m.json
+    python3 bench/bench_motion.py --quick --modes ink --breakdown   # where the time goes
 
 Per file and mode the job is planned once (`plan_file`, the default MachineConfig with
 2 m of travel so every board fits) and its moves are timed on the reference machine
@@ -19,7 +20,11 @@ Per file and mode the job is planned once (`plan_file`, the default MachineConfi
 
 Columns: whole-job seconds and their ratio to the ideal; pen-down time (XY moves not at
 the rapid feed) against pen-down length / feed; junction / stops for the whole job.
-Numbers are printed, never asserted.
+`--breakdown` adds per file where the junction-speed time over the ideal goes
+(`breakdown`): pen-down time lost at the strokes' ends, turns back, turns of 45-90
+degrees and gentle vertices (each move's loss split between its two ends), the share
+in moves shorter than a ramp, and travel and Z time. Numbers are printed, never
+asserted.
 """
 
 from __future__ import annotations
@@ -85,7 +90,81 @@ def item_seconds(items) -> tuple[list[float], float]:
     return seconds, end / TICKS_PER_S
 
 
-def measure(path: Path, mode: str, config: MachineConfig, limits: JunctionLimits) -> dict:
+def _turn_class(a, b) -> str:
+    """A blended-or-not vertex between two drawing moves, by its turn."""
+    dot = sum(x * y for x, y in zip(a, b))
+    if dot < -1e-9:
+        return "reversal"
+    if dot < 0.7071:
+        return "sharp"          # 45-90 degrees, right angles included
+    return "gentle"
+
+
+def breakdown(items, planned, config: MachineConfig) -> dict[str, float]:
+    """Where the machine time over the ideal goes (seconds): each pen-down move's time
+    above its cruise time is split between its two ends, and each end is charged to the
+    kind of vertex it has (a stroke's end at a pen lift, a reversal, a sharp turn of
+    45-90 degrees, a gentle one); moves whose whole length is shorter than one ramp are
+    also counted apart ("short", a share of the rest). Travel and Z moves: their whole
+    time, ideal and loss."""
+    from galileo_cnc.machine.junctions import move_ends
+
+    drawing = pen_down(items, config)
+    ideal_items = [it if isinstance(it, Pause) else replace(it, ramp=0, step_sub=0)
+                   for it in items]
+    ideal, _ = item_seconds(ideal_items)
+    actual, _ = item_seconds(planned)
+    out = {k: 0.0 for k in ("pen_down_ideal", "stroke_end", "reversal", "sharp", "gentle",
+                            "short", "travel_ideal", "travel_loss", "z_ideal", "z_loss",
+                            "pause")}
+    counts = {k: 0 for k in ("stroke_end", "reversal", "sharp", "gentle", "short")}
+    moves = [i for i, it in enumerate(items) if not isinstance(it, Pause) and it.n]
+    nxt = {a: b for a, b in zip(moves, moves[1:])}
+    prv = {b: a for a, b in zip(moves, moves[1:])}
+
+    def kind(a, b) -> str:
+        if a is None or b is None or not (drawing[a] and drawing[b]):
+            return "stroke_end"
+        if any(isinstance(items[j], Pause) for j in range(a + 1, b)):
+            return "stroke_end"
+        return _turn_class(move_ends(items[a])[1].direction, move_ends(items[b])[0].direction)
+
+    for i, it in enumerate(items):
+        if isinstance(it, Pause):
+            out["pause"] += actual[i]
+            continue
+        loss = actual[i] - ideal[i]
+        if drawing[i]:
+            out["pen_down_ideal"] += ideal[i]
+            ends = (kind(prv.get(i), i), kind(i, nxt.get(i)))
+            for end in ends:
+                out[end] += loss / 2
+            if it.n < it.ramp:
+                out["short"] += loss
+                counts["short"] += 1
+            if i in nxt:
+                counts[ends[1]] += 1
+        elif isinstance(it, LineMove) and it.delta[2]:
+            out["z_ideal"] += ideal[i]
+            out["z_loss"] += loss
+        else:
+            out["travel_ideal"] += ideal[i]
+            out["travel_loss"] += loss
+    out.update({f"n_{k}": v for k, v in counts.items()})
+    return out
+
+
+def print_breakdown(b: dict) -> None:
+    lost = ", ".join(f"{k} {b[k]:.1f} s ({b['n_' + k]})"
+                     for k in ("stroke_end", "reversal", "sharp", "gentle"))
+    print(f"    pen-down ideal {b['pen_down_ideal']:.1f} s, lost at ends: {lost}; "
+          f"of it in moves shorter than a ramp {b['short']:.1f} s ({b['n_short']})")
+    print(f"    travel {b['travel_ideal']:.1f} + {b['travel_loss']:.1f} s, "
+          f"Z {b['z_ideal']:.1f} + {b['z_loss']:.1f} s, pauses {b['pause']:.1f} s")
+
+
+def measure(path: Path, mode: str, config: MachineConfig, limits: JunctionLimits,
+            explain: bool = False) -> dict:
     started = time.perf_counter()
     job = plan_file(path, config, "auto", options=PlanOptions(mode=mode)).job
     items = ReferenceMachine(config).plan(job.commands)
@@ -93,11 +172,13 @@ def measure(path: Path, mode: str, config: MachineConfig, limits: JunctionLimits
     ideal_items = [it if isinstance(it, Pause) else replace(it, ramp=0, step_sub=0)
                    for it in items]
     record = {"file": str(path), "mode": mode, "moves": sum(drawing)}
-    for name, planned in (("ideal", ideal_items), ("stops", items),
-                          ("junction", plan_junctions(items, limits))):
+    junction = plan_junctions(items, limits)
+    for name, planned in (("ideal", ideal_items), ("stops", items), ("junction", junction)):
         seconds, total = item_seconds(planned)
         record[name] = total
         record[f"{name}_pen_down"] = sum(s for s, d in zip(seconds, drawing) if d)
+    if explain:
+        record["breakdown"] = breakdown(items, junction, config)
     record["seconds"] = time.perf_counter() - started
     return record
 
@@ -112,6 +193,8 @@ def main() -> None:
     parser.add_argument("--axis-change", type=float, default=None,
                         help="mm/s, the largest per-axis speed change at a vertex")
     parser.add_argument("--json", type=Path)
+    parser.add_argument("--breakdown", action="store_true",
+                        help="where the junction-speed time over the ideal goes, per file")
     args = parser.parse_args()
     config = MachineConfig(x_travel_mm=2000.0, y_travel_mm=2000.0)
     tuned = config.replace(junction_deviation_mm=args.deviation)
@@ -139,7 +222,7 @@ def main() -> None:
     totals = {"ink": [0.0] * 5, "centre": [0.0] * 5}
     for path, mode in jobs:
         try:
-            r = measure(path, mode, config, limits)
+            r = measure(path, mode, config, limits, args.breakdown)
         except Exception as problem:  # a file the planner refuses costs that file only
             print(f"{str(path)[-52:]:52} {mode:6} failed: {type(problem).__name__}: "
                   f"{str(problem)[:60]}")
@@ -150,6 +233,8 @@ def main() -> None:
               f"{r['stops'] / r['ideal']:6.2f}x {r['junction'] / r['ideal']:6.2f}x "
               f"{r['stops_pen_down'] / pd:7.2f}x {r['junction_pen_down'] / pd:7.2f}x "
               f"{r['junction'] / r['stops']:7.2f}", flush=True)
+        if args.breakdown:
+            print_breakdown(r["breakdown"])
         t = totals[mode]
         for i, key in enumerate(("ideal", "stops", "junction", "ideal_pen_down",
                                  "junction_pen_down")):

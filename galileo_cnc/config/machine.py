@@ -57,10 +57,10 @@ class MachineConfig:
     # Junction speeds (docs/motion.md §5.7): 0 stops at every vertex; > 0 (GRBL's $11,
     # whose default is 0.01 mm) plans speed through corners over the whole job: the
     # streamer sends each move's exit index and the firmware and sim:// ramp to it. Every
-    # axis changes speed at a vertex by at most vertex_speed_change_mm_s, about the speed
-    # a move already starts at from rest (F/3).
+    # axis changes speed at a vertex by at most vertex_speed_change_mm_s, below the speed
+    # an axis already jumps to from rest at the start of a rapid (rapid / 3 = 2.08 mm/s).
     junction_deviation_mm: float = 0.01
-    vertex_speed_change_mm_s: float = 1.6
+    vertex_speed_change_mm_s: float = 2.0
     # Fastest step rate the firmware supports on one axis: 50 ticks = 25 us = 40 kHz.
     min_step_period_ticks: int = 50
     # Pen: Z = pen_down_z_steps draws, pen_lift_steps above it is "up".

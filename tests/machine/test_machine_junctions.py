@@ -67,12 +67,13 @@ def test_the_vertex_speed_rules():
     assert vertex_speed(x, (-1.0, 0.0, 0.0), LIMITS) == 0.0     # a reversal stops
     assert vertex_speed(x, (-0.1, 0.995, 0.0), LIMITS) == 0.0
     # a right angle: each axis changes by the whole speed, so the per-axis bound rules
-    # (256 steps/s = 1.6 mm/s); the deviation alone would allow 2.46 mm/s
+    # (320 steps/s = 2.0 mm/s); the deviation alone would allow 2.46 mm/s
     assert vertex_speed(x, y, LIMITS) == LIMITS.axis_change_steps_per_s
     loose = JunctionLimits(LIMITS.accel_steps_per_s2, 10_000, 6250, 10**6)
     assert round(vertex_speed(x, y, loose)) == round(math.sqrt(40000 * 1.6 * 0.70711 / 0.29289))
     # 45 degrees: y changes by 0.71 of the speed, x by 0.29
-    assert round(vertex_speed(x, diag, LIMITS)) == round(256 / math.sqrt(0.5))
+    assert LIMITS.axis_change_steps_per_s == 320
+    assert round(vertex_speed(x, diag, LIMITS)) == round(320 / math.sqrt(0.5))
 
 
 def test_junction_speeds_keep_the_steps_shorten_the_job_and_brake_in_time():

@@ -42,6 +42,7 @@ from galileo_cnc.plan.ink.islands import (CLEARANCE_NM, ClosePlaces, Islands, cl
 from galileo_cnc.plan.ink.narrow import (Bridge, NarrowFeature, find_narrow,
                                         keep_islands_apart)
 from galileo_cnc.plan.ink.walk_order import Skeleton, WalkOrder, touching_walks
+from galileo_cnc.plan.order.links import LINK_AREAS
 from galileo_cnc.plan.order.pieces import WHOLE_PATHS
 from galileo_cnc.plan.widths import mm_text
 from galileo_cnc.program.extents import extents
@@ -354,7 +355,7 @@ class InkPaths:
             self._fit(number, [k for k in range(len(fill.paths))
                                if (number, k) not in self._fitted])
         rows = _rows(self.source, self.pens_nm, self.fills, self._narrow_rows(),
-                     self._fitted)
+                     self._fitted, self.link_areas())
         self._fitted = {}        # 100k small tuples on a pour: freed before the collector runs
         plan = InkPlan(rows, self.pens_nm, self.copper, self.fills, self.narrow, self.bridges,
                        self.zero_size, self.close, self.copper_nm2, self.coverage,
@@ -363,6 +364,21 @@ class InkPaths:
         plan.program.warnings = list(self.source.warnings) + plan.warnings
         plan.seconds = time.perf_counter() - self.began
         return plan
+
+    def link_areas(self) -> dict[int, list]:
+        """Per pen key, where path order may join two of its paths by a pen-down line
+        (plan/order/links.py): where the pen's centre may go (each batch's E0, the
+        keep-outs left out already), less the bare areas grown as the walks are kept
+        from them (_around_bare). Inside it a line inks only copper of one island."""
+        areas = {}
+        for number, fill in enumerate(self.fills):
+            area = [ring for _batch, recipe in fill.recipes for ring in recipe.centre_area]
+            if area and self.bare:
+                area = clip.difference(area, clip.offset(
+                    self.bare, fill.width_nm // 2 + self.tolerance_nm, self.tolerance_nm))
+            if area:
+                areas[number + 1] = area
+        return areas
 
     def _fit(self, number: int, which: list[int]) -> None:
         """The arcs of fill `number`'s paths `which`, all in one fit_paths."""
@@ -459,9 +475,10 @@ def _coverage_of_polygons(fills: list[PenFill], centre_lines: list[np.ndarray],
 
 
 def _rows(program: Program, pens: tuple[int, ...], fills: list[PenFill],
-          narrow_rows: np.ndarray, segments: dict) -> Program:
+          narrow_rows: np.ndarray, segments: dict, link_areas: dict | None = None) -> Program:
     """The ink as a Program: per pen a SELECT, its fill's walks (`segments`: per (fill,
-    path) what _emit_path draws) and, for the smallest pen, the centre lines' rows."""
+    path) what _emit_path draws) and, for the smallest pen, the centre lines' rows.
+    `link_areas` (InkPaths.link_areas) go into its metadata for path order."""
     out = ProgramBuilder(program.source)
     # each walk is one island's rings and joins drawn as one stroke already (fill.py):
     # path order moves and reverses it, but has nothing to chain or leave out in it
@@ -484,6 +501,7 @@ def _rows(program: Program, pens: tuple[int, ...], fills: list[PenFill],
     return out.build("gerber", program.units, apertures=apertures,
                      metadata={"ink": True, "pens_nm": list(pens),
                                WHOLE_PATHS: walks,
+                               **({LINK_AREAS: link_areas} if link_areas else {}),
                                "source_metadata": program.metadata},
                      line_count=program.line_count)
 

@@ -27,10 +27,12 @@ import numpy as np
 
 from galileo_cnc.plan.ink.background import Deferred
 from galileo_cnc.plan.order.apertures import OrderedRows, drawing_apertures, optimized_order
+from galileo_cnc.plan.order.links import LINK_AREAS, linked_moves
 from galileo_cnc.plan.order.pieces import WHOLE_PATHS
 from galileo_cnc.program.ops import I, J, KIND, X, Y, OpKind, Program
 
 _MOVE, _CW, _CCW = int(OpKind.MOVE), int(OpKind.ARC_CW), int(OpKind.ARC_CCW)
+_LINE = int(OpKind.LINE)
 Row = list[int]
 
 
@@ -147,7 +149,13 @@ class WalkOrder:
         flush()
         if not rows:
             return OrderedRows(np.zeros(0, dtype=np.int64), table[:0])
-        return OrderedRows(np.concatenate(indices), np.concatenate(rows).astype(np.int64))
+        out = np.concatenate(rows).astype(np.int64)
+        # the skeleton carries no link areas: the real rows are linked as
+        # optimized_order links them (plan/order/links.py)
+        areas = program.metadata.get(LINK_AREAS)
+        if areas:
+            out[linked_moves(out, areas), KIND] = _LINE
+        return OrderedRows(np.concatenate(indices), out)
 
 
 def _index_map(skeleton_walks: list, walks: list, size: int) -> np.ndarray:

@@ -24,9 +24,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from galileo_cnc.plan.order.links import LINK_AREAS, linked_pairs
 from galileo_cnc.plan.order.paths import cut_pieces, optimize
 from galileo_cnc.plan.order.pieces import WHOLE_PATHS
-from galileo_cnc.program.ops import KIND, NO_TOOL, TOOL, X, Y, OpKind, Program
+from galileo_cnc.program.ops import COLUMNS, KIND, NO_TOOL, TOOL, X, Y, OpKind, Program
 
 DRAWING_KINDS = (int(OpKind.LINE), int(OpKind.ARC_CW), int(OpKind.ARC_CCW), int(OpKind.FLASH))
 _POSITIONED = (int(OpKind.MOVE),) + DRAWING_KINDS
@@ -126,7 +127,9 @@ def optimized_order(program: Program, start: tuple[int, int], join_nm: int,
                     by_aperture: bool) -> list[tuple[int, list[int]]]:
     """(op index, row) pairs: the pieces of each pen chained and ordered to cut pen-up
     travel (paths.py), from `start` (program coordinates); with `by_aperture`
-    one pen per aperture in first-use order, else everything as one pen."""
+    one pen per aperture in first-use order, else everything as one pen. Where the
+    Program names the areas its pens may link paths in (the ink's), short pen lifts
+    become lines (links.py)."""
     rows = group_by_aperture(program) if by_aperture else list(enumerate(program.table.tolist()))
     groups: list[tuple[list[int] | None, list[tuple[int, list[int]]]]] = []
     for index, row in rows:
@@ -148,7 +151,8 @@ def optimized_order(program: Program, start: tuple[int, int], join_nm: int,
         if select is not None:
             ordered.append((group_rows[0][0] if group_rows else 0, select))
         ordered.extend(drawn)
-    return ordered
+    areas = program.metadata.get(LINK_AREAS)
+    return linked_pairs(ordered, areas, len(COLUMNS)) if areas else ordered
 
 
 def optimize_groups(groups: list[list[tuple[int, list[int]]]], start: tuple[int, int],
