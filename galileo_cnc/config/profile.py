@@ -5,7 +5,7 @@
 steps_per_rev = 200
 pitch_mm = 1.25
 junction_deviation_mm = 0.01     # speed through corners (docs/motion.md §5.7); 0: stop at each
-vertex_speed_change_mm_s = 1.6   # the largest per-axis speed change at a vertex
+vertex_speed_change_mm_s = 2.0   # the largest per-axis speed change at a vertex
 
 [mill]               # a mill's tool and cut (galileo_cnc/config/mill.py, docs/mill.md)
 tool = "vbit"

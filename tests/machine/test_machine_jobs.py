@@ -185,11 +185,11 @@ def test_trace_npz_round_trip(tmp_path):
 def test_machine_keeps_state_and_clock_between_runs():
     m = ReferenceMachine()
     first = m.run([LineTo(100, 0)])
-    second = m.run([LineTo(100, 100)])
+    second = m.run([LineTo(0, 0)])          # a turn back: the whole job stops there too
     assert second.tick[0] > first.tick[-1]
-    whole = simulate([LineTo(100, 0), LineTo(100, 100)])
+    whole = simulate([LineTo(100, 0), LineTo(0, 0)])
     assert np.array_equal(np.concatenate([first.tick, second.tick]), whole.tick)
-    assert m.work_position == (100, 100, 0)
+    assert m.work_position == (0, 0, 0)
 
 
 def test_a_job_stepped_in_pieces_is_the_job_stepped_whole(monkeypatch):

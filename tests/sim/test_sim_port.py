@@ -74,7 +74,7 @@ def test_moves_are_answered_and_end_where_commanded(link):
     assert [r.kind for r in replies] == ["ok"] * len(job)
     assert [r.seq for r in replies] == list(range(len(job)))
     status = link.status()
-    ref = simulate(job)
+    ref = simulate(job, MachineConfig(junction_deviation_mm=0.0))   # plain moves: stop to stop
     assert status == P.Status("idle", *ref.final_position, 0, len(job) - 1)
     assert (status.x_steps, status.y_steps) == (-500, 120)
     trace = link.port.trace()
