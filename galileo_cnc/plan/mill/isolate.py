@@ -199,11 +199,11 @@ def refuse_shorts(isolation: Isolation, accept_shorts: bool = False) -> None:
     listed = "\n".join(f"  {short.describe()}" for short in shown)
     if len(isolation.shorts) > len(shown):
         listed += (f"\n  ... and {len(isolation.shorts) - len(shown)} more "
-                   f"(Isolation.shorts holds them all)")
+                   f"(--accept-shorts writes the passes; its G-code lists them all)")
     raise ShortsError(
         f"{isolation.source}: {len(isolation.shorts)} place(s) where two copper islands are "
         f"closer than the {mm_text(isolation.cut_width_nm)} mm cut: the tool cannot pass "
         f"between them and leaves them joined:\n{listed}\n"
-        f"(a narrower tool or a shallower V-bit cut separates them; accept_shorts mills "
-        f"the board with them joined)")
+        f"(a narrower tool or a shallower V-bit cut separates them; --accept-shorts "
+        f"mills the board with them joined)")
 

@@ -89,7 +89,7 @@ def test_a_job_with_shorts_is_refused_unless_they_are_accepted(board):
         refuse_shorts(isolation)
     text = str(refused.value)
     assert "1 place(s) where two copper islands are closer than the 0.154 mm cut" in text
-    assert "X5.550 Y0.000 mm (work)" in text and "accept_shorts" in text
+    assert "X5.550 Y0.000 mm (work)" in text and "--accept-shorts" in text
     refuse_shorts(isolation, accept_shorts=True)
     refuse_shorts(isolate(board, MillConfig(tool="endmill", diameter_nm=90_000)))
 
