@@ -32,6 +32,7 @@ import numpy as np
 
 from galileo_cnc.config.mill import MillConfig
 from galileo_cnc.errors import GalileoError
+from galileo_cnc.plan.mill.gcode import _comment
 from galileo_cnc.program.drills import Hole, Slot
 from galileo_cnc.readers.gcode.writer import mm
 
@@ -82,8 +83,8 @@ def plan_drilling(drills: list, mill: MillConfig, order: str = "plated-first") -
     for item in drills:
         fitting = [bit for bit in bits if bit <= item.diameter_nm + FIT_NM]
         if not fitting:
-            notes.append(f"{_where(item)}: {_mm(item.diameter_nm)} mm is smaller than the "
-                         f"smallest bit, {_mm(bits[0])} mm: drilled with it")
+            notes.append(f"{_where(item)}: {mm_text(item.diameter_nm)} mm is smaller than the "
+                         f"smallest bit, {mm_text(bits[0])} mm: drilled with it")
         bit = fitting[-1] if fitting else bits[0]
         groups.setdefault((item.plated is not False, bit), []).append(item)
     plated_first = order == "plated-first"
@@ -109,7 +110,7 @@ def plan_gcode(plan: DrillPlan, mill: MillConfig, source: str = "") -> str:
     safe = mm(mill.safe_height_nm)
     first = plan.groups[0].bit_nm
     lines = [f"(galileo-cnc mill: drilling{' of ' + _comment(source) if source else ''})",
-             f"(start with the {_mm(first)} mm bit in the spindle, Z = 0 at the board's top)"]
+             f"(start with the {mm_text(first)} mm bit in the spindle, Z = 0 at the board's top)"]
     lines += [f"({_comment(note)})" for note in plan.notes]
     lines += ["G21 G90 G17 G94", f"G0 Z{safe}", f"M3 S{mill.spindle_rpm}"]
     bit = first
@@ -118,7 +119,7 @@ def plan_gcode(plan: DrillPlan, mill: MillConfig, source: str = "") -> str:
             lines += _tool_change(group.bit_nm, mill)
             bit = group.bit_nm
         lines.append(f"({'plated' if group.plated else 'unplated'}, "
-                     f"{_mm(group.bit_nm)} mm bit: {len(group.items)})")
+                     f"{mm_text(group.bit_nm)} mm bit: {len(group.items)})")
         for item in group.items:
             if isinstance(item, Hole):
                 lines += _hole(item, group.bit_nm, mill)
@@ -131,9 +132,9 @@ def plan_gcode(plan: DrillPlan, mill: MillConfig, source: str = "") -> str:
 def _tool_change(bit_nm: int, mill: MillConfig) -> list[str]:
     """Spindle off at the safe height, M0 naming the bit, Z re-zeroed, spindle on."""
     safe = mm(mill.safe_height_nm)
-    lines = [f"G0 Z{safe}", "M5", f"M0 (TOOL CHANGE: put in the {_mm(bit_nm)} mm bit)"]
+    lines = [f"G0 Z{safe}", "M5", f"M0 (TOOL CHANGE: put in the {mm_text(bit_nm)} mm bit)"]
     if mill.probe:
-        lines += [f"M0 (PROBE: clip the probe to the {_mm(bit_nm)} mm bit, the plate "
+        lines += [f"M0 (PROBE: clip the probe to the {mm_text(bit_nm)} mm bit, the plate "
                   f"on the board)",
                   f"G38.2 Z{mm(-PROBE_REACH_NM)} F{mm(mill.plunge_feed_um_min * 1000)}",
                   f"G92 Z{mm(mill.probe_plate_nm)}",
@@ -149,7 +150,7 @@ def _touch_off(bit_nm: int, mill: MillConfig) -> list[str]:
     """No probe: the collet-drop touch-off any sender can run (M0 and cycle start only).
     The spindle goes down to Z = 0 with the new bit loose in its collet, so the bit
     rests on the board's top; the user tightens it there: Z = 0 holds for the new bit."""
-    return [f"M0 (TOUCH OFF: leave the {_mm(bit_nm)} mm bit loose in the collet, its tip "
+    return [f"M0 (TOUCH OFF: leave the {mm_text(bit_nm)} mm bit loose in the collet, its tip "
             f"above the board; resume: the spindle goes down to Z = 0)",
             f"G1 Z0 F{mm(mill.plunge_feed_um_min * 1000)}",
             "M0 (TOUCH OFF: let the bit rest on the board's top, tighten the collet, resume)",
@@ -165,7 +166,7 @@ def _hole(hole: Hole, bit_nm: int, mill: MillConfig) -> list[str]:
         return [f"G0 X{mm(x)} Y{mm(y)}", f"G1 Z{mm(-depth)} F{plunge}", f"G0 Z{safe}"]
     lines = [f"G0 X{mm(x + radius)} Y{mm(y)}", f"G1 Z0 F{plunge}"]
     circle = f"G2 X{mm(x + radius)} Y{mm(y)} I{mm(-radius)} J0"
-    for z in _levels(depth, mill.cutout_step_down_nm):
+    for z in depth_levels(depth, mill.cutout_step_down_nm):
         lines.append(f"{circle} Z{mm(-z)} F{mm(mill.feed_um_min * 1000)}")
     lines += [circle, f"G0 Z{safe}"]
     return lines
@@ -179,13 +180,13 @@ def _slot(slot: Slot, bit_nm: int, mill: MillConfig) -> list[str]:
     if slot.diameter_nm - bit_nm > MILL_ABOVE_NM:
         ring = _contour(slot, offset)
         lines = [f"G0 X{mm(ring[-1][1])} Y{mm(ring[-1][2])}"]
-        for z in _levels(depth, mill.cutout_step_down_nm):
+        for z in depth_levels(depth, mill.cutout_step_down_nm):
             lines.append(f"G1 Z{mm(-z)} F{plunge}")
             lines += [_move(move, feed) for move in ring]
     else:
         there, back = _path(slot), _path(_reversed(slot))
         lines = [f"G0 X{mm(slot.x0_nm)} Y{mm(slot.y0_nm)}"]
-        for k, z in enumerate(_levels(depth, mill.cutout_step_down_nm)):
+        for k, z in enumerate(depth_levels(depth, mill.cutout_step_down_nm)):
             lines.append(f"G1 Z{mm(-z)} F{plunge}")
             lines.append(_move(there if k % 2 == 0 else back, feed))
     lines.append(f"G0 Z{safe}")
@@ -245,7 +246,7 @@ def _move(move: tuple, feed: str) -> str:
     return f"{code} X{mm(x)} Y{mm(y)}{arc} F{feed}"
 
 
-def _levels(depth_nm: int, step_nm: int) -> list[int]:
+def depth_levels(depth_nm: int, step_nm: int) -> list[int]:
     """Depths (positive, nm) down to `depth_nm` in equal passes of at most `step_nm`."""
     count = max(1, -(-depth_nm // step_nm))
     return [depth_nm * k // count for k in range(1, count + 1)]
@@ -284,13 +285,9 @@ def _end(item) -> tuple[int, int]:
 def _where(item) -> str:
     line = f" line {item.line}" if item.line else ""
     x, y = (item.x_nm, item.y_nm) if isinstance(item, Hole) else (item.x0_nm, item.y0_nm)
-    return f"{item.tool or 'hole'}{line} at X {_mm(x)} Y {_mm(y)} mm"
+    return f"{item.tool or 'hole'}{line} at X {mm_text(x)} Y {mm_text(y)} mm"
 
 
-def _mm(nm: int) -> str:
+def mm_text(nm: int) -> str:
+    """A length as a user reads it in a message: mm, to the micrometre."""
     return f"{nm / 1_000_000:.3f}"
-
-
-def _comment(text: str) -> str:
-    """Text a G-code comment can hold: no parentheses inside one."""
-    return text.replace("(", "[").replace(")", "]")
