@@ -78,15 +78,15 @@ def plan_drilling(drills: list, mill: MillConfig, order: str = "plated-first") -
     if not drills:
         raise DrillError("no holes or slots to drill")
     bits = sorted(mill.drills_nm)
-    notes = []
+    too_small: dict[int, list] = {}
     groups: dict[tuple[bool, int], list] = {}
     for item in drills:
         fitting = [bit for bit in bits if bit <= item.diameter_nm + FIT_NM]
         if not fitting:
-            notes.append(f"{_where(item)}: {mm_text(item.diameter_nm)} mm is smaller than the "
-                         f"smallest bit, {mm_text(bits[0])} mm: drilled with it")
+            too_small.setdefault(item.diameter_nm, []).append(item)
         bit = fitting[-1] if fitting else bits[0]
         groups.setdefault((item.plated is not False, bit), []).append(item)
+    notes = [_too_small_note(items, bits[0]) for _, items in sorted(too_small.items())]
     plated_first = order == "plated-first"
     keys = sorted(groups, key=lambda key: (key[0] != plated_first, key[1]))
     at = (0, 0)
@@ -280,6 +280,16 @@ def _nearest_first(items: list, start: tuple[int, int]) -> list:
 
 def _end(item) -> tuple[int, int]:
     return (item.x_nm, item.y_nm) if isinstance(item, Hole) else (item.x1_nm, item.y1_nm)
+
+
+def _too_small_note(items: list, bit_nm: int) -> str:
+    """One note per diameter below every bit: a board's vias are hundreds of holes."""
+    size = f"{mm_text(items[0].diameter_nm)} mm"
+    if len(items) == 1:
+        what = f"{_where(items[0])}: {size} is"
+    else:
+        what = f"{len(items)} holes of {size} (the first {_where(items[0])}) are"
+    return f"{what} smaller than the smallest bit, {mm_text(bit_nm)} mm: drilled with it"
 
 
 def _where(item) -> str:

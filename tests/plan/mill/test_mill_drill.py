@@ -3,15 +3,18 @@ every hole once at its exact place, one bit change between two bits, a hole wide
 its bit milled as a helix inside it, plated and unplated in the order asked, slots
 along their path or round their contour."""
 
+import dataclasses
 import math
 import re
 
 import pytest
 
+from corpus import corpus_file
 from galileo_cnc.config.mill import MillConfig
 from galileo_cnc.plan.mill.drill import DrillError, drill_gcode, plan_drilling
 from galileo_cnc.program.drills import Hole, Slot
 from galileo_cnc.program.ops import OpKind
+from galileo_cnc.readers import read_drill
 from galileo_cnc.readers.gcode import read_gcode
 
 MILL = MillConfig(drills_nm=(800_000, 1_000_000))
@@ -88,6 +91,9 @@ def test_a_hole_smaller_than_every_bit_is_reported_and_drilled_with_the_smallest
     assert "T4 line 17 at X 7.000 Y -2.000 mm: 0.500 mm" in note and "0.800 mm" in note
     assert plan.groups[0].bit_nm == 800_000 and SMALL in plan.groups[0].items
     assert "(T4 line 17" in drill_gcode([SMALL, *PLATED], MILL)
+    vias = [Hole(k * 1_000_000, 0, 300_000, "T7", True, line=30 + k) for k in range(3)]
+    (note,) = plan_drilling([*vias, *PLATED], MILL).notes
+    assert note.startswith("3 holes of 0.300 mm (the first T7 line 30 at X 0.000 Y 0.000 mm)")
 
 
 def test_the_probe_re_zeroes_z_with_g38_2_on_the_plate():
@@ -113,3 +119,21 @@ def test_slots_along_their_path_in_depth_passes_and_a_wide_one_round_its_contour
     # the 1.0 mm bit 0.2 mm off the path each side: its edge on the slot's
     assert {y for _, y in ring} == {9_800_000, 10_200_000}
     assert {x for x, _ in ring} == {0, 4_000_000}
+
+
+def test_a_real_board_every_hole_once_plated_then_unplated_slots_milled():
+    plated = read_drill(str(corpus_file("drill/kicad/flashpads-x2ap/Flashpads-PTH.drl")))
+    unplated = read_drill(str(corpus_file("drill/kicad/flashpads-x2ap/Flashpads-NPTH.drl")))
+    drills = [dataclasses.replace(item, plated=item.plated is not False)
+              for item in (*plated.holes, *plated.slots)]
+    drills += [dataclasses.replace(item, plated=False)
+               for item in (*unplated.holes, *unplated.slots)]
+    text = drill_gcode(drills, MILL)
+    visits = _visits(text)
+    holes = [v for v in visits if v[2] != "slot"]
+    assert sorted((x, y) for x, y, _, _ in holes) == sorted(
+        (h.x_nm, h.y_nm) for h in (*plated.holes, *unplated.holes))
+    assert len([v for v in visits if v[2] == "slot"]) == len(plated.slots) == 16
+    unplated_at = {(h.x_nm, h.y_nm) for h in unplated.holes}
+    kinds = [(v[0], v[1]) in unplated_at for v in holes]
+    assert kinds == sorted(kinds)           # every unplated hole after every plated one
