@@ -96,7 +96,7 @@ def plan_cutout(outline: Program, mill: MillConfig) -> CutoutPlan:
             x, y = contour[0].tolist()
             raise CutoutError(f"{outline.source}: the hole in the outline at X {_mm(x)} "
                               f"Y {_mm(y)} mm is narrower than the {_mm(mill.diameter_nm)} "
-                              f"mm tool")
+                              f"mm end mill (diameter_mm): a smaller one cuts it")
         for ring in rings:
             ring = np.array(ring, dtype=np.int64)
             # clockwise round a board (Clipper's rings come counter-clockwise)

@@ -143,3 +143,10 @@ def test_real_outlines_chain_and_the_tool_keeps_off_their_centre_lines():
         for cut in plan.cuts:
             assert shapely.LinearRing(cut.ring).distance(strokes) >= 1_000_000, name
             assert len(cut.tabs) == (4 if cut.edge else 0)
+
+
+def test_a_hole_in_the_outline_narrower_than_the_tool_is_refused_naming_its_place(outline):
+    wide = MillConfig(tool="endmill", diameter_nm=7_000_000, tabs=0)
+    with pytest.raises(CutoutError, match=r"the hole in the outline at X 13\.000 Y 10\.000 mm "
+                                          r"is narrower than the 7\.000 mm end mill"):
+        plan_cutout(outline, wide)
