@@ -13,6 +13,16 @@ feed_mm_min = 120          # cutting
 plunge_feed_mm_min = 60    # Z down into the board
 passes = 1                 # isolation passes round every copper island
 overlap = 0.25             # each next pass overlaps the one before by this share of the cut
+drills = [0.8, 1.0]        # drilling: the bits at hand (mm); a hole takes the largest that fits
+breakthrough_mm = 0.2      # drilling: how far a drill goes past the board's bottom
+probe = false              # a probe is wired (GRBL's probe pin): Z is re-zeroed with G38.2
+probe_plate_mm = 0.0       # the touch plate's thickness on the board's top
+board_thickness_mm = 1.6   # cut-out (and drilling) goes through this
+cutout_step_down_mm = 0.5  # cut-out, milled holes and slots: the most each depth pass goes down
+tabs = 4                   # cut-out: tabs holding the board (0: none)
+tab_spacing_mm = 0         # cut-out: a tab every this many mm instead of a count (0: use tabs)
+tab_width_mm = 2.0         # cut-out: the board's material each tab leaves, along the edge
+tab_height_mm = 0.5        # cut-out: the tab's height above the board's bottom
 ```
 
 A V-bit at depth d cuts tip + 2 d tan(angle / 2) wide at the copper's top; an end mill
@@ -41,6 +51,8 @@ MAX_OVERLAP = 0.9
 #: The sizes a table may give, in mm: a tool wider than this is no PCB tool.
 MAX_TOOL_MM = 10.0
 MAX_HEIGHT_MM = 100.0
+#: Tabs round one board: more hold nothing better.
+MAX_TABS = 100
 
 
 @dataclass(frozen=True, slots=True)
@@ -58,6 +70,16 @@ class MillConfig:
     plunge_feed_um_min: int = 60_000
     passes: int = 1
     overlap_permille: int = 250
+    drills_nm: tuple[int, ...] = (800_000, 1_000_000)
+    breakthrough_nm: int = 200_000
+    probe: bool = False
+    probe_plate_nm: int = 0
+    board_thickness_nm: int = 1_600_000
+    cutout_step_down_nm: int = 500_000
+    tabs: int = 4
+    tab_spacing_nm: int = 0
+    tab_width_nm: int = 2_000_000
+    tab_height_nm: int = 500_000
 
     @property
     def cut_width_nm(self) -> int:
@@ -110,11 +132,33 @@ class MillConfig:
                 raise ConfigError(f"{source}: [mill] passes = {passes!r}: must be a whole "
                                   f"number 1..{MAX_PASSES}")
             values["passes"] = passes
+        if "tabs" in table:
+            tabs = table["tabs"]
+            if isinstance(tabs, bool) or not isinstance(tabs, int) or not 0 <= tabs <= MAX_TABS:
+                raise ConfigError(f"{source}: [mill] tabs = {tabs!r}: must be a whole number "
+                                  f"0..{MAX_TABS}")
+            values["tabs"] = tabs
+        if "probe" in table:
+            if not isinstance(table["probe"], bool):
+                raise ConfigError(f"{source}: [mill] probe = {table['probe']!r}: must be "
+                                  f"true or false")
+            values["probe"] = table["probe"]
+        if "drills" in table:
+            values["drills_nm"] = _drills(source, table["drills"])
         config = dataclasses.replace(base, **values) if base is not None else cls(**values)
         if config.tool == "vbit" and config.cut_width_nm <= 0:
             raise ConfigError(f"{source}: [mill] a V-bit with tip_mm = 0 and cut_depth_mm "
                               f"= 0 cuts nothing")
         return config
+
+
+def _drills(source: str, drills: Any) -> tuple[int, ...]:
+    """The `drills` list: bit diameters in mm, made integer nm, smallest first."""
+    if not isinstance(drills, list) or not drills:
+        raise ConfigError(f"{source}: [mill] drills = {drills!r}: must be a list of bit "
+                          f"diameters in mm, e.g. [0.8, 1.0]")
+    return tuple(sorted({_number(source, "drills", value, NM_PER_MM, 0.0, MAX_TOOL_MM, True)
+                         for value in drills}))
 
 
 def _mm(nm: int) -> str:
@@ -145,5 +189,12 @@ _NUMBERS = {
     "feed_mm_min": ("feed_um_min", 1000, 1.0, 100_000.0, False),
     "plunge_feed_mm_min": ("plunge_feed_um_min", 1000, 1.0, 100_000.0, False),
     "overlap": ("overlap_permille", 1000, 0.0, MAX_OVERLAP, False),
+    "breakthrough_mm": ("breakthrough_nm", NM_PER_MM, 0.0, MAX_TOOL_MM, False),
+    "probe_plate_mm": ("probe_plate_nm", NM_PER_MM, 0.0, MAX_TOOL_MM, False),
+    "board_thickness_mm": ("board_thickness_nm", NM_PER_MM, 0.0, MAX_HEIGHT_MM, True),
+    "cutout_step_down_mm": ("cutout_step_down_nm", NM_PER_MM, 0.0, MAX_TOOL_MM, True),
+    "tab_spacing_mm": ("tab_spacing_nm", NM_PER_MM, 0.0, 10_000.0, False),
+    "tab_width_mm": ("tab_width_nm", NM_PER_MM, 0.0, MAX_HEIGHT_MM, True),
+    "tab_height_mm": ("tab_height_nm", NM_PER_MM, 0.0, MAX_HEIGHT_MM, True),
 }
-_KEYS = ("tool", *_NUMBERS, "passes")
+_KEYS = ("tool", *_NUMBERS, "passes", "drills", "probe", "tabs")
