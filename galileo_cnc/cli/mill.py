@@ -1,10 +1,13 @@
-"""`convert FILE|BOARD --mill isolate -o out.nc`: a mill's G-code (plan/mill/, docs/mill.md).
+"""`convert FILE|BOARD --mill isolate|drill|cutout -o out.nc`: a mill's G-code (plan/mill/,
+docs/mill.md): the isolation passes round a copper layer, the board's holes and slots
+drilled bit by bit, or the cut-out along its outline with tabs.
 
 The tool and its cut come from the profile's `[mill]` table, with `--mill-set KEY=VALUE`
 over it (the table's keys and units: `--mill-set passes=2 --mill-set tool=endmill`).
-A board (a folder, .zip or .gbrjob) gives its `--side` copper; the bottom is mirrored
-about the board's axis as the plotter's bottom is (plan/sides.py), so the milled bottom
-lands on the top after the turn-over. Coordinates are the board's own (work zero at the
+A board (a folder, .zip or .gbrjob) gives its `--side` copper, every drill file's holes
+and its outline; on `--side bottom` all three are mirrored about the board's axis as the
+plotter's bottom is (plan/sides.py), so the bottom's work lands on the top's after the
+turn-over. Coordinates are the board's own (work zero at the
 board's origin), so isolation, drilling and cut-out files of one board agree.
 """
 
@@ -12,87 +15,176 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 
 from galileo_cnc.config.machine import ConfigError
 from galileo_cnc.config.mill import MillConfig
 from galileo_cnc.errors import GalileoError
 
-MILL_JOBS = ("isolate",)
+MILL_JOBS = ("isolate", "drill", "cutout")
 
 
 def add_mill_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--mill", choices=MILL_JOBS,
                         help="write a mill's G-code instead of a plot: isolate (passes "
-                        "round every copper island at the tool's cut; docs/mill.md)")
+                        "round every copper island at the tool's cut), drill (a board's "
+                        "holes and slots, bit by bit), cutout (along the board's outline, "
+                        "with tabs); docs/mill.md")
     parser.add_argument("--mill-set", action="append", default=[], metavar="KEY=VALUE",
                         help="a [mill] key over the profile's (e.g. passes=2, "
                         "tool=endmill, diameter_mm=0.3); may be repeated")
     parser.add_argument("--accept-shorts", action="store_true",
                         help="--mill isolate: write the passes although some islands are "
                         "closer than the tool can part (they are listed)")
+    parser.add_argument("--drill-order", choices=("plated-first", "unplated-first"),
+                        default="plated-first", help="--mill drill: which holes first")
 
 
 def mill_table(pairs: list[str]) -> dict:
-    """`--mill-set` KEY=VALUE pairs as a [mill] table: numbers as numbers, the rest text."""
+    """`--mill-set` KEY=VALUE pairs as a [mill] table: numbers as numbers, true/false as
+    booleans, a list of numbers (drills=0.8,1.0) as a list, the rest text."""
     table: dict = {}
     for pair in pairs:
         key, equals, text = pair.partition("=")
         if not equals or not key.strip():
             raise ConfigError(f"--mill-set {pair!r}: expected KEY=VALUE, e.g. passes=2")
-        text = text.strip()
-        for kind in (int, float):
-            try:
-                table[key.strip()] = kind(text)
-                break
-            except ValueError:
-                continue
-        else:
-            table[key.strip()] = text
+        value = _value(text.strip())
+        table[key.strip()] = [value] if key.strip() == "drills" and \
+            not isinstance(value, list) else value
     return table
 
 
-def copper_to_mill(args: argparse.Namespace):
-    """The copper layer to isolate: the file, or the board's `--side` copper (the bottom
-    mirrored about the board's axis)."""
-    from galileo_cnc.plan import sides
-    from galileo_cnc.plan.board_plan import BoardChoice, board_holes, side_options
-    from galileo_cnc.program.drills import drills_box
-    from galileo_cnc.program.extents import extents
-    from galileo_cnc.readers import read_file
-    from galileo_cnc.readers.board import is_board, open_board
+def _value(text: str):
+    if text.lower() in ("true", "false"):
+        return text.lower() == "true"
+    if "," in text:
+        return [_value(part.strip()) for part in text.split(",")]
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            continue
+    return text
 
-    if not is_board(args.file):
-        return read_file(args.file)
-    from galileo_cnc.cli.main import _board_choice
-    choice = _board_choice(args) or BoardChoice()
-    board = open_board(args.file, choice.layers)
-    try:
-        copper, options = side_options(board, choice)
-        if choice.side == "top":
-            return copper
+
+class _MillSource:
+    """What the mill works from: one file, or a board's side (the bottom mirrored)."""
+
+    def __init__(self, args: argparse.Namespace):
+        from galileo_cnc.readers.board import is_board
+        self.path = args.file
+        self.board = None
+        if is_board(args.file):
+            from galileo_cnc.cli.main import _board_choice
+            from galileo_cnc.plan.board_plan import BoardChoice
+            from galileo_cnc.readers.board import open_board
+            self.choice = _board_choice(args) or BoardChoice()
+            self.board = open_board(args.file, self.choice.layers)
+
+    def close(self) -> None:
+        if self.board is not None:
+            self.board.close()
+
+    def needs_board(self, job: str) -> None:
+        if self.board is None:
+            raise GalileoError(f"{os.fsdecode(self.path)}: --mill {job} needs a board (a "
+                               f"folder, .zip or .gbrjob with its drill files and outline)")
+
+    def _side(self):
+        """The side's copper, its plan options and the mirror axis (None on the top)."""
+        from galileo_cnc.plan import sides
+        from galileo_cnc.plan.board_plan import board_holes, side_options
+        from galileo_cnc.program.drills import drills_box
+        from galileo_cnc.program.extents import extents
+        copper, options = side_options(self.board, self.choice)
+        if self.choice.side == "top":
+            return copper, options, None
         outline = options.outline_program
-        axis = (sides.MirrorAxis.at(*choice.mirror_axis) if choice.mirror_axis else
-                sides.default_axis(extents(outline) if outline is not None else None,
-                                   drills_box(board_holes(board)), options.board_box_nm))
-        return sides.side_program(copper, "bottom", axis)
+        axis = (sides.MirrorAxis.at(*self.choice.mirror_axis) if self.choice.mirror_axis
+                else sides.default_axis(extents(outline) if outline is not None else None,
+                                        drills_box(board_holes(self.board)),
+                                        options.board_box_nm))
+        return copper, options, axis
+
+    def copper(self):
+        from galileo_cnc.plan import sides
+        from galileo_cnc.readers import read_file
+        if self.board is None:
+            return read_file(self.path)
+        copper, _, axis = self._side()
+        return copper if axis is None else sides.side_program(copper, "bottom", axis)
+
+    def holes(self) -> list:
+        from galileo_cnc.plan import sides
+        from galileo_cnc.plan.board_plan import board_holes
+        self.needs_board("drill")
+        _, _, axis = self._side()
+        holes = board_holes(self.board)
+        if not holes:
+            raise GalileoError(f"{self.board.source}: no holes or slots: the board has no "
+                               f"drill file (info BOARD lists the files; --layer "
+                               f"FILE=drill places one)")
+        return holes if axis is None else sides.mirror_drills(holes, axis)
+
+    def outline(self):
+        from galileo_cnc.plan import sides
+        self.needs_board("cutout")
+        _, options, axis = self._side()
+        if options.outline_program is None:
+            raise GalileoError(f"{self.board.source}: no file is the outline (info BOARD "
+                               f"lists the files; --layer FILE=outline places one)")
+        outline = options.outline_program
+        return outline if axis is None else sides.side_program(outline, "bottom", axis)
+
+
+def mill_text(args: argparse.Namespace, mill: MillConfig) -> tuple[str, list[str], str]:
+    """The G-code of the `--mill` job, the notes the user should read and what it does
+    in a few words."""
+    from galileo_cnc.plan.mill.cutout import cuts_gcode, plan_cutout
+    from galileo_cnc.plan.mill.drill import plan_drilling, plan_gcode
+    from galileo_cnc.plan.mill.gcode import mill_gcode
+    from galileo_cnc.plan.widths import mm_text
+    source = _MillSource(args)
+    try:
+        if args.mill == "isolate":
+            text = mill_gcode(source.copper(), mill, accept_shorts=args.accept_shorts)
+            rings = sum(1 for line in text.splitlines() if line.startswith("G1 Z"))
+            return text, [], f"{_count(rings, 'ring')} round the copper, {mill.describe()}"
+        if args.mill == "drill":
+            plan = plan_drilling(source.holes(), mill, args.drill_order)
+            items = sum(len(group.items) for group in plan.groups)
+            return plan_gcode(plan, mill, os.fsdecode(args.file)), plan.notes, (
+                f"{_count(items, 'hole')} and slots with "
+                f"{', '.join(mm_text(bit) for bit in sorted(mill.drills_nm))} mm bits, "
+                f"{_count(plan.tool_changes, 'bit change')}")
+        outline = source.outline()
+        plan = plan_cutout(outline, mill)
+        edges = sum(1 for cut in plan.cuts if cut.edge)
+        tabs = sum(len(cut.tabs) for cut in plan.cuts)
+        return cuts_gcode(plan.cuts, mill, outline.source, plan.notes), plan.notes, (
+            f"{_count(edges, 'edge')} and {_count(len(plan.cuts) - edges, 'hole')} cut "
+            f"with a {mm_text(mill.diameter_nm)} mm end mill through "
+            f"{mm_text(mill.board_thickness_nm)} mm, {_count(tabs, 'tab')}")
     finally:
-        board.close()
+        source.close()
+
+
+def _count(n: int, what: str) -> str:
+    return f"{n} {what}{'' if n == 1 else 's'}"
 
 
 def run_mill_convert(args: argparse.Namespace, profile) -> int:
     from galileo_cnc.cli.main import check_output
-    from galileo_cnc.plan.mill.gcode import mill_gcode
 
     check_output(args.output, "--output")
     mill = MillConfig.from_table(mill_table(args.mill_set), "--mill-set", base=profile.mill)
-    program = copper_to_mill(args)
-    text = mill_gcode(program, mill, accept_shorts=args.accept_shorts)
+    text, notes, summary = mill_text(args, mill)
+    for note in notes:
+        print(f"note: {note}", file=sys.stderr)
     try:
         with open(args.output, "w", encoding="ascii", newline="\n") as out:
             out.write(text)
     except OSError as problem:
         raise GalileoError(f"--output {args.output}: cannot write: {problem.strerror}") from None
-    cuts = sum(1 for line in text.splitlines() if line.startswith("G1 Z"))
-    print(f"{os.fsdecode(args.output)}: {text.count(chr(10))} lines, {cuts} ring"
-          f"{'' if cuts == 1 else 's'} cut with {mill.describe()}")
+    print(f"{os.fsdecode(args.output)}: {text.count(chr(10))} lines: {summary}")
     return 0

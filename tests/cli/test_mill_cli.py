@@ -56,7 +56,7 @@ def test_shorts_refuse_the_file_until_accepted(tmp_path):
     assert done.returncode == 0, done.stderr
     text = out.read_text()
     assert "(short accepted:" in text and "2 pass[es]" in text
-    assert text.count("G1 Z-0.1 F60") == int(re.search(r"(\d+) rings? cut", done.stdout)[1])
+    assert text.count("G1 Z-0.1 F60") == int(re.search(r"(\d+) rings? round", done.stdout)[1])
     cuts = cut_points(out)
     # every cut point keeps half the cut (77 um) off both far pads' copper (0.5 mm radius)
     far = np.hypot(cuts[:, 0] - 6000, cuts[:, 1])
@@ -82,3 +82,33 @@ def test_a_board_bottom_is_milled_mirrored_about_the_boards_axis(tmp_path):
     assert abs(turned[:, 0].min() - (12_000 - plain[:, 0].max())) <= 2
     assert abs(turned[:, 0].max() - (12_000 - plain[:, 0].min())) <= 2
     assert abs(turned[:, 1].min() - plain[:, 1].min()) <= 2
+
+
+def rapids(path: Path) -> list[tuple[float, float]]:
+    """Where the tool goes at the safe height before each hole (G0 X.. Y..), mm."""
+    return [tuple(float(v) for v in re.findall(r"[XY](-?[\d.]+)", line))
+            for line in path.read_text().splitlines() if line.startswith("G0 X")]
+
+
+def test_a_boards_holes_are_drilled_and_its_outline_cut_out_from_either_side(tmp_path):
+    board = make_board(tmp_path / "board")
+    top, bottom, edge = tmp_path / "top.nc", tmp_path / "bottom.nc", tmp_path / "edge.nc"
+    for args, out in ((("--mill", "drill"), top),
+                      (("--mill", "drill", "--side", "bottom"), bottom),
+                      (("--mill", "cutout", "--mill-set", "tabs=2"), edge)):
+        result = galileo("convert", str(board), *args, "-o", str(out))
+        assert result.returncode == 0, result.stderr
+    # the 0.8 mm holes with the default 0.8 mm bit: one plunge over each, the bottom's
+    # turned over about X 6 mm
+    holes = [(3.0, 3.0), (7.0, 3.0), (3.0, 7.0)]
+    assert sorted(rapids(top)) == sorted(holes)
+    assert sorted(rapids(bottom)) == sorted((12 - x, y) for x, y in holes)
+    text = edge.read_text()
+    assert "2 tabs" in result.stdout and "0.8 mm end mill" in result.stdout
+    # the edge runs the end mill's radius (and a few um) outside the 12 mm square
+    xs = [float(x) for x in re.findall(r"^G1 X(-?[\d.]+)", text, re.M)]
+    assert -0.41 < min(xs) < -0.4 and 12.4 < max(xs) < 12.41
+
+    alone = galileo("convert", str(board / "board-F_Cu.gbr"), "--mill", "drill",
+                    "-o", str(tmp_path / "x.nc"))
+    assert alone.returncode == 1 and "--mill drill needs a board" in alone.stderr
