@@ -149,6 +149,9 @@ def test_error_named_with_grbl_text_and_file_line():
                         options=PlanOptions(mode="centre"))
     lines = gcode_for(planned)
     bad = next(i for i, line in enumerate(lines) if line.text.startswith("G1 X"))
+    # the job up to 20 lines past the bad one: more than GRBL's 128-byte buffer holds
+    # behind it, and 2.5 s less machine time than the whole sample
+    lines = lines[:bad + 20]
     lines[bad] = GcodeLine("G5 " + lines[bad].text[3:], lines[bad].command)  # G5: not GRBL's
     place = source_of(planned.plotted, planned.job, lines[bad].command)
     assert place.startswith(str(REPO / "samples" / "led-blinker.gbr") + ":")
