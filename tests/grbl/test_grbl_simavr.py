@@ -218,7 +218,8 @@ def test_grbl_homing_finds_each_switch_on_the_very_step_it_closes():
     step off its pins after homing."""
     from galileo_cnc.grbl.jog import home
     limits = (("X", 320), ("Y", 480), ("Z", 160))       # switches at +2, +3, +1 mm
-    settings = {22: "1", 25: "1000", 24: "200", 130: "50", 131: "50", 132: "10"}
+    # 20 ms of debounce ($26), not 250: waited after a switch closes, it moves nothing
+    settings = {22: "1", 25: "1000", 24: "200", 26: "20", 130: "50", 131: "50", 132: "10"}
     with grbl_machine({**SETTINGS, **settings}, limits=limits) as (board, link):
         status = home(link)
         board.stop()
