@@ -40,18 +40,17 @@ def fresh_sim(tmp_path, monkeypatch):
 #: (xdist's own order, most tests first, left the GRBL files with few long tests to the
 #: end). Stale numbers only cost balance, never a test.
 SLOW_FILES_S = {
-    "grbl/test_grbl_resume.py": 76, "grbl/test_grbl_simavr.py": 58,
-    "console/test_console_grbl.py": 54, "grbl/test_grbl_long_moves.py": 35,
-    "readers/test_peers.py": 36, "cli/test_grbl_cli.py": 35, "serve": 25,
-    "console/test_console.py": 22, "firmware/test_stream_firmware.py": 29,
-    "stream/test_stream.py": 29, "readers/test_gerber_corpus.py": 26,
-    "firmware/test_firmware_fitl.py": 24, "backends/test_front_ends.py": 21,
-    "readers/test_dxf.py": 14, "cli/test_cli.py": 20,
-    "firmware/test_plot_reset_firmware.py": 20, "readers/test_gcode_props.py": 18,
-    "console/test_console_board.py": 11, "plan/test_tour_native.py": 11,
-    "console/test_console_stop.py": 11, "firmware/test_firmware_build.py": 10,
-    "stream/test_link_faults.py": 10, "grbl/test_grbl_realtime.py": 9,
-    "cli/test_plot_reset.py": 9, "grbl/test_grbl_check.py": 8,
+    "grbl/test_grbl_resume.py": 76, "console/test_console_grbl.py": 49,
+    "grbl/test_grbl_simavr.py": 47, "readers/test_peers.py": 36, "cli/test_grbl_cli.py": 35,
+    "grbl/test_grbl_long_moves.py": 31, "firmware/test_stream_firmware.py": 29,
+    "stream/test_stream.py": 29, "readers/test_gerber_corpus.py": 26, "serve": 25,
+    "firmware/test_firmware_fitl.py": 25, "backends/test_front_ends.py": 21,
+    "cli/test_cli.py": 20, "firmware/test_plot_reset_firmware.py": 20,
+    "readers/test_gcode_props.py": 18, "console/test_console.py": 16,
+    "readers/test_dxf.py": 14, "console/test_console_board.py": 11,
+    "plan/test_tour_native.py": 11, "console/test_console_stop.py": 11,
+    "firmware/test_firmware_build.py": 10, "stream/test_link_faults.py": 10,
+    "cli/test_plot_reset.py": 9, "plan/test_ink_geometry.py": 7,
 }
 TESTS = os.path.dirname(os.path.abspath(__file__))
 
