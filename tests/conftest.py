@@ -31,3 +31,48 @@ def fresh_sim(tmp_path, monkeypatch):
     forget_named_machines()
     yield
     forget_named_machines()
+
+
+# ---- the order files run in under pytest-xdist (--dist loadfile) ---------------------------
+#: Seconds each slow test file took on 2 cores (whole suite, `--durations=0`, summed per
+#: file; a directory stands for files of it not named). The slowest files go first, so
+#: the run ends on short files and no worker idles while the other finishes a long one
+#: (xdist's own order, most tests first, left the GRBL files with few long tests to the
+#: end). Stale numbers only cost balance, never a test.
+SLOW_FILES_S = {
+    "grbl/test_grbl_resume.py": 76, "console/test_console_grbl.py": 49,
+    "grbl/test_grbl_simavr.py": 47, "readers/test_peers.py": 36, "cli/test_grbl_cli.py": 35,
+    "grbl/test_grbl_long_moves.py": 31, "firmware/test_stream_firmware.py": 29,
+    "stream/test_stream.py": 29, "readers/test_gerber_corpus.py": 26, "serve": 25,
+    "firmware/test_firmware_fitl.py": 25, "backends/test_front_ends.py": 21,
+    "cli/test_cli.py": 20, "firmware/test_plot_reset_firmware.py": 20,
+    "readers/test_gcode_props.py": 18, "console/test_console.py": 16,
+    "readers/test_dxf.py": 14, "console/test_console_board.py": 11,
+    "plan/test_tour_native.py": 11, "console/test_console_stop.py": 11,
+    "firmware/test_firmware_build.py": 10, "stream/test_link_faults.py": 10,
+    "cli/test_plot_reset.py": 9, "plan/test_ink_geometry.py": 7,
+}
+TESTS = os.path.dirname(os.path.abspath(__file__))
+
+
+def _slowness(path: str) -> float:
+    relative = os.path.relpath(path, TESTS).replace(os.sep, "/")
+    while relative not in SLOW_FILES_S and "/" in relative:
+        relative = relative.rsplit("/", 1)[0]
+    return SLOW_FILES_S.get(relative, 0)
+
+
+def pytest_configure(config):
+    # keep the order below: xdist would sort the files by their number of tests
+    if hasattr(config.option, "loadscopereorder"):
+        config.option.loadscopereorder = False
+
+
+def pytest_collection_modifyitems(items):
+    """The slowest files first (SLOW_FILES_S), then the rest with the most tests first,
+    as xdist orders them; a file's own tests keep their order."""
+    files: dict[str, list] = {}
+    for item in items:
+        files.setdefault(str(item.path), []).append(item)
+    order = sorted(files, key=lambda path: (-_slowness(path), -len(files[path])))
+    items[:] = [item for path in order for item in files[path]]

@@ -814,7 +814,9 @@ def test_a_whole_evening_on_sim(home, monkeypatch, stop):
     job, whole = _uninterrupted(BOARD, TWO_PENS)
     assert list(job.pen_labels[k] for k in job.pen_changes.values()) == \
         ["the 0.8 mm pen", "the 0.3 mm pen"]
-    port = "sim://evening?speed=40"        # a board that keeps power when its port dies
+    # a board that keeps power when its port dies; at 100 times real time the 178 s ink
+    # job runs 1.8 s, long enough for the q typed 0.5 s into it
+    port = "sim://evening?speed=100"
     opened = []
 
     def open_faulty(*args, **kwargs):      # every port the console opens can be pulled
@@ -855,13 +857,35 @@ def test_a_whole_evening_on_sim(home, monkeypatch, stop):
     assert inked_points(trace) == inked_points(whole)
 
 
+#: SQUARE at half its size (a 10 mm square, a 5 mm circle): 10.6 s of machine time, not
+#: 17.6, for each of the evening's three and a half runs on the firmware (simavr runs it
+#: about 5 times faster than a board: the stopped run still has a second to go at its q)
+SMALL_SQUARE = """G21 G90 G17
+F600
+G00 X0 Y0
+M03
+G01 X10
+Y10
+X0
+Y0
+M05
+G00 X7.5 Y5
+M03
+G02 X7.5 Y5 I-2.5 J0
+M05
+M02
+"""
+
+
 def test_a_whole_evening_on_the_firmware_in_simavr(home):
     build_firmware()
     build_harness()
-    job, whole = _uninterrupted(SQUARE)
+    square = home.parent / "small-square.nc"
+    square.write_text(SMALL_SQUARE)
+    job, whole = _uninterrupted(square)
     with SimulatedBoard(ELF) as board:
         with console_in_thread(home, board.port) as user:
-            an_evening(user, SQUARE, pens=0)
+            an_evening(user, square, pens=0)
             state, *position = user.status()
             user.line("G0 X10")         # a line for the machine, as a job of one line
             user.expect(r"ok: the head stands at X 10\.000  Y \S+  Z \S+ mm \(work\)")

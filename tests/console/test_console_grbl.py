@@ -37,8 +37,8 @@ from galileo_cnc.transport import discovery
 from test_console import WAIT_S, ConsoleUser, Screen, console_in_thread, home  # noqa: F401
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "grbl"))
-from grbl_support import (CONFIG, LIMITS, QUICK_ACCEL, SCALE, SETTINGS,  # noqa: E402
-                          check_resumed, grbl_machine, motion_lines, positions,
+from grbl_support import (CONFIG, LIMITS, QUICK_ACCEL, QUICK_HOMING, SCALE,  # noqa: E402
+                          SETTINGS, check_resumed, grbl_machine, motion_lines, positions,
                           set_work_zero, settled_trace, wait_until_still)
 from grbl_support import HOMING as STORED_HOMING  # noqa: E402
 
@@ -50,7 +50,7 @@ SWITCHES = (("X", 320), ("Y", 480), ("Z", 160))
 #: the evening keeps SETTINGS' acceleration: at 8000 mm/s^2 a 2.5 mm keypad jog can end
 #: between two status reports, and the jog line never shows "Jog"
 HOMING = {**SETTINGS, 22: "1", 20: "0", 130: "50", 131: "50", 132: "10",
-          25: "1000", 24: "200"}
+          25: "1000", **QUICK_HOMING}
 #: grbl_support's homing machine, quick as test_grbl_resume.py's RESUME_HOMING
 RESUME_HOMING = {**STORED_HOMING, **QUICK_ACCEL, 24: "1000"}
 _STATUS = re.compile(r"state (\w+(?::\d)?), X (\S+)  Y (\S+)  Z (\S+) mm work "

@@ -46,6 +46,12 @@ SETTINGS = {12: "0.0005",
 #: against the G-code, GRBL's replies, its queue of 20 blocks); the estimate's tests
 #: keep SETTINGS, which their measured ratios are for
 QUICK_ACCEL = {120: "8000", 121: "8000", 122: "8000"}
+#: for the tests that home GRBL on their way to what they check: 20 ms of debounce, not
+#: the 250 GRBL ships with (a homing of two cycles waits eight times), and the switches
+#: located at 1000 mm/min, not 200: 2 s a homing, not 7. Homing still ends exactly one
+#: pull-off from the switches' trip steps (test_grbl_simavr.py's homing test keeps the
+#: 200 mm/min locate whose trip steps it checks).
+QUICK_HOMING = {26: "20", 24: "1000"}
 CONFIG = MachineConfig(feed_mm_s=100, rapid_feed_mm_s=100, z_feed_mm_s=50,
                        feed_warn_mm_s=100, flash_dwell_ms=20)
 #: CONFIG as a profile file: the default mechanics (160 steps/mm), run fast so a

@@ -9,7 +9,7 @@ from galileo_cnc.grbl import firmware
 from galileo_cnc.grbl.check import check_job, parameters, parser_state
 from galileo_cnc.grbl.gcode import GcodeLine
 
-from grbl_support import SETTINGS, grbl_machine, positions
+from grbl_support import QUICK_HOMING, SETTINGS, grbl_machine, positions
 
 MM = 1_000_000     # nm
 
@@ -62,7 +62,7 @@ def test_check_job_reports_every_rejected_line_and_restores_grbl():
 
 def test_check_mode_soft_limit_alarm_is_reported_and_grbl_left_unlocked():
     settings = {**SETTINGS, 22: "1", 20: "1", 130: "50", 131: "50", 132: "10",
-                25: "1000", 24: "200"}
+                25: "1000", **QUICK_HOMING}
     limits = (("X", 320), ("Y", 480), ("Z", 160))      # switches at +2, +3, +1 mm
     lines = [GcodeLine(t, i) for i, t in enumerate(["G1 X-10 F1000", "G1 X5", "G1 X-20"])]
     with grbl_machine(settings, limits=limits) as (board, link):

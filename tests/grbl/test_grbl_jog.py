@@ -12,7 +12,7 @@ from galileo_cnc.grbl.jog import JogError, cancel_jog, home, jog, keypad_jog, un
 from galileo_cnc.grbl.travel import TravelError
 from galileo_cnc.simavr.board import step_trace
 
-from grbl_support import SETTINGS, grbl_machine, positions
+from grbl_support import QUICK_HOMING, SETTINGS, grbl_machine, positions
 
 MM = 1_000_000          # nm
 STEP_NM = 6250          # 160 steps/mm
@@ -64,7 +64,7 @@ def test_jog_moves_its_steps_and_cancel_stops_early_decelerating():
 
 def test_home_then_jog_inside_the_soft_limits_and_unlock_after_a_reset():
     settings = {**SETTINGS, 22: "1", 20: "1", 130: "50", 131: "50", 132: "10",
-                25: "1000", 24: "200"}
+                25: "1000", **QUICK_HOMING}
     limits = (("X", 320), ("Y", 480), ("Z", 160))      # switches at +2, +3, +1 mm
     with grbl_machine(settings, limits=limits, **PACED) as (board, link):
         homed = home(link)

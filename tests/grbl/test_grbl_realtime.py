@@ -11,7 +11,7 @@ from galileo_cnc.grbl.link import CYCLE_START, FEED_HOLD
 from galileo_cnc.grbl.reports import GrblError
 from galileo_cnc.grbl.stream import GrblStreamError, stream
 
-from grbl_support import SETTINGS, check_trace, grbl_machine, positions
+from grbl_support import QUICK_HOMING, SETTINGS, check_trace, grbl_machine, positions
 
 MM = 1_000_000     # nm
 # Paced to the wall clock: a host held up by a loaded machine must not find the
@@ -70,7 +70,7 @@ def test_soft_reset_while_moving_alarms_and_unlocks_only_on_request():
 
 def test_homing_then_soft_limit_alarm_names_the_file_line():
     settings = {**SETTINGS, 22: "1", 20: "1", 130: "50", 131: "50", 132: "10",
-                25: "1000", 24: "200"}
+                25: "1000", **QUICK_HOMING}
     limits = (("X", 320), ("Y", 480), ("Z", 160))    # switches at +2, +3, +1 mm
     with grbl_machine(settings, limits=limits) as (board, link):
         assert link.settings.homing and link.settings.soft_limits
