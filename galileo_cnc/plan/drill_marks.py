@@ -348,10 +348,19 @@ def clear_strokes(strokes: list[np.ndarray], copper: list, bare: list, pen_nm: i
         others = [ring for n, (outer, holes) in enumerate(islands) if n not in own
                   for ring in (outer, *holes)]
         span = int(np.abs(strokes[k] - centre).max()) + pen_nm + clearance_nm + reach
-        near = [line for line in lines if np.abs(line - centre).max(axis=1).min() <= span]
+        near = [line for line in lines if _passes_near(line, centre - span, centre + span)]
         inked = clip.stroke([line.tolist() for line in near], pen_nm // 2, tolerance_nm)
         keep_out = clip.union(clip.offset(others, clearance_nm + reach, tolerance_nm),
                               clip.offset(inked, clearance_nm + reach, tolerance_nm),
                               clip.offset(bare, reach, tolerance_nm))
         out += clip.open_difference(strokes[k:k + 2], keep_out)
     return out
+
+
+def _passes_near(line: np.ndarray, low: np.ndarray, high: np.ndarray) -> bool:
+    """Whether a polyline comes into the box low..high: a segment's box meets it. Its
+    vertices alone do not tell: a long trace passes a cross with both ends far away."""
+    if len(line) == 1:
+        return bool(np.all((line[0] >= low) & (line[0] <= high)))
+    seg_low, seg_high = np.minimum(line[:-1], line[1:]), np.maximum(line[:-1], line[1:])
+    return bool(np.any(np.all(seg_low <= high, axis=1) & np.all(seg_high >= low, axis=1)))
