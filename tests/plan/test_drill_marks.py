@@ -237,3 +237,25 @@ def test_a_cross_keeps_off_a_long_centre_line_whose_ends_are_far_away():
     # the cross's ink keeps the clearance from the line's ink (less the tolerances)
     assert not clip.intersection(ink, clip.offset(line_ink, CLEARANCE_NM - 5_000, 1_000))
     assert joined_islands(clip.union(ink, line_ink), copper, 30_000) == []
+
+
+def test_a_short_slots_two_dots_become_one_mark_along_it(tmp_path):
+    """flashpads' bottom: a 0.65 mm slot 0.4 mm long in an oval pad. Its two 0.3 mm end
+    dots would leave 0.06 mm of copper between them, which no 0.4 mm pen inks: bare
+    beside inked copper. That copper is inside the slot: one mark along it instead, and
+    the pad round it is inked as without marks."""
+    path = tmp_path / "oval.gbr"
+    path.write_text(HEADER + "%ADD10O,1.4X1.8*%\nD10*\nX5000000Y5000000D03*\nM02*\n")
+    slot = Slot(5 * MM, 4_800_000, 5 * MM, 5_200_000, 650_000)
+    plans = {marks: plan_file(path, CONFIG, options=PlanOptions(
+        mode="ink", holes=[slot], drill_marks=marks)) for marks in ("small", "none")}
+    planned = plans["small"]
+    assert len(clip.components(planned.marks)) == 1
+    assert inside(planned.marks, 5 * MM, 5 * MM)             # between the slot's ends
+    assert not inside(planned.marks, 5 * MM + 200_000, 5 * MM)
+    copper = clip.difference(planned.ink.copper.native, planned.ink.bare)
+    inked = {marks: clip.area_nm2(clip.intersection(copper, ink_of_trace(
+        simulate(plan.job.commands, CONFIG), CONFIG, plan.offset_nm, [PEN])))
+        for marks, plan in plans.items()}
+    assert inked["small"] >= 0.99 * inked["none"]
+    assert inked["small"] >= 0.99 * clip.area_nm2(copper)
