@@ -28,7 +28,7 @@ role is planned with the --layer override in LAYERS (the row says which).
   the share of it the steps ink with the marks and with the side planned again with
   drill_marks="none": all pads together and the worst pad, with / without (99 %
   expected with marks; a pad under it without marks too is the ink's, not the marks');
-  `--pads N` lists each side's N least inked pads;
+  `--pads N` lists each side's N pads the marks lower most;
 - islands bridged: islands of the side's copper that the ink near the marks joins or
   brings within 30 um (tests/inked.py's joined_islands; 0 expected), and with the
   crosses, the ink near them ("isl+x").
@@ -456,7 +456,7 @@ def bench_board(name, args, scratch, pen_nm, totals, skipped) -> None:
         row += f" {registration['joined'] if registration and last_row else '-':>5}{note}"
         print(row, flush=True)
         if got is not None and args.pads:
-            for pad in sorted(got["pads"], key=lambda p: p.share)[:args.pads]:
+            for pad in sorted(got["pads"], key=lambda p: p.share - p.share_before)[:args.pads]:
                 print(f"    pad {pad_text(pad)} mm: {pad.area / 1e12:.3f} mm2 of copper "
                       "outside the marks")
         totals["rows"] += 1
@@ -477,7 +477,7 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true",
                         help=f"only {', '.join(QUICK)}: a minute's check")
     parser.add_argument("--pads", type=int, default=0,
-                        help="list each side's N least inked pads")
+                        help="list each side's N pads the marks lower most")
     parser.add_argument("--corpus", type=Path, default=CORPUS)
     parser.add_argument("--limit", type=int, default=90,
                         help="skip a board whose side takes longer to plan (s)")
@@ -533,6 +533,9 @@ def print_totals(totals: dict, boards: int, run_s: float) -> None:
         print(f"worst pad: {name} {side} {pad_text(pad)} mm (with/without marks); "
               f"{len(below)} of {len(totals['pads'])} pads under 99 % with marks, "
               f"{sum(p.share_before < 0.99 for p in below)} of them under 99 % without")
+        pad, name, side = min(totals["pads"],
+                              key=lambda entry: entry[0].share - entry[0].share_before)
+        print(f"most lowered by the marks: {name} {side} {pad_text(pad)} mm")
 
 
 if __name__ == "__main__":
