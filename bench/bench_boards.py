@@ -372,7 +372,10 @@ def plan_sides(folder: Path, config: MachineConfig, copper_sides: tuple[str, ...
             planned[side], seconds[side] = timed_plan(
                 folder, config, BoardChoice(side=side, layers=layers), limit_s)
         except PlanError as problem:
-            if "the machine's travel is" not in str(problem) \
+            # refused before planning (the box), or by the planner (a move past an end)
+            beyond = ("the machine's travel is", "beyond the travel's end",
+                      "below the travel's start")
+            if not any(words in str(problem) for words in beyond) \
                     or config.x_travel_mm >= BIG_TRAVEL_MM:
                 raise
             return plan_sides(folder, dataclasses.replace(
