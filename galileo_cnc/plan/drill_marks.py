@@ -4,7 +4,8 @@ centres the bit (KiCad's plot option "drill marks", for toner and pen transfer).
 - `none`: the pads are inked solid, as without holes;
 - `small` (the default): a dot `size_nm` wide (0.3 mm), never wider than the hole,
   at each hole's centre; a slot gets a dot at each end of its path (where a hand
-  drill starts the slot);
+  drill starts the slot), or, where the copper between the two dots is too thin for
+  the pen to ink, one mark along its path (that copper is inside the slot);
 - `actual`: the whole hole; a slot its whole stadium (an arc slot swept along its arc).
 
 The copper around a mark is still inked. A mark must leave a ring the smallest pen
@@ -134,13 +135,15 @@ class FittedMarks:
 
 
 def fit_marks(marks: list[DrillMark], copper: list, ring_nm: int, pen_nm: int,
-              clearance_nm: int = MARK_CLEARANCE_NM) -> FittedMarks:
+              clearance_nm: int = MARK_CLEARANCE_NM, tolerance_nm: int = 2_000
+              ) -> FittedMarks:
     """Each mark shrunk so that `ring_nm` of copper (what the pen `pen_nm` needs to
     fill) is left between its clearance and the copper's edge, or left out below
     MIN_MARK_NM (module doc). `copper`: a pyclipper set, positive winding."""
     rings = clip.rings_as_arrays(copper)
     if not marks or not rings:
         return FittedMarks([], [], len(marks))
+    marks = _short_slots_joined(marks, ring_nm, clearance_nm, tolerance_nm)
     index = EdgeIndex(rings, cell_nm=max(ring_nm, 200_000))
     inside = _inside(rings, np.array([mark.path[0] for mark in marks], dtype=np.int64))
     kept, warnings, off = [], [], 0
@@ -165,6 +168,31 @@ def fit_marks(marks: list[DrillMark], copper: list, ring_nm: int, pen_nm: int,
             warnings.append(f"drill mark of {mark.where} left out: {reach} round a mark at "
                             f"least {mm_text(MIN_MARK_NM)} mm wide; the pad is inked solid")
     return FittedMarks(kept, warnings, off)
+
+
+def _short_slots_joined(marks: list[DrillMark], ring_nm: int, clearance_nm: int,
+                        tolerance_nm: int) -> list[DrillMark]:
+    """A slot's two end dots too close for the pen to ink the copper between them
+    (less than `ring_nm` between their clearances) become one mark along the slot's
+    path: that copper is inside the slot, which takes it away, and left between the
+    dots it would be a sliver no pen fills, bare beside inked copper."""
+    ends: dict[int, list[int]] = {}
+    for k, mark in enumerate(marks):
+        if isinstance(mark.drill, Slot) and len(mark.path) == 1:
+            ends.setdefault(id(mark.drill), []).append(k)
+    joined: dict[int, DrillMark | None] = {}
+    for pair in ends.values():
+        if len(pair) != 2:
+            continue
+        a, b = marks[pair[0]], marks[pair[1]]
+        gap = math.dist(a.path[0], b.path[0]) - a.radius_nm - b.radius_nm - 2 * clearance_nm
+        if gap < ring_nm:
+            joined[pair[0]] = DrillMark(slot_path(a.drill, tolerance_nm),
+                                        min(a.radius_nm, b.radius_nm), a.drill)
+            joined[pair[1]] = None
+    if not joined:
+        return marks
+    return [joined.get(k, mark) for k, mark in enumerate(marks) if joined.get(k, mark)]
 
 
 def warnings_to_show(warnings: Sequence[str], shown: int = SHOWN_MARK_WARNINGS) -> list[str]:
@@ -213,7 +241,8 @@ class MarkCutter:
         self.fitted = FittedMarks([], [])
 
     def __call__(self, copper: list) -> list:
-        self.fitted = fit_marks(self.marks, copper, self.ring_nm, self.pen_nm)
+        self.fitted = fit_marks(self.marks, copper, self.ring_nm, self.pen_nm,
+                                tolerance_nm=self.tolerance_nm)
         return self.fitted.bare(self.tolerance_nm)
 
 
@@ -348,10 +377,19 @@ def clear_strokes(strokes: list[np.ndarray], copper: list, bare: list, pen_nm: i
         others = [ring for n, (outer, holes) in enumerate(islands) if n not in own
                   for ring in (outer, *holes)]
         span = int(np.abs(strokes[k] - centre).max()) + pen_nm + clearance_nm + reach
-        near = [line for line in lines if np.abs(line - centre).max(axis=1).min() <= span]
+        near = [line for line in lines if _passes_near(line, centre - span, centre + span)]
         inked = clip.stroke([line.tolist() for line in near], pen_nm // 2, tolerance_nm)
         keep_out = clip.union(clip.offset(others, clearance_nm + reach, tolerance_nm),
                               clip.offset(inked, clearance_nm + reach, tolerance_nm),
                               clip.offset(bare, reach, tolerance_nm))
         out += clip.open_difference(strokes[k:k + 2], keep_out)
     return out
+
+
+def _passes_near(line: np.ndarray, low: np.ndarray, high: np.ndarray) -> bool:
+    """Whether a polyline comes into the box low..high: a segment's box meets it. Its
+    vertices alone do not tell: a long trace passes a cross with both ends far away."""
+    if len(line) == 1:
+        return bool(np.all((line[0] >= low) & (line[0] <= high)))
+    seg_low, seg_high = np.minimum(line[:-1], line[1:]), np.maximum(line[:-1], line[1:])
+    return bool(np.any(np.all(seg_low <= high, axis=1) & np.all(seg_high >= low, axis=1)))

@@ -18,8 +18,11 @@ from inked import ink_of_trace, joined_islands
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.machine.planner import simulate
-from galileo_cnc.plan.drill_marks import MARK_CLEARANCE_NM, marks_for, warnings_to_show
+from galileo_cnc.plan import sides
+from galileo_cnc.plan.drill_marks import (MARK_CLEARANCE_NM, clear_strokes, marks_for,
+                                          warnings_to_show)
 from galileo_cnc.plan.ink import clip
+from galileo_cnc.plan.ink.islands import CLEARANCE_NM
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 from galileo_cnc.plan.planner import PlanError
 from galileo_cnc.program.drills import Hole, Slot
@@ -211,3 +214,48 @@ def test_a_centre_line_of_zero_length_near_a_mark_is_a_dot_not_a_clipper_error()
     outside, inside = [[5000, 5000], [5000, 5000]], [[500, 500], [500, 500], [500, 500]]
     kept = clip.open_difference([outside, inside, [[2000, 0], [3000, 0]]], [square])
     assert sorted(sorted(p.tolist()) for p in kept) == [[[2000, 0], [3000, 0]], [[5000, 5000]]]
+
+
+def test_a_cross_keeps_off_a_long_centre_line_whose_ends_are_far_away():
+    """8bit-mixtape's bottom: a 0.2 mm trace of another net passes 0.15 mm from a pad
+    and runs on for centimetres. Its centre line, drawn with the 0.4 mm pen, inks
+    0.1 mm past its copper; a cross on the pad must stop short of that ink by the
+    islands' clearance, though both ends of the line lie far from the cross."""
+    pad = [[-1_125_000, -1_125_000], [1_125_000, -1_125_000], [1_125_000, 1_125_000],
+           [-1_125_000, 1_125_000]]
+    trace_y = -1_375_000                     # its copper -1.475 .. -1.275 mm
+    trace = [[-40 * MM, trace_y - 100_000], [40 * MM, trace_y - 100_000],
+             [40 * MM, trace_y + 100_000], [-40 * MM, trace_y + 100_000]]
+    copper = clip.union([pad], [trace])
+    line = np.array([[-40 * MM, trace_y], [40 * MM, trace_y]], dtype=np.int64)
+    mark = clip.stroke([[[0, 0]]], 170_000, 2_000)
+    strokes = sides.cross_strokes([(0, 0)])
+    kept = clear_strokes(strokes, copper, mark, PEN, CLEARANCE_NM, 2_000, [line])
+    assert any(k[:, 0].max() > 1_000_000 for k in kept)     # the horizontal arm is drawn
+    ink = clip.stroke([k.tolist() for k in kept], PEN // 2, 1_000)
+    line_ink = clip.stroke([line.tolist()], PEN // 2, 1_000)
+    # the cross's ink keeps the clearance from the line's ink (less the tolerances)
+    assert not clip.intersection(ink, clip.offset(line_ink, CLEARANCE_NM - 5_000, 1_000))
+    assert joined_islands(clip.union(ink, line_ink), copper, 30_000) == []
+
+
+def test_a_short_slots_two_dots_become_one_mark_along_it(tmp_path):
+    """flashpads' bottom: a 0.65 mm slot 0.4 mm long in an oval pad. Its two 0.3 mm end
+    dots would leave 0.06 mm of copper between them, which no 0.4 mm pen inks: bare
+    beside inked copper. That copper is inside the slot: one mark along it instead, and
+    the pad round it is inked as without marks."""
+    path = tmp_path / "oval.gbr"
+    path.write_text(HEADER + "%ADD10O,1.4X1.8*%\nD10*\nX5000000Y5000000D03*\nM02*\n")
+    slot = Slot(5 * MM, 4_800_000, 5 * MM, 5_200_000, 650_000)
+    plans = {marks: plan_file(path, CONFIG, options=PlanOptions(
+        mode="ink", holes=[slot], drill_marks=marks)) for marks in ("small", "none")}
+    planned = plans["small"]
+    assert len(clip.components(planned.marks)) == 1
+    assert inside(planned.marks, 5 * MM, 5 * MM)             # between the slot's ends
+    assert not inside(planned.marks, 5 * MM + 200_000, 5 * MM)
+    copper = clip.difference(planned.ink.copper.native, planned.ink.bare)
+    inked = {marks: clip.area_nm2(clip.intersection(copper, ink_of_trace(
+        simulate(plan.job.commands, CONFIG), CONFIG, plan.offset_nm, [PEN])))
+        for marks, plan in plans.items()}
+    assert inked["small"] >= 0.99 * inked["none"]
+    assert inked["small"] >= 0.99 * clip.area_nm2(copper)
