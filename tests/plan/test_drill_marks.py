@@ -259,3 +259,33 @@ def test_a_short_slots_two_dots_become_one_mark_along_it(tmp_path):
         for marks, plan in plans.items()}
     assert inked["small"] >= 0.99 * inked["none"]
     assert inked["small"] >= 0.99 * clip.area_nm2(copper)
+
+
+@pytest.fixture
+def pad_trace(tmp_path):
+    """A 1.1 mm pad at (5, 5) mm and a 0.3 mm trace from its centre down to (4.6, 4.6)
+    and on to (2, 4.6) mm: its last stretch horizontal, under the pad's drill mark."""
+    path = tmp_path / "pad-trace.gbr"
+    path.write_text(HEADER + "%ADD10C,1.1*%\n%ADD11C,0.3*%\nD10*\nX5000000Y5000000D03*\n"
+                    "D11*\nX5000000Y5000000D02*\nX4600000Y4600000D01*\n"
+                    "X2000000Y4600000D01*\nM02*\n")
+    return path
+
+
+def test_a_horizontal_line_below_every_polygon_survives_the_cut(pad_trace):
+    """Clipper 6 drops an open path whose points share one y when it lies below every
+    clip polygon. arduino-uno's top: a trace leaves a pad diagonally and runs on
+    horizontally just under it; cut a pen radius short of the pad's drill mark
+    (inking._clear_of), its horizontal stretch vanished and the trace went unetched."""
+    disc = clip.stroke([[[0, 0]]], 342_000, 2_000)
+    below = np.array([[-437_000, -437_000], [-2 * MM, -437_000]], dtype=np.int64)
+    assert [p.tolist() for p in clip.open_difference([below], disc)] == [below.tolist()]
+    through = np.array([[-2 * MM, 0], [2 * MM, 0]], dtype=np.int64)
+    pieces = clip.open_difference([through], disc)
+    assert len(pieces) == 2 and all(abs(p[:, 0]).min() >= 340_000 for p in pieces)
+    planned = plan_file(pad_trace, CONFIG, options=PlanOptions(
+        mode="ink", holes=[Hole(5 * MM, 5 * MM, 600_000)], side="top",
+        board_box_nm=(0, 0, 10 * MM, 10 * MM)))
+    drawn = [piece for f in planned.ink.narrow for piece in f.pieces]
+    assert any((piece[:, 1] == 4_600_000).all() and piece[:, 0].min() <= 2_000_000
+               for piece in drawn)

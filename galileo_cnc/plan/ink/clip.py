@@ -140,15 +140,30 @@ def open_difference(paths: list, polygons: PolygonSet) -> list[np.ndarray]:
         if sum((1 if pc.Area(ring) > 0 else -1) for ring in polygons
                if pc.PointInPolygon((x, y), ring) != 0) <= 0:
             kept.append(np.array([[x, y]], dtype=np.int64))
-    if lines:
-        clipper = pc.Pyclipper()
-        clipper.AddPaths([np.asarray(p, dtype=np.int64).tolist() for p in lines],
-                         pc.PT_SUBJECT, False)
-        clipper.AddPaths(polygons, pc.PT_CLIP, True)
-        tree = clipper.Execute2(pc.CT_DIFFERENCE, pc.PFT_POSITIVE, pc.PFT_POSITIVE)
-        kept += [np.array(path, dtype=np.int64) for path in pc.OpenPathsFromPolyTree(tree)
-                 if len(path) >= 2]
-        free_tree(tree)
+    # Clipper 6 loses an open path whose points all share one y when it lies below
+    # every clip polygon (a horizontal trace or walk just under a drill mark): those
+    # are clipped with x and y swapped, where they are vertical, and swapped back
+    lines = [np.asarray(p, dtype=np.int64) for p in lines]
+    flat = [p for p in lines if (p[:, 1] == p[0, 1]).all()]
+    steep = [p for p in lines if not (p[:, 1] == p[0, 1]).all()]
+    kept += _open_outside(steep, polygons)
+    if flat:
+        swapped = [np.asarray(ring)[::-1, ::-1].tolist() for ring in polygons]
+        kept += [path[:, ::-1] for path in _open_outside([p[:, ::-1] for p in flat], swapped)]
+    return kept
+
+
+def _open_outside(lines: list[np.ndarray], polygons: PolygonSet) -> list[np.ndarray]:
+    """Clipper's difference of open polylines and a polygon set (positive winding)."""
+    if not lines:
+        return []
+    clipper = pc.Pyclipper()
+    clipper.AddPaths([p.tolist() for p in lines], pc.PT_SUBJECT, False)
+    clipper.AddPaths(polygons, pc.PT_CLIP, True)
+    tree = clipper.Execute2(pc.CT_DIFFERENCE, pc.PFT_POSITIVE, pc.PFT_POSITIVE)
+    kept = [np.array(path, dtype=np.int64) for path in pc.OpenPathsFromPolyTree(tree)
+            if len(path) >= 2]
+    free_tree(tree)
     return kept
 
 
