@@ -12,7 +12,7 @@ import sys
 from galileo_cnc import __version__
 from galileo_cnc.cli.serve import add_serve_command
 from galileo_cnc.config.hardware import DEFAULT_BAUD
-from galileo_cnc.cli.mill import add_mill_options
+from galileo_cnc.cli.mill import add_mill_options, run_mill_convert
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.preview.formats import preview_kind
 from galileo_cnc.program.ops import NM_PER_MM
@@ -262,10 +262,9 @@ def _run_convert(args: argparse.Namespace) -> int:
     from galileo_cnc.plan.gcode_writer import converted_gcode, pen_moves
     from galileo_cnc.plan.measure import job_lengths
 
-    if args.mill:
-        from galileo_cnc.cli.mill import run_mill_convert
-        return run_mill_convert(args, _profile(args))
     check_output(args.output, "--output")
+    if args.mill:
+        return run_mill_convert(args, _profile(args), _board_choice(args))
     config = _profile(args).config
     pen = pen_moves(config, args.pen, args.target)      # refused before any planning
     planned = _plan(args, config)

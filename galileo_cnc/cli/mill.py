@@ -70,15 +70,14 @@ def _value(text: str):
 class _MillSource:
     """What the mill works from: one file, or a board's side (the bottom mirrored)."""
 
-    def __init__(self, args: argparse.Namespace):
+    def __init__(self, args: argparse.Namespace, choice):
         from galileo_cnc.readers.board import is_board
         self.path = args.file
         self.board = None
         if is_board(args.file):
-            from galileo_cnc.cli.main import _board_choice
             from galileo_cnc.plan.board_plan import BoardChoice
             from galileo_cnc.readers.board import open_board
-            self.choice = _board_choice(args) or BoardChoice()
+            self.choice = choice or BoardChoice()
             self.board = open_board(args.file, self.choice.layers)
 
     def close(self) -> None:
@@ -137,14 +136,15 @@ class _MillSource:
         return outline if axis is None else sides.side_program(outline, "bottom", axis)
 
 
-def mill_text(args: argparse.Namespace, mill: MillConfig) -> tuple[str, list[str], str]:
+def mill_text(args: argparse.Namespace, mill: MillConfig,
+              choice=None) -> tuple[str, list[str], str]:
     """The G-code of the `--mill` job, the notes the user should read and what it does
-    in a few words."""
+    in a few words; `choice`: the board options given (a BoardChoice, None: none)."""
     from galileo_cnc.plan.mill.cutout import cuts_gcode, plan_cutout
     from galileo_cnc.plan.mill.drill import plan_drilling, plan_gcode
     from galileo_cnc.plan.mill.gcode import mill_gcode
     from galileo_cnc.plan.widths import mm_text
-    source = _MillSource(args)
+    source = _MillSource(args, choice)
     try:
         if args.mill == "isolate":
             text = mill_gcode(source.copper(), mill, accept_shorts=args.accept_shorts)
@@ -173,12 +173,10 @@ def _count(n: int, what: str) -> str:
     return f"{n} {what}{'' if n == 1 else 's'}"
 
 
-def run_mill_convert(args: argparse.Namespace, profile) -> int:
-    from galileo_cnc.cli.main import check_output
-
-    check_output(args.output, "--output")
+def run_mill_convert(args: argparse.Namespace, profile, choice=None) -> int:
+    """convert --mill: the G-code written to --output (checked writable by the caller)."""
     mill = MillConfig.from_table(mill_table(args.mill_set), "--mill-set", base=profile.mill)
-    text, notes, summary = mill_text(args, mill)
+    text, notes, summary = mill_text(args, mill, choice)
     for note in notes:
         print(f"note: {note}", file=sys.stderr)
     try:

@@ -179,7 +179,9 @@ def an_evening(page, url: str, board: Path, sides: str, screenshots: Path | None
     machine = page.request.get(url.split("?")[0] + "api/state").json()["position"]
     assert machine[0] == pytest.approx(before[0] + 1, abs=0.01)
     assert machine[1] == pytest.approx(before[1], abs=0.01)
-    # held: Y moves while the button is down and stops when it is let go
+    # held: Y moves while the button is down and stops when it is let go (once the
+    # step has ended: the head may stand at its end while the step still waits it out)
+    page.wait_for_function("() => document.querySelector('#activity').textContent === ''")
     page.select_option("#step", "")
     page.hover("button.jog[data-axis='y'][data-dir='1']")
     page.mouse.down()
@@ -224,7 +226,9 @@ def _fits_a_phone(page) -> None:
     try:
         wider = page.evaluate("""() => {
             const width = document.documentElement.clientWidth;
-            return [...document.querySelectorAll('body *')]
+            // inside an SVG only the SVG counts: it clips what it draws (the head
+            // jogged off the preview's edge)
+            return [...document.querySelectorAll('body *:not(svg *)')]
               .filter(e => e.getClientRects().length &&
                            e.getBoundingClientRect().right > width + 0.5)
               .map(e => e.tagName.toLowerCase() + (e.id ? '#' + e.id : ''));
