@@ -10,6 +10,8 @@ small hand-made board with thick and thin pads, a trace to a pad's centre and a 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from corpus import CORPUS
@@ -289,3 +291,30 @@ def test_a_horizontal_line_below_every_polygon_survives_the_cut(pad_trace):
     drawn = [piece for f in planned.ink.narrow for piece in f.pieces]
     assert any((piece[:, 1] == 4_600_000).all() and piece[:, 0].min() <= 2_000_000
                for piece in drawn)
+
+
+def test_a_walk_back_through_its_start_is_cut_along_itself():
+    """Clipper 6 joins the pieces of an open path that passes its own start again out
+    of order: minnowmax-80101's bottom, a fill's walk round a via's pad (a loop, a spur
+    to the pad's centre, back and on) came back with a corner cut straight across the
+    via's drill mark, 315 pixels of ink in it. Every piece runs along the walk, and
+    none comes into the mark."""
+    disc = clip.stroke([[[0, 0]]], 300_000, 2_000)
+    loop = np.array([[5, 5], [-5, 5], [-5, -5], [5, -5], [5, 5], [8, 5]]) * 100_000
+    assert [p.tolist() for p in clip.open_difference([loop], disc)] == [loop.tolist()]
+    walk = np.array([[5, 5], [-5, 5], [-5, -5], [5, -5], [5, -2], [2, -2], [2, 2], [-2, 2],
+                     [-2, -2], [0, -2], [0, 0], [0, -2], [2, -2], [5, -2], [5, 5], [8, 5]]
+                    ) * 100_000
+    pieces = clip.open_difference([walk], disc)
+    assert clip._on_paths(pieces, [walk])
+    for piece in pieces:
+        a, b = piece[:-1].astype(float), piece[1:].astype(float)
+        t = np.clip((-a * (b - a)).sum(axis=1) / ((b - a) ** 2).sum(axis=1), 0, 1)
+        assert np.hypot(*(a + t[:, None] * (b - a)).T).min() >= 298_000
+    # what is outside the disc is all kept: the walk's length less its stretches inside
+    length = sum(np.hypot(*np.diff(p.astype(float), axis=0).T).sum() for p in pieces)
+    # inside: the inner square's three sides and the spur (0.4 mm each way), the inner
+    # square's bottom side to its corners, and 0.024 mm twice to the corner at (2, -2)
+    inside = 3 * 400_000 + 4 * 200_000 + 2 * (math.sqrt(0.05) - 0.2) * MM
+    assert length == pytest.approx(np.hypot(*np.diff(walk.astype(float), axis=0).T).sum()
+                                   - inside, abs=10_000)
