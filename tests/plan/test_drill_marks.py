@@ -302,6 +302,8 @@ def test_a_walk_back_through_its_start_is_cut_along_itself():
     disc = clip.stroke([[[0, 0]]], 300_000, 2_000)
     loop = np.array([[5, 5], [-5, 5], [-5, -5], [5, -5], [5, 5], [8, 5]]) * 100_000
     assert [p.tolist() for p in clip.open_difference([loop], disc)] == [loop.tolist()]
+    flat = np.array([[5, -4], [-5, -4], [5, -4], [8, -4]]) * 100_000   # clipped swapped
+    assert [p.tolist() for p in clip.open_difference([flat], disc)] == [flat.tolist()]
     walk = np.array([[5, 5], [-5, 5], [-5, -5], [5, -5], [5, -2], [2, -2], [2, 2], [-2, 2],
                      [-2, -2], [0, -2], [0, 0], [0, -2], [2, -2], [5, -2], [5, 5], [8, 5]]
                     ) * 100_000

@@ -146,17 +146,23 @@ def open_difference(paths: list, polygons: PolygonSet) -> list[np.ndarray]:
     lines = [np.asarray(p, dtype=np.int64) for p in lines]
     flat = [p for p in lines if (p[:, 1] == p[0, 1]).all()]
     steep = [p for p in lines if not (p[:, 1] == p[0, 1]).all()]
-    outside = _open_outside(steep, polygons)
-    # Clipper 6 also joins an open path's pieces out of order at times: a fill's walk
-    # round a via's pad came back with a corner cut across the via's mark (minnowmax's
-    # bottom). Pieces that leave their path are made again exactly (_exact_outside).
-    if not _on_paths(outside, steep):
-        outside = [piece for path in steep for piece in _exact_outside(path, polygons)]
-    kept += outside
+    kept += _faithful(_open_outside(steep, polygons), steep, polygons)
     if flat:
         swapped = [np.asarray(ring)[::-1, ::-1].tolist() for ring in polygons]
-        kept += [path[:, ::-1] for path in _open_outside([p[:, ::-1] for p in flat], swapped)]
+        kept += _faithful([path[:, ::-1] for path in
+                           _open_outside([p[:, ::-1] for p in flat], swapped)], flat, polygons)
     return kept
+
+
+def _faithful(pieces: list[np.ndarray], paths: list[np.ndarray],
+              polygons: PolygonSet) -> list[np.ndarray]:
+    """Clipper's pieces of `paths`, or where one leaves its path, the pieces made again
+    exactly: Clipper 6 joins an open path's pieces out of order when the path passes its
+    own start again, and a fill's walk round a via's pad came back with a corner cut
+    across the via's drill mark (minnowmax-80101's bottom)."""
+    if _on_paths(pieces, paths):
+        return pieces
+    return [piece for path in paths for piece in _exact_outside(path, polygons)]
 
 
 def _on_paths(pieces: list[np.ndarray], paths: list[np.ndarray]) -> bool:
