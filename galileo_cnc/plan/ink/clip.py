@@ -146,11 +146,136 @@ def open_difference(paths: list, polygons: PolygonSet) -> list[np.ndarray]:
     lines = [np.asarray(p, dtype=np.int64) for p in lines]
     flat = [p for p in lines if (p[:, 1] == p[0, 1]).all()]
     steep = [p for p in lines if not (p[:, 1] == p[0, 1]).all()]
-    kept += _open_outside(steep, polygons)
+    kept += _faithful(_open_outside(steep, polygons), steep, polygons)
     if flat:
         swapped = [np.asarray(ring)[::-1, ::-1].tolist() for ring in polygons]
-        kept += [path[:, ::-1] for path in _open_outside([p[:, ::-1] for p in flat], swapped)]
+        kept += _faithful([path[:, ::-1] for path in
+                           _open_outside([p[:, ::-1] for p in flat], swapped)], flat, polygons)
     return kept
+
+
+def _faithful(pieces: list[np.ndarray], paths: list[np.ndarray],
+              polygons: PolygonSet) -> list[np.ndarray]:
+    """Clipper's pieces of `paths`, or where one leaves its path, the pieces made again
+    exactly: Clipper 6 joins an open path's pieces out of order when the path passes its
+    own start again, and a fill's walk round a via's pad came back with a corner cut
+    across the via's drill mark (minnowmax-80101's bottom)."""
+    if _on_paths(pieces, paths):
+        return pieces
+    return [piece for path in paths for piece in _exact_outside(path, polygons)]
+
+
+def _on_paths(pieces: list[np.ndarray], paths: list[np.ndarray]) -> bool:
+    """Whether each piece runs along the paths it was cut from: two of its points that
+    are both the paths' points are neighbours on a path, and a cut point lies on a
+    segment from its neighbour point (within 2 nm)."""
+    if not pieces:
+        return True
+    edges, incident = set(), {}
+    for path in paths:
+        points = [tuple(p) for p in path.tolist()]
+        for u, v in zip(points, points[1:]):
+            edges.add(u + v)
+            edges.add(v + u)
+            incident.setdefault(u, []).append(v)
+            incident.setdefault(v, []).append(u)
+    for piece in pieces:
+        points = [tuple(p) for p in piece.tolist()]
+        for u, v in zip(points, points[1:]):
+            if u + v in edges:
+                continue
+            known_u, known_v = u in incident, v in incident
+            if known_u and known_v:
+                return False
+            if known_u or known_v:
+                w, c = (u, v) if known_u else (v, u)
+                if not any(_on_segment(c, w, o) for o in incident[w]):
+                    return False
+    return True
+
+
+def _on_segment(c: tuple, a: tuple, b: tuple, slack_nm: float = 2.0) -> bool:
+    """Whether point c lies on segment a-b within `slack_nm`."""
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    length = (dx * dx + dy * dy) ** 0.5
+    if length == 0:
+        return False
+    cx, cy = c[0] - a[0], c[1] - a[1]
+    along = (cx * dx + cy * dy) / length
+    return abs(cx * dy - cy * dx) / length <= slack_nm and -slack_nm <= along <= length + slack_nm
+
+
+def _exact_outside(path: np.ndarray, polygons: PolygonSet) -> list[np.ndarray]:
+    """The parts of one polyline outside the set (positive winding), cut where its
+    segments cross the rings' edges: each segment is split at the crossings and each
+    stretch kept by its midpoint's winding; kept stretches that meet are one piece."""
+    a = path[:-1].astype(np.float64)
+    b = path[1:].astype(np.float64)
+    low, high = np.minimum(a, b), np.maximum(a, b)
+    segs, params = [np.arange(len(a)), np.arange(len(a))], [np.zeros(len(a)), np.ones(len(a))]
+    rings = [np.asarray(ring, dtype=np.float64) for ring in polygons]
+    for ring in rings:
+        r0, r1 = ring.min(axis=0), ring.max(axis=0)
+        near = np.flatnonzero((high[:, 0] >= r0[0]) & (low[:, 0] <= r1[0])
+                              & (high[:, 1] >= r0[1]) & (low[:, 1] <= r1[1]))
+        if not len(near):
+            continue
+        p, e = ring, np.roll(ring, -1, axis=0) - ring
+        for chunk in np.array_split(near, max(1, len(near) * len(ring) // 1_000_000 + 1)):
+            d = (b[chunk] - a[chunk])[:, None, :]
+            w = p[None, :, :] - a[chunk][:, None, :]
+            den = d[..., 0] * e[None, :, 1] - d[..., 1] * e[None, :, 0]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = (w[..., 0] * e[None, :, 1] - w[..., 1] * e[None, :, 0]) / den
+                u = (w[..., 0] * d[..., 1] - w[..., 1] * d[..., 0]) / den
+            hit = (den != 0) & (t > 0) & (t < 1) & (u >= 0) & (u <= 1)
+            si, ej = np.nonzero(hit)
+            segs.append(chunk[si])
+            params.append(t[si, ej])
+    seg, t = np.concatenate(segs), np.concatenate(params)
+    order = np.lexsort((t, seg))
+    seg, t = seg[order], t[order]
+    same = seg[1:] == seg[:-1]
+    s, t0, t1 = seg[:-1][same], t[:-1][same], t[1:][same]
+    length = t1 > t0
+    s, t0, t1 = s[length], t0[length], t1[length]
+    mid = a[s] + ((t0 + t1) / 2)[:, None] * (b[s] - a[s])
+    winding = np.zeros(len(mid), dtype=np.int64)
+    for ring in rings:
+        winding += _winding(ring, mid)
+    keep = winding <= 0
+    s, t0, t1 = s[keep], t0[keep], t1[keep]
+    if not len(s):
+        return []
+    joined = np.zeros(len(s), dtype=bool)
+    joined[1:] = ((s[1:] == s[:-1]) & (t0[1:] == t1[:-1])) | \
+        ((s[1:] == s[:-1] + 1) & (t1[:-1] == 1) & (t0[1:] == 0))
+    starts = np.round(a[s] + t0[:, None] * (b[s] - a[s])).astype(np.int64)
+    ends = np.round(a[s] + t1[:, None] * (b[s] - a[s])).astype(np.int64)
+    pieces = []
+    for first, last in zip(np.flatnonzero(~joined), [*np.flatnonzero(~joined)[1:], len(s)]):
+        piece = _distinct(np.vstack([starts[first:first + 1], ends[first:last]]))
+        if len(piece) >= 2:
+            pieces.append(piece)
+    return pieces
+
+
+def _winding(ring: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Per point, the ring's winding number about it (counter-clockwise: +1)."""
+    x, y = points[:, 0], points[:, 1]
+    winding = np.zeros(len(points), dtype=np.int64)
+    r0, r1 = ring.min(axis=0), ring.max(axis=0)
+    inside_box = np.flatnonzero((x >= r0[0]) & (x <= r1[0]) & (y >= r0[1]) & (y <= r1[1]))
+    if not len(inside_box):
+        return winding
+    px, py = x[inside_box][:, None], y[inside_box][:, None]
+    x0, y0 = ring[:, 0][None, :], ring[:, 1][None, :]
+    x1, y1 = np.roll(ring[:, 0], -1)[None, :], np.roll(ring[:, 1], -1)[None, :]
+    side = (x1 - x0) * (py - y0) - (px - x0) * (y1 - y0)
+    up = (y0 <= py) & (y1 > py) & (side > 0)
+    down = (y1 <= py) & (y0 > py) & (side < 0)
+    winding[inside_box] = up.sum(axis=1) - down.sum(axis=1)
+    return winding
 
 
 def _open_outside(lines: list[np.ndarray], polygons: PolygonSet) -> list[np.ndarray]:
