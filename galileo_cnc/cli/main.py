@@ -10,9 +10,9 @@ import sys
 
 
 from galileo_cnc import __version__
+from galileo_cnc.cli.mill import add_mill_options, run_mill_convert
 from galileo_cnc.cli.serve import add_serve_command
 from galileo_cnc.config.hardware import DEFAULT_BAUD
-from galileo_cnc.cli.mill import add_mill_options, run_mill_convert
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.preview.formats import preview_kind
 from galileo_cnc.program.ops import NM_PER_MM

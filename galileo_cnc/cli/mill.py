@@ -7,8 +7,8 @@ over it (the table's keys and units: `--mill-set passes=2 --mill-set tool=endmil
 A board (a folder, .zip or .gbrjob) gives its `--side` copper, every drill file's holes
 and its outline; on `--side bottom` all three are mirrored about the board's axis as the
 plotter's bottom is (plan/sides.py), so the bottom's work lands on the top's after the
-turn-over. Coordinates are the board's own (work zero at the
-board's origin), so isolation, drilling and cut-out files of one board agree.
+turn-over. Coordinates are the board's own (work zero at the board's origin), so the
+isolation, drilling and cut-out files of one board agree.
 """
 
 from __future__ import annotations
