@@ -45,6 +45,8 @@ from galileo_cnc.plan.mill.isolate import Isolation, arc_tolerance_nm, join_sagi
 SWEPT_AREA_ALLOWED_NM2 = 1_000_000      # 1 um^2
 #: The smallest grid cell for the crossing test (part 3): long segments, few cells.
 CROSSING_CELL_NM = 500_000
+#: The copper's grid cell for the pass vertices' nearest edges, per mille of the search.
+NEAR_CELL_PERMILLE = 550
 #: Vertices of the passes stroked at once for the swept area.
 STRIP_VERTICES = 5_000
 
@@ -97,9 +99,14 @@ def _clearance_and_entries(paths: list[np.ndarray], copper_rings: list[np.ndarra
     the copper plus how many pass segments cross a copper segment."""
     if not paths or not copper_rings:
         return float("inf"), 0
-    copper = EdgeIndex(copper_rings, cell_nm=search_nm)
+    # the pass vertices lie a little over half the search from the copper (the first
+    # pass's radius): cells that size look at a quarter of the edges the search's would
+    # (the answers do not depend on the cell: edges.nearest_many); the copper's
+    # vertices lie farther off, more spread, and gain nothing from it
+    near = search_nm * NEAR_CELL_PERMILLE // 1000
+    copper = EdgeIndex(copper_rings, cell_nm=near)
     tool = EdgeIndex(paths, cell_nm=search_nm)
-    edge, t, from_paths = copper.nearest_many(tool.a, search_nm)
+    edge, t, from_paths = copper.nearest_many(tool.a, near)
     _edge, _t, from_copper = tool.nearest_many(copper.a, search_nm)
     clearance = float(min(from_paths.min(), from_copper.min()))
     inside = int(np.count_nonzero(_inside(copper, tool.a, edge, t)))

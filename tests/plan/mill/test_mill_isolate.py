@@ -9,7 +9,12 @@ import shapely
 
 from corpus import corpus_file
 from galileo_cnc.config.mill import MillConfig
-from galileo_cnc.plan.mill.isolate import ShortsError, isolate, refuse_shorts
+from galileo_cnc.plan.ink.edges import EdgeIndex
+from galileo_cnc.plan.ink.geometry import dark_geometry
+from galileo_cnc.plan.ink.islands import Islands
+from galileo_cnc.plan.mill.isolate import (MILL_TOLERANCE_NM, ShortsError, find_shorts,
+                                           isolate, pass_radii, refuse_shorts,
+                                           vertex_edge_pairs)
 from galileo_cnc.plan.mill.proof import prove
 from galileo_cnc.readers import read_file
 
@@ -228,3 +233,37 @@ def test_a_refusal_lists_the_first_shorts_and_counts_the_rest():
     text = str(refused.value)
     assert text.startswith(f"row.gtl: {SHOWN_SHORTS + 5} place(s)")
     assert text.count("mm (work)") == SHOWN_SHORTS and "... and 5 more" in text
+
+
+def _every_vertex_edge_pair(reach_nm):
+    """Every (vertex, edge) pair of different islands, by vertex then edge, but those
+    whose vertex lies `reach_nm` or more outside the edge's box (no short)."""
+    def pairs(index, owner):
+        low = np.minimum(index.a, index.b) - reach_nm
+        high = np.maximum(index.a, index.b) + reach_nm
+        vertices, edges = [], []
+        for first in range(0, len(index.a), 256):
+            vertex = np.arange(first, min(first + 256, len(index.a)))[:, None]
+            point = index.a[vertex]
+            near = (np.all((point > low) & (point < high), axis=-1)
+                    & (owner[vertex] != owner[None, :]))
+            found_vertex, found_edge = np.nonzero(near)
+            vertices.append(vertex[found_vertex, 0])
+            edges.append(found_edge)
+        return np.concatenate(vertices), np.concatenate(edges)
+    return pairs
+
+
+def test_the_indexed_short_search_finds_what_the_exhaustive_one_does():
+    program = read_file(str(corpus_file("altium/usbvil/pic18f14k50.gtl")))
+    copper = dark_geometry(program, MILL_TOLERANCE_NM).native
+    islands = Islands.of(copper)
+    reach = 2 * pass_radii(MillConfig(tool="endmill", diameter_nm=300_000))[0]
+    index = EdgeIndex(islands.rings, cell_nm=reach)
+    owner = islands.owner[index.ring]
+    indexed = vertex_edge_pairs(index, owner)
+    assert all((ours == theirs).all()
+               for ours, theirs in zip(indexed, index.around_vertices(owner)))
+    shorts = find_shorts(islands, reach)
+    assert len(shorts) == 31
+    assert shorts == find_shorts(islands, reach, pairs=_every_vertex_edge_pair(reach))
