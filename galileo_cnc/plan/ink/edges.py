@@ -121,12 +121,13 @@ class EdgeIndex:
         entered in its cell and the eight around it, so every edge within a cell of
         the vertex (and some farther)."""
         # vertices crowd round curves: look each occupied cell up once
-        cells, cell_of = np.unique(np.floor_divide(self.a, self.cell), axis=0,
-                                   return_inverse=True)
-        cell_of = cell_of.ravel()
-        by_cell = np.argsort(cell_of, kind="stable")
-        in_cell = np.bincount(cell_of, minlength=len(cells))
-        vertices, edges = [], []
+        key = _key(np.floor_divide(self.a, self.cell))
+        by_cell = np.argsort(key, kind="stable")
+        starts = np.flatnonzero(np.concatenate(([True], key[by_cell][1:] != key[by_cell][:-1])))
+        in_cell = np.diff(np.append(starts, len(key)))
+        cells = np.floor_divide(self.a[by_cell[starts]], self.cell)
+        cell_first = np.cumsum(in_cell) - in_cell
+        found = []
         for dx in (-1, 0, 1):
             for dy in (-1, 0, 1):
                 keys = _key(cells + np.array([dx, dy]))
@@ -136,14 +137,16 @@ class EdgeIndex:
                 cell = np.repeat(np.arange(len(cells)), count)
                 rank = np.arange(len(cell)) - np.repeat(np.cumsum(count) - count, count)
                 per = in_cell[cell]
-                vertex = by_cell[np.repeat(np.cumsum(in_cell)[cell] - per, per)
+                vertex = by_cell[np.repeat(cell_first[cell], per)
                                  + np.arange(per.sum()) - np.repeat(np.cumsum(per) - per, per)]
                 edge = np.repeat(self._members[first[cell] + rank], per)
                 apart = group[vertex] != group[edge]
-                vertices.append(vertex[apart])
-                edges.append(edge[apart])
-        pairs = np.unique(np.stack([np.concatenate(vertices), np.concatenate(edges)]), axis=1)
-        return pairs[0], pairs[1]
+                found.append(vertex[apart] * len(self.a) + edge[apart])
+        # each pair as one int64 key, sorted and repeats dropped: a unique over a column
+        # of two (or numpy's hashing unique) was most of the mill's short search
+        pairs = np.sort(np.concatenate(found))
+        pairs = pairs[np.concatenate(([True], pairs[1:] != pairs[:-1]))] if len(pairs) else pairs
+        return pairs // len(self.a), pairs % len(self.a)
 
     def nearest(self, point: tuple[int, int], search_nm: int) -> tuple[int, float, float] | None:
         """(edge index, t along it, distance) of the outline point nearest to `point`,

@@ -39,7 +39,6 @@ from galileo_cnc.config.mill import MillConfig
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.plan.ink import clip
 from galileo_cnc.plan.ink.edges import EdgeIndex, point_to_edges
-from galileo_cnc.plan.ink.edges import _key as cell_key
 from galileo_cnc.plan.ink.geometry import dark_geometry
 from galileo_cnc.plan.ink.islands import Islands, _joined
 from galileo_cnc.plan.widths import mm_text
@@ -165,7 +164,7 @@ def find_shorts(islands: Islands, reach_nm: int, pairs=None) -> list[Short]:
         return []
     index = EdgeIndex(islands.rings, cell_nm=reach_nm)
     owner = islands.owner[index.ring]
-    vertex, edge = (pairs or vertex_edge_pairs)(index, owner)
+    vertex, edge = (pairs or EdgeIndex.around_vertices)(index, owner)
     if not len(vertex):
         return []
     t, gap = point_to_edges(index.a[vertex].astype(np.float64), index.a[edge], index.b[edge])
@@ -191,37 +190,6 @@ def find_shorts(islands: Islands, reach_nm: int, pairs=None) -> list[Short]:
         shorts.append(Short((pair[0], pair[1]), float(gap[k]),
                             (int(round(middle[0])), int(round(middle[1])))))
     return shorts
-
-
-def vertex_edge_pairs(index: EdgeIndex, group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """EdgeIndex.around_vertices(group), the same pairs in the same order (by vertex,
-    then edge), each made unique as one int64 key instead of as a column of two: the
-    unique took most of the shorts' time (0.9 s of 1.2 on LimeSDR's top)."""
-    key = cell_key(np.floor_divide(index.a, index.cell))
-    by_cell = np.argsort(key, kind="stable")
-    starts = np.flatnonzero(np.concatenate(([True], key[by_cell][1:] != key[by_cell][:-1])))
-    in_cell = np.diff(np.append(starts, len(key)))
-    cells = np.floor_divide(index.a[by_cell[starts]], index.cell)
-    cell_first = np.cumsum(in_cell) - in_cell
-    keys_found = []
-    for dx in (-1, 0, 1):
-        for dy in (-1, 0, 1):
-            keys = cell_key(cells + np.array([dx, dy]))
-            first = np.searchsorted(index._keys, keys, "left")
-            count = np.searchsorted(index._keys, keys, "right") - first
-            # (cell, edge) pairs, then each of the cell's vertices with the edge
-            cell = np.repeat(np.arange(len(cells)), count)
-            rank = np.arange(len(cell)) - np.repeat(np.cumsum(count) - count, count)
-            per = in_cell[cell]
-            vertex = by_cell[np.repeat(cell_first[cell], per)
-                             + np.arange(per.sum()) - np.repeat(np.cumsum(per) - per, per)]
-            edge = np.repeat(index._members[first[cell] + rank], per)
-            apart = group[vertex] != group[edge]
-            keys_found.append(vertex[apart] * len(index.a) + edge[apart])
-    # sorted, then repeats dropped: np.unique hashes first, four times slower here
-    pairs = np.sort(np.concatenate(keys_found))
-    pairs = pairs[np.concatenate(([True], pairs[1:] != pairs[:-1]))] if len(pairs) else pairs
-    return pairs // len(index.a), pairs % len(index.a)
 
 
 def refuse_shorts(isolation: Isolation, accept_shorts: bool = False) -> None:
