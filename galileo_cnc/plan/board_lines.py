@@ -123,13 +123,11 @@ def keep_out(copper: list, lines: Sequence[np.ndarray], line_radius_nm: int, bar
 def clear_of(role: str, strokes: Sequence[np.ndarray], forbidden: list) -> BoardLines:
     """The strokes cut to outside `forbidden`, and how much was cut away.
 
-    A stroke whose box meets no ring's box is kept whole without Clipper: Clipper
-    loses a horizontal open path that lies below every clip polygon (the bottom edge
-    of an outline round a board whose copper stops short of it, pyclipper 1.3). Dots go
-    through Clipper together (_dots_outside)."""
+    A stroke whose box meets no ring's box is kept whole without Clipper (most of an
+    outline, far from the copper). Dots go through Clipper together (_dots_outside)."""
     boxes = np.array([(*np.min(ring, axis=0), *np.max(ring, axis=0)) for ring in forbidden],
                      dtype=np.int64).reshape(-1, 4)
-    strokes = [_distinct(stroke) for stroke in strokes if len(stroke)]
+    strokes = [clip.without_repeats(stroke) for stroke in strokes if len(stroke)]
     kept, near, near_dots = [], [], []
     for stroke in strokes:
         low, high = np.min(stroke, axis=0), np.max(stroke, axis=0)
@@ -208,7 +206,7 @@ def _rows(strokes: Sequence[np.ndarray], tool: int, here: tuple[int, int],
           tolerance_nm: int) -> np.ndarray:
     """A SELECT of `tool`, then each stroke as a MOVE and its lines and arcs, a dot as
     a FLASH."""
-    strokes = [_distinct(s) for s in strokes if len(s)]
+    strokes = [clip.without_repeats(s) for s in strokes if len(s)]
     fitted = fit_paths(strokes, tolerance_nm, rows=True)
     count = 1 + sum(1 if segments is None else 1 + len(segments) for segments in fitted)
     rows = np.zeros((count, len(COLUMNS)), dtype=np.int64)
@@ -224,13 +222,3 @@ def _rows(strokes: Sequence[np.ndarray], tool: int, here: tuple[int, int],
             rows[n:n + len(segments), [KIND, X, Y, I, J]] = segments
             n += len(segments)
     return rows
-
-
-def _distinct(stroke: np.ndarray) -> np.ndarray:
-    """The polyline without a point repeated right after itself (a dot: one point)."""
-    points = np.asarray(stroke, dtype=np.int64).reshape(-1, 2)
-    if len(points) < 2:                 # a dot (most of a logo's flashes)
-        return points
-    keep = np.ones(len(points), dtype=bool)
-    keep[1:] = np.any(points[1:] != points[:-1], axis=1)
-    return points[keep]

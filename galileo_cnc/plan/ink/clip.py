@@ -115,8 +115,8 @@ def boolean(operation, subject: PolygonSet, clip: PolygonSet) -> PolygonSet:
     return clipper.Execute(operation, pc.PFT_POSITIVE, pc.PFT_POSITIVE)
 
 
-def _distinct(path) -> np.ndarray:
-    """The polyline without repeats of a point right after itself."""
+def without_repeats(path) -> np.ndarray:
+    """The polyline without repeats of a point right after itself (a dot: one point)."""
     points = np.asarray(path, dtype=np.int64).reshape(-1, 2)
     if len(points) < 2:
         return points
@@ -133,7 +133,7 @@ def open_difference(paths: list, polygons: PolygonSet) -> list[np.ndarray]:
     kept = []
     # a polyline whose points all coincide is a dot: Clipper refuses a subject of
     # zero length ("All paths are invalid for clipping")
-    paths = [_distinct(path) for path in paths]
+    paths = [without_repeats(path) for path in paths]
     lines = [path for path in paths if len(path) >= 2]
     for dot in (path for path in paths if len(path) == 1):
         x, y = (int(v) for v in dot[0])
@@ -254,7 +254,7 @@ def _exact_outside(path: np.ndarray, polygons: PolygonSet) -> list[np.ndarray]:
     ends = np.round(a[s] + t1[:, None] * (b[s] - a[s])).astype(np.int64)
     pieces = []
     for first, last in zip(np.flatnonzero(~joined), [*np.flatnonzero(~joined)[1:], len(s)]):
-        piece = _distinct(np.vstack([starts[first:first + 1], ends[first:last]]))
+        piece = without_repeats(np.vstack([starts[first:first + 1], ends[first:last]]))
         if len(piece) >= 2:
             pieces.append(piece)
     return pieces
