@@ -110,7 +110,7 @@ def _feed_notes(program, config) -> list[str]:
 def _say_feed_warnings(planned) -> None:
     """preview and convert: their result goes to stdout, the feed warnings (and a
     board's outline and silk left out near copper) to stderr."""
-    for warning in (*planned.feed_warnings, *getattr(planned, "line_warnings", ())):
+    for warning in (*planned.feed_warnings, *planned.line_warnings):
         print(warning, file=sys.stderr)
 
 
@@ -222,7 +222,7 @@ def _run_preview(args: argparse.Namespace) -> int:
             from galileo_cnc.preview.svg import render_svg
             info = render_svg(planned.program, planned.job, config, planned.offset_nm,
                               args.output, copper=planned.copper,
-                              pen_roles=getattr(planned, "pen_roles", None))
+                              pen_roles=planned.pen_roles)
         else:
             # the job's path from its commands: the reference machine's steps to
             # within one, without planning or stepping them (docs/preview.md, "Cost")
@@ -230,7 +230,7 @@ def _run_preview(args: argparse.Namespace) -> int:
             info = render_preview(planned.program, path, config, planned.offset_nm,
                                   args.output, job=planned.job, copper=planned.copper,
                                   marks=planned.marks,
-                                  pen_roles=getattr(planned, "pen_roles", None))
+                                  pen_roles=planned.pen_roles)
     except OSError as problem:
         raise GalileoError(f"--output {args.output}: cannot write: {problem.strerror}") from None
     print(f"{args.output}: {info.summary()}")

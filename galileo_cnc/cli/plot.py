@@ -370,7 +370,7 @@ def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO)
         from galileo_cnc.preview.svg import render_svg      # from the commands: no trace
         info = render_svg(planned.program, planned.job, config, planned.offset_nm,
                           options.preview, copper=planned.copper,
-                          pen_roles=getattr(planned, "pen_roles", None))
+                          pen_roles=planned.pen_roles)
         out.write(f"preview: {options.preview}: {info.summary()}\n")
     if options.trace:
         reported = recorder.trace()
@@ -390,5 +390,5 @@ def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO)
         info = render_preview(planned.program, JobPath(planned.job.commands, config), config,
                               planned.offset_nm, options.preview, job=planned.job,
                               copper=planned.copper, marks=planned.marks,
-                              pen_roles=getattr(planned, "pen_roles", None))
+                              pen_roles=planned.pen_roles)
         out.write(f"preview: {options.preview}: {info.summary()}{machine.preview_note}\n")
