@@ -125,3 +125,40 @@ def test_a_one_sided_board_is_plotted_without_a_turn_over(home, tmp_path):  # no
         user.line("status")
         screen = user.expect(r"state \w+")
         assert "turn the blank over about the" not in user.screen.text[:screen.end()]
+
+
+def test_getg_draws_the_outline_and_the_silk_after_the_copper(home, tmp_path):  # noqa: F811
+    """`getg BOARD --outline --silk`: on each side the copper, then the outline and the
+    silk, each after a pen change that names it; the silk off the copper is said in mm,
+    the journal keeps both choices for resume, and the head ends where the plan of the
+    bottom with both ends."""
+    board = make_board(tmp_path / "board", silk=True)
+    with console_in_thread(home) as user:
+        user.line(f"getg --outline --silk {board}")
+        user.expect(r"use these offsets\?")
+        user.line("y")
+        for side in ("top", "bottom"):
+            user.expect(r"--silk: [\d.]+ mm of the silk (and \d+ dots? )?left out within "
+                        r"0\.250 mm of copper")
+            if side == "bottom":
+                user.expect(r"plot the bottom side\?")
+                user.line("y")
+            user.expect(r"insert the 0\.4 mm pen")
+            user.type("\r")
+            user.expect(re.escape("insert the outline pen (0.4 mm)"))
+            user.type("\r")
+            user.expect(re.escape("insert the silk pen (0.4 mm)"))
+            user.type("\r")
+            user.expect(r"process has finished")
+        status = user.status()
+    choice = BoardChoice(side="top", outline=True, silk=True)
+    top = plan_board(board, MachineConfig(), choice=choice)
+    bottom = plan_board(board, MachineConfig(), top.offset_nm,
+                        choice=BoardChoice(side="bottom", outline=True, silk=True))
+    plain = plan_board(board, MachineConfig(), top.offset_nm,
+                       choice=BoardChoice(side="bottom"))
+    assert len(bottom.job) > len(plain.job)
+    assert status == ("idle", *position_after(bottom.job, len(bottom.job), MachineConfig()))
+    entry = journal_of(home)
+    assert entry["state"] == FINISHED and entry["board"]["side"] == "bottom"
+    assert entry["board"]["outline"] is True and entry["board"]["silk"] is True
