@@ -209,30 +209,14 @@ def _run_plot(args: argparse.Namespace) -> int:
 
 
 def _run_preview(args: argparse.Namespace) -> int:
-    from galileo_cnc.preview.job_path import JobPath
-    from galileo_cnc.preview.render import render_preview
+    from galileo_cnc.preview.write import write_preview
 
     check_output(args.output, "--output")
-    kind = preview_kind(args.output, "--output")
+    preview_kind(args.output, "--output")
     config = _profile(args).config
     planned = _plan(args, config)
     _say_feed_warnings(planned)
-    try:
-        if kind == "svg":               # from the job's commands: nothing to step
-            from galileo_cnc.preview.svg import render_svg
-            info = render_svg(planned.program, planned.job, config, planned.offset_nm,
-                              args.output, copper=planned.copper,
-                              pen_roles=planned.pen_roles)
-        else:
-            # the job's path from its commands: the reference machine's steps to
-            # within one, without planning or stepping them (docs/preview.md, "Cost")
-            path = JobPath(planned.job.commands, config)
-            info = render_preview(planned.program, path, config, planned.offset_nm,
-                                  args.output, job=planned.job, copper=planned.copper,
-                                  marks=planned.marks,
-                                  pen_roles=planned.pen_roles)
-    except OSError as problem:
-        raise GalileoError(f"--output {args.output}: cannot write: {problem.strerror}") from None
+    info = write_preview(planned, config, args.output)
     print(f"{args.output}: {info.summary()}")
     _say_open_traces(planned)
     return 0

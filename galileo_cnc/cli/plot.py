@@ -365,13 +365,6 @@ def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO)
     if job is None or not (options.trace or options.preview):
         return
     planned, config = job.planned, job.config
-    svg = options.preview is not None and is_svg(options.preview)
-    if svg:
-        from galileo_cnc.preview.svg import render_svg      # from the commands: no trace
-        info = render_svg(planned.program, planned.job, config, planned.offset_nm,
-                          options.preview, copper=planned.copper,
-                          pen_roles=planned.pen_roles)
-        out.write(f"preview: {options.preview}: {info.summary()}\n")
     if options.trace:
         reported = recorder.trace()
         if reported is not None:
@@ -384,11 +377,9 @@ def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO)
             trace.save(options.trace)
             out.write(f"step trace: {options.trace} ({len(trace)} steps): the reference "
                       f"machine's, since {machine.port_name} cannot report its steps\n")
-    if options.preview and not svg:
-        from galileo_cnc.preview.job_path import JobPath
-        from galileo_cnc.preview.render import render_preview
-        info = render_preview(planned.program, JobPath(planned.job.commands, config), config,
-                              planned.offset_nm, options.preview, job=planned.job,
-                              copper=planned.copper, marks=planned.marks,
-                              pen_roles=planned.pen_roles)
-        out.write(f"preview: {options.preview}: {info.summary()}{machine.preview_note}\n")
+    if options.preview:
+        from galileo_cnc.preview.write import write_preview
+        info = write_preview(planned, config, options.preview)
+        # an SVG is drawn from the commands alone: the machine's note is about steps
+        note = "" if is_svg(options.preview) else machine.preview_note
+        out.write(f"preview: {options.preview}: {info.summary()}{note}\n")

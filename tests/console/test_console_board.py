@@ -14,6 +14,7 @@ import pytest
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.plan.board_plan import BoardChoice, plan_board
 from galileo_cnc.plan.pipeline import PlanOptions
+from galileo_cnc.preview.render import LINE_COLOURS
 from galileo_cnc.simavr.board import SimulatedBoard
 from galileo_cnc.stream.journal import FINISHED
 from galileo_cnc.stream.resume import position_after
@@ -151,6 +152,19 @@ def test_getg_draws_the_outline_and_the_silk_after_the_copper(home, tmp_path):  
             user.type("\r")
             user.expect(r"process has finished")
         status = user.status()
+        # a picture of each side, as `preview` on the shell draws it
+        pictures = tmp_path / "pictures"
+        pictures.mkdir()
+        user.line(f"preview --outline --silk {board} -o {pictures / 'board.svg'}")
+        for side in ("top", "bottom"):
+            user.expect(rf"{side} side, ")
+            user.expect(re.escape(f"{pictures / f'board-{side}.svg'}: "))
+        user.line(f"preview --side bottom --mode sideways {board}")
+        user.expect(r"preview: unknown option --mode sideways \(preview \[--mode")
+    for side in ("top", "bottom"):
+        svg = (pictures / f"board-{side}.svg").read_text()
+        for role in ("outline", "silk"):
+            assert 'color="#%02x%02x%02x"' % LINE_COLOURS[role] in svg, role
     choice = BoardChoice(side="top", outline=True, silk=True)
     top = plan_board(board, MachineConfig(), choice=choice)
     bottom = plan_board(board, MachineConfig(), top.offset_nm,
