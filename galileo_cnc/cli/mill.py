@@ -21,7 +21,7 @@ from galileo_cnc.config.machine import ConfigError
 from galileo_cnc.config.mill import MillConfig
 from galileo_cnc.errors import GalileoError
 
-MILL_JOBS = ("isolate", "drill", "cutout")
+MILL_JOBS = ("isolate", "drill", "cutout", "all")
 
 
 def add_mill_options(parser: argparse.ArgumentParser) -> None:
@@ -29,7 +29,8 @@ def add_mill_options(parser: argparse.ArgumentParser) -> None:
                         help="write a mill's G-code instead of a plot: isolate (passes "
                         "round every copper island at the tool's cut), drill (a board's "
                         "holes and slots, bit by bit), cutout (along the board's outline, "
-                        "with tabs); docs/mill.md")
+                        "with tabs), all (the three in that order, a tool change between); "
+                        "docs/mill.md")
     parser.add_argument("--mill-set", action="append", default=[], metavar="KEY=VALUE",
                         help="a [mill] key over the profile's (e.g. passes=2, "
                         "tool=endmill, diameter_mm=0.3); may be repeated")
@@ -146,6 +147,8 @@ def mill_text(args: argparse.Namespace, mill: MillConfig,
     from galileo_cnc.plan.widths import mm_text
     source = _MillSource(args, choice)
     try:
+        if args.mill == "all":
+            return _whole_board(args, mill, source)
         if args.mill == "isolate":
             text = mill_gcode(source.copper(), mill, accept_shorts=args.accept_shorts)
             rings = sum(1 for line in text.splitlines() if line.startswith("G1 Z"))
@@ -169,8 +172,67 @@ def mill_text(args: argparse.Namespace, mill: MillConfig,
         source.close()
 
 
+def _whole_board(args: argparse.Namespace, mill: MillConfig,
+                 source: "_MillSource") -> tuple[str, list[str], str]:
+    """--mill all: isolation, drilling and cut-out as one job, a tool change (M0 naming
+    the tool, Z re-zeroed) before the drilling's first bit and before the end mill."""
+    from galileo_cnc.plan.mill.cutout import cuts_gcode, plan_cutout
+    from galileo_cnc.plan.mill.drill import mm_text, plan_drilling, plan_gcode
+    from galileo_cnc.plan.mill.gcode import mill_gcode
+    source.needs_board("all")
+    isolation = mill_gcode(source.copper(), mill, accept_shorts=args.accept_shorts)
+    drilling = plan_drilling(source.holes(), mill, args.drill_order)
+    outline = source.outline()
+    cutout = plan_cutout(outline, mill)
+    first_bit = f"{mm_text(drilling.groups[0].bit_nm)} mm bit"
+    end_mill = f"{mm_text(mill.diameter_nm)} mm end mill"
+    text = joined_jobs([(isolation, None),
+                        (plan_gcode(drilling, mill, os.fsdecode(args.file)), first_bit),
+                        (cuts_gcode(cutout.cuts, mill, outline.source, cutout.notes),
+                         end_mill)], mill)
+    notes = drilling.notes + cutout.notes
+    return text, notes, (f"isolation ({mill.describe()}), drilling "
+                         f"({drilling.tool_changes + 1} bit(s)), cut-out with the "
+                         f"{end_mill}: {_count(drilling.tool_changes + 2, 'tool change')}")
+
+
+def joined_jobs(parts: list[tuple[str, str | None]], mill: MillConfig) -> str:
+    """Mill jobs' G-code as one: before each next part a tool change to its tool
+    (drill.tool_change_lines), its own start (modes, safe height, spindle on) left
+    out, as every part's end (M2) but the last's."""
+    from galileo_cnc.plan.mill.drill import tool_change_lines
+    out: list[str] = []
+    for k, (text, tool) in enumerate(parts):
+        lines = text.splitlines()
+        if k < len(parts) - 1 and lines and lines[-1] == "M2":
+            lines = lines[:-1]
+        if tool is not None:
+            start = lines.index("G21 G90 G17 G94")
+            spindle = next(i for i, line in enumerate(lines) if line.startswith("M3"))
+            lines = lines[:start] + tool_change_lines(tool, mill) + lines[spindle + 1:]
+        out += lines
+    return "\n".join(out) + "\n"
+
+
 def _count(n: int, what: str) -> str:
     return f"{n} {what}{'' if n == 1 else 's'}"
+
+
+def mill_program(file, job: str, mill: MillConfig, choice=None, *, accept_shorts: bool = False,
+                 drill_order: str = "plated-first"):
+    """(MillProgram, notes, summary): the `--mill` job of a file or board (job one of
+    MILL_JOBS) as a machine runs it (Machine.prepare_mill; grbl/mill_job.py)."""
+    from galileo_cnc.grbl.mill_job import MillProgram
+    from galileo_cnc.readers.gcode.writer import mm
+    if job not in MILL_JOBS:
+        raise GalileoError(f"--mill {job!r}: must be one of {', '.join(MILL_JOBS)}")
+    args = argparse.Namespace(file=file, mill=job, accept_shorts=accept_shorts,
+                              drill_order=drill_order)
+    text, notes, summary = mill_text(args, mill, choice)
+    name = f"{os.path.basename(os.fsdecode(file).rstrip('/'))} (--mill {job})"
+    program = MillProgram(text, os.fsdecode(file), name, mm(mill.safe_height_nm),
+                          mm(mill.plunge_feed_um_min * 1000))
+    return program, notes, summary
 
 
 def run_mill_convert(args: argparse.Namespace, profile, choice=None) -> int:
