@@ -54,7 +54,7 @@ RESET_TO_CONTINUE = "[MSG:Reset to continue]"
 #: How long a reset waits for that line (it follows the ALARM line at once).
 CRITICAL_MESSAGE_WAIT_S = 3.0
 #: Standing Idle this long with a line unanswered: a cycle start (StatusWatch).
-IDLE_NUDGE_S = 1.0
+IDLE_NUDGE_S = 0.4
 
 
 @dataclass(frozen=True, slots=True)

@@ -24,13 +24,12 @@ from galileo_cnc.grbl.job import InterruptiblePort
 from galileo_cnc.grbl.mill_job import MILL_GCODE_NAME
 from galileo_cnc.simavr.grbl_firmware import ProbeSurface
 
-from boards import make_board
 from grbl_support import (MM, QUICK_ACCEL, SETTINGS, grbl_machine, positions_and_ticks,
                           settled_trace)
 
 #: fast tools on a thin board: one cut-out pass, shallow drilling, high feeds
 MILL = MillConfig.from_table({
-    "probe": True, "safe_height_mm": 1.0, "feed_mm_min": 3000, "plunge_feed_mm_min": 1500,
+    "probe": True, "safe_height_mm": 1.0, "feed_mm_min": 4000, "plunge_feed_mm_min": 2000,
     "board_thickness_mm": 0.4, "cutout_step_down_mm": 0.5, "breakthrough_mm": 0.1,
     "tabs": 2, "tab_height_mm": 0.2, "tab_width_mm": 1.0, "drills": [0.8, 1.0]})
 #: the touch plate's top: where GRBL powers up, work Z 0 (G54 stays zero)
@@ -38,13 +37,34 @@ PLATE = ProbeSurface(z0=0)
 SAFE_STEPS = MM                         # 1 mm
 
 
-@pytest.fixture(scope="module")
-def program(tmp_path_factory):
-    """The test board with a 1.0 mm hole beside its 0.8 mm ones: two bits."""
-    board = make_board(tmp_path_factory.mktemp("mill") / "board")
-    (board / "board-PTH.drl").write_text(
+_HEADER = "%FSLAX46Y46*%\n%MOMM*%\n%LPD*%\n"
+
+
+def _gerber(function: str, body: str) -> str:
+    return f"%TF.FileFunction,{function}*%\n{_HEADER}{body}M02*\n"
+
+
+def square_pad_board(folder: Path) -> Path:
+    """A 10 x 10 mm board: three 1.6 mm square pads (isolation rings of a few corners:
+    GRBL plans a block in 3.5 ms, a round pad's chords would be most of the job), two
+    0.8 mm holes and a 1.0 mm one (two bits), the outline."""
+    folder.mkdir()
+    pads = ((3, 3), (7, 3), (3, 7))
+    (folder / "board-F_Cu.gbr").write_text(_gerber(
+        "Copper,L1,Top", "%ADD10R,1.600000X1.600000*%\nD10*\n"
+        + "".join(f"X{x * 10**6}Y{y * 10**6}D03*\n" for x, y in pads)))
+    (folder / "board-Edge_Cuts.gbr").write_text(_gerber(
+        "Profile,NP", "%ADD12C,0.100000*%\nD12*\nX0Y0D02*\nX10000000Y0D01*\n"
+        "X10000000Y10000000D01*\nX0Y10000000D01*\nX0Y0D01*\n"))
+    (folder / "board-PTH.drl").write_text(
         "M48\n; #@! TF.FileFunction,Plated,1,2,PTH\nFMAT,2\nMETRIC\nT1C0.800\nT2C1.000\n%\n"
         "G90\nG05\nT1\nX3.0Y3.0\nX7.0Y3.0\nT2\nX3.0Y7.0\nM30\n")
+    return folder
+
+
+@pytest.fixture(scope="module")
+def program(tmp_path_factory):
+    board = square_pad_board(tmp_path_factory.mktemp("mill") / "board")
     made, notes, summary = mill_program(str(board), "all", MILL, accept_shorts=True)
     assert "3 tool changes" in summary
     # the spindle's 2 s to come up to speed is 6 s of the job's 8: 0.1 s here
