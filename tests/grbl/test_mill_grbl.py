@@ -20,8 +20,8 @@ from galileo_cnc.cli.mill import mill_program
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.config.mill import MillConfig
 from galileo_cnc.grbl import firmware
+from galileo_cnc.grbl.stream import GrblStreamError
 from galileo_cnc.grbl.job import InterruptiblePort
-from galileo_cnc.grbl.mill_job import MILL_GCODE_NAME
 from galileo_cnc.simavr.grbl_firmware import ProbeSurface
 
 from grbl_support import (MM, QUICK_ACCEL, SETTINGS, grbl_machine, positions_and_ticks,
@@ -97,7 +97,7 @@ class Operator:
         raise AssertionError(f"asked {question!r}: the position was kept")
 
 
-def mill_machine(link, tmp_path) -> GrblMachine:
+def mill_machine(link) -> GrblMachine:
     link.port = InterruptiblePort(link.port)
     return GrblMachine(link, link.port, "simavr GRBL", MachineConfig(), None)
 
@@ -131,14 +131,13 @@ def test_whole_board_then_stopped_and_resumed_make_the_same_steps(program, tmp_p
     # $30: the spindle's top speed above the job's S10000, so M3 S10000 is a PWM on D11
     settings = {**SETTINGS, **QUICK_ACCEL, 30: "20000"}
     with grbl_machine(settings, **board_kwargs()) as (board, link):
-        machine = mill_machine(link, tmp_path)
+        machine = mill_machine(link)
         operator = Operator(machine)
         job = machine.prepare_mill(program)
         result = machine.run_job(job, operator)
         assert result.completed, result
         whole = positions_and_ticks(settled_trace(board))[0]
         whole_prompts = operator.prompts
-    lines = job.engine.lines
     # three tool changes, each asked and the probe clipped on and off
     assert [p for p in whole_prompts if p.startswith("paused for a bit change")] == [
         "paused for a bit change: put in the 0.800 mm bit",
@@ -153,7 +152,7 @@ def test_whole_board_then_stopped_and_resumed_make_the_same_steps(program, tmp_p
     change = max(i for i, p in job.engine.pauses.items() if "end mill" in p)
     stop_at = change + 60
     with grbl_machine(settings, **board_kwargs()) as (board, link):
-        machine = mill_machine(link, tmp_path)
+        machine = mill_machine(link)
         operator = Operator(machine, stop_at=stop_at)
         first = machine.run_job(machine.prepare_mill(program), operator)
         assert not first.completed and "the tool lifted to 1 mm" in first.held
@@ -198,4 +197,40 @@ def test_whole_board_then_stopped_and_resumed_make_the_same_steps(program, tmp_p
     assert np.count_nonzero((pwm > tail_cycle - 160_000) & (pwm <= tail_cycle)) >= 10
     stop_cycle = tick[cut - 1] * 8
     assert not np.any((pwm > stop_cycle) & (pwm < stop_cycle + 160_000)), "spindle on"
-    assert (Path(tmp_path) / "data").exists() or any(Path(tmp_path).rglob(MILL_GCODE_NAME))
+
+
+def test_a_probe_that_touches_nothing_stops_the_job_clearly_and_loses_nothing(
+        program, tmp_path, monkeypatch):
+    """The plate 20 mm below the work zero: the first tool change's G38.2 (10 mm of
+    reach) ends in GRBL's ALARM:5; the job stops saying so in mm, the alarm cleared
+    and the position kept, and the journal resumes at that tool change."""
+    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path))
+    drilling = program.text[program.text.index("(galileo-cnc mill: drilling"):
+                            program.text.index("(galileo-cnc mill: cut-out")]
+    job_text = "G21 G90 G17 G94\nG0 Z1\n" + drilling + "M5\nM2\n"
+    drill = dataclasses.replace(program, text=job_text, name="drill.nc")
+    with grbl_machine({**SETTINGS, **QUICK_ACCEL}, probe=ProbeSurface(z0=-20 * MM)) \
+            as (board, link):
+        machine = mill_machine(link)
+        job = machine.prepare_mill(drill)
+        with pytest.raises(GrblStreamError) as failed:
+            machine.run_job(job, Operator(machine))
+        text = str(failed.value)
+        probe = next(i for i, line in enumerate(job.engine.lines)
+                     if line.text.startswith("G38.2"))
+        place = f"drill.nc:{job.engine.lines[probe].command + 1}"
+        assert text.startswith(place) and "ALARM:5" in text, text
+        assert "the probe went down to Z -10.000 mm (work) and touched nothing" in text
+        # (the drilling's first tool change comes before its first hole: at X0 Y0)
+        assert "GRBL's alarm was cleared ($X), the tool stands at X 0.000 Y 0.000 " \
+               "Z -10.000 mm (work)" in text, text
+        assert link.status().state == "Idle"
+        entry, kept = machine.pending_mill()
+        assert entry.state == "failed" and kept.text == job_text
+        assert entry.confirmed == probe - 1         # the M0 before it: the clip is on
+        resumption = machine.plan_mill_resume((entry, kept))
+        change = max(i for i in job.engine.pauses if i < probe
+                     and "TOOL CHANGE" in job.engine.pauses[i])
+        assert resumption.job.start == change, resumption.why
+        assert "is a tool change: done again" in resumption.why
+
