@@ -14,8 +14,11 @@ isolation, drilling and cut-out files of one board agree.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import sys
+
+from dataclasses import dataclass
 
 from galileo_cnc.config.machine import ConfigError
 from galileo_cnc.config.mill import MillConfig
@@ -233,6 +236,128 @@ def mill_program(file, job: str, mill: MillConfig, choice=None, *, accept_shorts
     program = MillProgram(text, os.fsdecode(file), name, mm(mill.safe_height_nm),
                           mm(mill.plunge_feed_um_min * 1000))
     return program, notes, summary
+
+
+@dataclass(frozen=True)
+class MillRequest:
+    """`plot --mill JOB` (and its options): what PlotOptions.mill carries."""
+
+    job: str                            # one of MILL_JOBS
+    mill_set: tuple[str, ...] = ()      # --mill-set KEY=VALUE over the profile's [mill]
+    accept_shorts: bool = False
+    drill_order: str = "plated-first"
+
+    @classmethod
+    def from_args(cls, args: argparse.Namespace) -> "MillRequest | None":
+        """The request add_mill_options' options make, None without --mill."""
+        if not getattr(args, "mill", None):
+            return None
+        return cls(args.mill, tuple(args.mill_set), args.accept_shorts, args.drill_order)
+
+
+#: What sim:// does with a mill job (our firmware's simulated plotter runs no G-code).
+DRY_RUN_NOTE = ("sim:// is a dry run: it draws the mill job's XY paths as a plot of its "
+                "G-code (Z at or below 0 cuts, drawn with the pen down; M3/M5 lower and "
+                "lift the pen, the spindle is not simulated); every G38.2 touches at once "
+                "at the touch plate's top (work Z = the plate's thickness: the Z zero stays) "
+                "and the M0 pauses are listed, not waited for")
+#: The dry run's G-code, kept for plot --resume on sim://.
+DRY_RUN_NAME = "mill-dry-run.nc"
+
+
+def run_mill_plot(options, out=None) -> int:
+    """`plot FILE|BOARD --mill JOB`: the mill job on the machine at --port through the
+    machine interface: GRBL runs its G-code (grbl/mill_job.py: M0 pauses asked like
+    pen changes, G38.2, the journal, --resume); elsewhere (sim://, our firmware) a dry
+    run, plotted as DRY_RUN_NOTE says."""
+    from galileo_cnc.backends import open_machine
+    from galileo_cnc.cli.plot import PlotOperator, TextProgress, _run, run_plot
+    from galileo_cnc.transport.port import SIM_URL
+    out = out if out is not None else sys.stdout
+    request: MillRequest = options.mill
+    profile = options.profile
+    mill = MillConfig.from_table(mill_table(list(request.mill_set)), "--mill-set",
+                                 base=profile.mill)
+    program = notes = summary = None
+    if not options.resume:
+        program, notes, summary = mill_program(options.file, request.job, mill, options.board,
+                                               accept_shorts=request.accept_shorts,
+                                               drill_order=request.drill_order)
+    progress = TextProgress(out)
+    operator = PlotOperator(progress, options.yes)
+    machine = open_machine(options.profile.port or SIM_URL, profile, on_message=progress.message,
+                           handle=options.handle, kind=options.kind,
+                           shown_as=profile.port or SIM_URL)
+    if not machine.runs_mill:
+        machine.close()
+        return _dry_run(options, program, out, run_plot)
+    if options.trace or options.preview:
+        machine.close()
+        raise GalileoError("plot --mill on GRBL writes no --trace or --preview (the "
+                           "convert --mill G-code shows the paths)")
+    named = dataclasses.replace(options, file=f"{os.fsdecode(options.file)} --mill "
+                                              f"{request.job}")
+    try:
+        out.write(machine.describe() + "\n")
+        if options.resume:
+            resumption = machine.plan_mill_resume(machine.pending_mill())
+            progress.message(resumption.why)
+            if resumption.job is None:
+                progress.message(resumption.nothing_left)
+                return 0
+            result = _run(machine, named, operator, lambda: machine.resume(resumption, operator))
+        else:
+            for note in notes:
+                progress.message(f"note: {note}")
+            job = machine.prepare_mill(program)
+            out.write(f"{program.name}: {summary}\n{job.estimate_line()}\n")
+            result = _run(machine, named, operator, lambda: machine.run_job(job, operator))
+        if isinstance(result, int):
+            return result
+        where = f"; {result.where}" if result.where else ""
+        progress.message(f"\amill job finished{where}")
+        return 0
+    finally:
+        machine.close()
+
+
+def _dry_run(options, program, out, run_plot) -> int:
+    """sim:// (or our firmware): the job's G-code plotted as DRY_RUN_NOTE says."""
+    from galileo_cnc.config.userdirs import data_dir
+    from galileo_cnc.grbl.mill_job import mill_lines
+    path = data_dir() / DRY_RUN_NAME
+    out.write(f"note: {DRY_RUN_NOTE}\n")
+    if program is not None:
+        lines, pauses = mill_lines(program.text)
+        for index, message in pauses.items():
+            out.write(f"M0 at {program.name}:{lines[index].command + 1}: {message}\n")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(dry_run_gcode(program.text), encoding="ascii")
+    return run_plot(dataclasses.replace(options, file=str(path), mill=None, board=None), out)
+
+
+def dry_run_gcode(text: str) -> str:
+    """The mill job's G-code as the G-code reader plots it: each G38.2 a move down to
+    the plate's top (the G92 after it names it) and that G92 left out, M0 kept as a
+    comment."""
+    lines = text.splitlines()
+    out = []
+    for k, line in enumerate(lines):
+        code = line.split("(")[0].strip()
+        if code.startswith("G38.2"):
+            after = lines[k + 1].split() if k + 1 < len(lines) else []
+            plate = next((w[1:] for w in after if w.startswith("Z")), "0") \
+                if after[:1] == ["G92"] else "0"
+            feed = next((f" {w}" for w in code.split() if w.startswith("F")), "")
+            out.append(f"G1 Z{plate}{feed} (G38.2: the probe touches the plate's top)")
+        elif code.startswith("G92") and k and lines[k - 1].startswith("G38.2"):
+            out.append(f"({code}: the zero stays)")
+        elif code.split()[:1] in (["M0"], ["M00"]):
+            said = "; ".join(part.split(")")[0] for part in line.split("(")[1:])
+            out.append(f"(M0: {said})")
+        else:
+            out.append(line)
+    return "\n".join(out) + "\n"
 
 
 def run_mill_convert(args: argparse.Namespace, profile, choice=None) -> int:

@@ -10,7 +10,6 @@ same step."""
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,6 +23,7 @@ from galileo_cnc.grbl.stream import GrblStreamError
 from galileo_cnc.grbl.job import InterruptiblePort
 from galileo_cnc.simavr.grbl_firmware import ProbeSurface
 
+from mill_support import square_pad_board
 from grbl_support import (MM, QUICK_ACCEL, SETTINGS, grbl_machine, positions_and_ticks,
                           settled_trace)
 
@@ -35,31 +35,6 @@ MILL = MillConfig.from_table({
 #: the touch plate's top: where GRBL powers up, work Z 0 (G54 stays zero)
 PLATE = ProbeSurface(z0=0)
 SAFE_STEPS = MM                         # 1 mm
-
-
-_HEADER = "%FSLAX46Y46*%\n%MOMM*%\n%LPD*%\n"
-
-
-def _gerber(function: str, body: str) -> str:
-    return f"%TF.FileFunction,{function}*%\n{_HEADER}{body}M02*\n"
-
-
-def square_pad_board(folder: Path) -> Path:
-    """A 10 x 10 mm board: three 1.6 mm square pads (isolation rings of a few corners:
-    GRBL plans a block in 3.5 ms, a round pad's chords would be most of the job), two
-    0.8 mm holes and a 1.0 mm one (two bits), the outline."""
-    folder.mkdir()
-    pads = ((3, 3), (7, 3), (3, 7))
-    (folder / "board-F_Cu.gbr").write_text(_gerber(
-        "Copper,L1,Top", "%ADD10R,1.600000X1.600000*%\nD10*\n"
-        + "".join(f"X{x * 10**6}Y{y * 10**6}D03*\n" for x, y in pads)))
-    (folder / "board-Edge_Cuts.gbr").write_text(_gerber(
-        "Profile,NP", "%ADD12C,0.100000*%\nD12*\nX0Y0D02*\nX10000000Y0D01*\n"
-        "X10000000Y10000000D01*\nX0Y10000000D01*\nX0Y0D01*\n"))
-    (folder / "board-PTH.drl").write_text(
-        "M48\n; #@! TF.FileFunction,Plated,1,2,PTH\nFMAT,2\nMETRIC\nT1C0.800\nT2C1.000\n%\n"
-        "G90\nG05\nT1\nX3.0Y3.0\nX7.0Y3.0\nT2\nX3.0Y7.0\nM30\n")
-    return folder
 
 
 @pytest.fixture(scope="module")
