@@ -255,12 +255,12 @@ class MillRequest:
         return cls(args.mill, tuple(args.mill_set), args.accept_shorts, args.drill_order)
 
 
-#: What sim:// does with a mill job (our firmware's simulated plotter runs no G-code).
-DRY_RUN_NOTE = ("sim:// is a dry run: it draws the mill job's XY paths as a plot of its "
-                "G-code (Z at or below 0 cuts, drawn with the pen down; M3/M5 lower and "
-                "lift the pen, the spindle is not simulated); every G38.2 touches at once "
-                "at the touch plate's top (work Z = the plate's thickness: the Z zero stays) "
-                "and the M0 pauses are listed, not waited for")
+#: What sim:// (or a galileo-cnc plotter: it runs no G-code) does with a mill job.
+DRY_RUN_NOTE = ("a dry run: the mill job's XY paths are plotted from its G-code (Z at or "
+                "below 0 cuts, drawn with the pen down; M3/M5 lower and lift the pen, no "
+                "spindle turns); every G38.2 touches at once at the touch plate's top (work "
+                "Z = the plate's thickness: the Z zero stays) and the M0 pauses are listed, "
+                "not waited for")
 #: The dry run's G-code, kept for plot --resume on sim://.
 DRY_RUN_NAME = "mill-dry-run.nc"
 
@@ -272,6 +272,7 @@ def run_mill_plot(options, out=None) -> int:
     run, plotted as DRY_RUN_NOTE says."""
     from galileo_cnc.backends import open_machine
     from galileo_cnc.cli.plot import PlotOperator, TextProgress, _run, run_plot
+    from galileo_cnc.transport.discovery import GRBL, open_board
     from galileo_cnc.transport.port import SIM_URL
     out = out if out is not None else sys.stdout
     request: MillRequest = options.mill
@@ -283,18 +284,22 @@ def run_mill_plot(options, out=None) -> int:
         program, notes, summary = mill_program(options.file, request.job, mill, options.board,
                                                accept_shorts=request.accept_shorts,
                                                drill_order=request.drill_order)
-    progress = TextProgress(out)
-    operator = PlotOperator(progress, options.yes)
-    machine = open_machine(options.profile.port or SIM_URL, profile, on_message=progress.message,
-                           handle=options.handle, kind=options.kind,
-                           shown_as=profile.port or SIM_URL)
-    if not machine.runs_mill:
-        machine.close()
-        return _dry_run(options, program, out, run_plot)
+    port, kind, handle = profile.port or SIM_URL, options.kind, options.handle
+    if kind is None:                    # cli/main probes before; a caller may not have
+        port, kind, handle = open_board(profile.port, profile.baud)
+    if kind != GRBL:
+        out.write(f"note: {port} runs galileo-cnc firmware, not G-code: {DRY_RUN_NOTE}\n")
+        return _dry_run(dataclasses.replace(options, handle=handle, kind=kind), program, out,
+                        run_plot)
     if options.trace or options.preview:
-        machine.close()
+        if handle is not None:
+            handle.close()
         raise GalileoError("plot --mill on GRBL writes no --trace or --preview (the "
                            "convert --mill G-code shows the paths)")
+    progress = TextProgress(out)
+    operator = PlotOperator(progress, options.yes)
+    machine = open_machine(port, profile, on_message=progress.message, handle=handle,
+                           kind=kind, shown_as=profile.port or port)
     named = dataclasses.replace(options, file=f"{os.fsdecode(options.file)} --mill "
                                               f"{request.job}")
     try:
@@ -326,7 +331,6 @@ def _dry_run(options, program, out, run_plot) -> int:
     from galileo_cnc.config.userdirs import data_dir
     from galileo_cnc.grbl.mill_job import mill_lines
     path = data_dir() / DRY_RUN_NAME
-    out.write(f"note: {DRY_RUN_NOTE}\n")
     if program is not None:
         lines, pauses = mill_lines(program.text)
         for index, message in pauses.items():

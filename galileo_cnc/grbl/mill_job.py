@@ -190,7 +190,7 @@ def mill_lead_in(lines: list[GcodeLine], pauses: dict[int, str], start: int,
             out.append(lines[i].text)
     if x is not None and y is not None:
         out.append(f"G0 X{x} Y{y}")
-    elif start < len(lines) and lines[start].text.split()[0] in ("G1", "G2", "G3", "X", "Y"):
+    elif start < len(lines) and _cuts(lines[start].text):
         raise GrblResumeError(f"{program.name}:{command + 1}: {lines[start].text!r} cuts "
                               f"from a place the lines before it do not name: the job "
                               f"cannot be resumed there")
@@ -202,6 +202,13 @@ def mill_lead_in(lines: list[GcodeLine], pauses: dict[int, str], start: int,
     if state.feed is not None:
         out.append(f"G1 F{state.feed}" if state.motion == "G1" else f"F{state.feed}")
     return [GcodeLine(text, command) for text in out], lead_pauses
+
+
+def _cuts(text: str) -> bool:
+    """A line that moves the tool from where it stands: G1/G2/G3, or axis words alone
+    (the modal motion)."""
+    head = text.split()[0]
+    return head in ("G1", "G2", "G3") or head[0] in "XYZ"
 
 
 def spin_up(lines: list[GcodeLine]) -> str:

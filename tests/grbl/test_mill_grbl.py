@@ -124,7 +124,7 @@ def test_whole_board_then_stopped_and_resumed_make_the_same_steps(program, tmp_p
     assert {-16, -80, -64, -32} <= set(whole[:, 2].tolist())
 
     # stopped inside the cut-out, after the end mill's change: 60 lines into it
-    change = max(i for i, p in job.engine.pauses.items() if "end mill" in p)
+    change = max(i for i, p in job.engine.pauses.items() if p.startswith("TOOL CHANGE"))
     stop_at = change + 60
     with grbl_machine(settings, **board_kwargs()) as (board, link):
         machine = mill_machine(link)
