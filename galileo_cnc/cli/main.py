@@ -158,6 +158,7 @@ def _layers(args: argparse.Namespace) -> tuple[str, ...]:
 
 
 def _run_plot(args: argparse.Namespace) -> int:
+    from galileo_cnc.cli.mill import MillRequest
     from galileo_cnc.cli.plot import PlotOptions, run_plot
     from galileo_cnc.stream.homing import check_homeable
     from galileo_cnc.transport.discovery import GRBL, open_board
@@ -201,7 +202,7 @@ def _run_plot(args: argparse.Namespace) -> int:
                               layers=_layers(args), units=args.units, optimize=args.optimize,
                               transform=_transform(args), home=args.home, check=args.check,
                               handle=handle, kind=kind, allow_open=args.allow_open,
-                              board=_board_choice(args))
+                              board=_board_choice(args), mill=MillRequest.from_args(args))
         return run_plot(options)
     finally:
         if handle is not None:
@@ -474,6 +475,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="plot a board although the ink leaves trace pieces out (open "
                       "traces: a centre line would join another copper island); refused "
                       "otherwise, with a summary and the widest pen that draws them all")
+    add_mill_options(plot)
     plot.add_argument("--check", action="store_true",
                       help="GRBL only: run the job through GRBL's check mode ($C), moving "
                       "nothing, and list every line GRBL rejects (exit 1 if any)")
