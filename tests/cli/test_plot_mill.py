@@ -19,6 +19,7 @@ from galileo_cnc.config.profile import load_profile
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "grbl"))
 from grbl_support import QUICK_ACCEL, SETTINGS, grbl_elf  # noqa: E402
 from mill_support import square_pad_board  # noqa: E402
+from test_cli import galileo  # noqa: E402
 
 #: the mill's [mill] options over the default profile: a probe, fast feeds, a thin board
 MILL_SET = ("probe=true", "safe_height_mm=1", "feed_mm_min=4000", "plunge_feed_mm_min=2000",
@@ -53,9 +54,12 @@ def test_plot_mill_drill_on_grbl_asks_for_the_bit_and_probes(board, capsys):
     assert "mill job finished; GRBL stands at X 3.000 Y 7.000 Z 1.000 mm (work)" in out
 
 
-def test_plot_mill_on_sim_is_a_dry_run_that_says_so(board, capsys):
-    code, out = plot_mill(board, "sim://?speed=0", "all", capsys)
-    assert code == 0, out[-2000:]
+def test_plot_mill_on_sim_is_a_dry_run_that_says_so(board, tmp_path):
+    # as a user types it: the command line, its --mill options, the built-in machine
+    result = galileo("plot", str(board), "--mill", "all", "--port", "sim://?speed=0", "--yes",
+                     *(f"--mill-set={pair}" for pair in MILL_SET), home=tmp_path / "home")
+    out = result.stdout + result.stderr
+    assert result.returncode == 0, out[-2000:]
     assert DRY_RUN_NOTE in out
     assert out.count(": TOOL CHANGE: put in the ") == 3         # listed, not waited for
     assert "process has finished" in out
