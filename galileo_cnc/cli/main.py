@@ -158,7 +158,7 @@ def _layers(args: argparse.Namespace) -> tuple[str, ...]:
 
 
 def _run_plot(args: argparse.Namespace) -> int:
-    from galileo_cnc.cli.mill import MillRequest
+    from galileo_cnc.cli.mill import MillRequest, run_mill_plot
     from galileo_cnc.cli.plot import PlotOptions, run_plot
     from galileo_cnc.stream.homing import check_homeable
     from galileo_cnc.transport.discovery import GRBL, open_board
@@ -203,7 +203,7 @@ def _run_plot(args: argparse.Namespace) -> int:
                               transform=_transform(args), home=args.home, check=args.check,
                               handle=handle, kind=kind, allow_open=args.allow_open,
                               board=_board_choice(args), mill=MillRequest.from_args(args))
-        return run_plot(options)
+        return run_plot(options) if options.mill is None else run_mill_plot(options)
     finally:
         if handle is not None:
             handle.close()                  # the machine closed it already, unless refused

@@ -153,7 +153,7 @@ class PlotOptions:
     kind: str | None = None
     #: a board's side and choices (plan/board_plan.py); None: the defaults on a board
     board: Any = None
-    #: plot --mill: a cli.mill.MillRequest (the mill job instead of a plot), else None
+    #: plot --mill: a cli.mill.MillRequest; cli.mill.run_mill_plot runs it, never run_plot
     mill: Any = None
 
     @property
@@ -198,9 +198,6 @@ BACKGROUND_COMMANDS = 20_000
 def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None = None) -> int:
     # the streams of the call, not of the import (a test may have replaced them since)
     out = out if out is not None else sys.stdout
-    if options.mill is not None:
-        from galileo_cnc.cli.mill import run_mill_plot
-        return run_mill_plot(options, out)
     profile = options.profile
     progress = TextProgress(out)
     operator = PlotOperator(progress, options.yes)

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from galileo_cnc.cli.mill import DRY_RUN_NOTE, MillRequest, dry_run_gcode
-from galileo_cnc.cli.plot import PlotOptions, run_plot
+from galileo_cnc.cli.mill import DRY_RUN_NOTE, MillRequest, dry_run_gcode, run_mill_plot
+from galileo_cnc.cli.plot import PlotOptions
 from galileo_cnc.config.profile import load_profile
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "grbl"))
@@ -36,8 +36,8 @@ def board(tmp_path, monkeypatch):
 
 def plot_mill(board: Path, port: str, job: str, capsys) -> tuple[int, str]:
     profile = dataclasses.replace(load_profile(None), port=port)
-    code = run_plot(PlotOptions(str(board), profile, yes=True,
-                                mill=MillRequest(job, MILL_SET)))
+    code = run_mill_plot(PlotOptions(str(board), profile, yes=True,
+                                     mill=MillRequest(job, MILL_SET)))
     out, err = capsys.readouterr()
     return code, out + err
 
