@@ -1,0 +1,114 @@
+"""Probing a height map on a GRBL board: G38.2 at every node of a grid, `[PRB:]` collected.
+
+GRBL runs a G38.2 to its end before it answers `ok` (mc_probe_cycle synchronises the
+buffer), and prints the contact as `[PRB:x,y,z:1]` in machine coordinates just before
+that `ok`. A node's height is the contact's Z less the work offset (WCO: the active
+G54..G59 offset plus G92 and the tool length offset, read once with `$G` and `$#`), so
+heights are work Z, the frame the job's lines use.
+
+A probe that finds nothing within its travel ends in GRBL's ALARM:5, one already
+touching where it starts in ALARM:4: both raise ProbeError naming the node in mm
+(work), the travel, and that GRBL waits in alarm for an unlock ($X) once the user has
+looked. plan/mill/heightmap.py has the grid, the lines and the map; docs/mill.md.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from galileo_cnc.grbl.link import GrblLink
+from galileo_cnc.grbl.numbers import decimal_text_to_nm
+from galileo_cnc.grbl.reports import GrblError
+from galileo_cnc.plan.mill.heightmap import (HeightMap, ProbeGrid, mm_text, parse_prb,
+                                             probe_lines)
+
+#: GRBL's alarms of a probe cycle (codes.ALARMS): 4 the probe touched before it moved,
+#: 5 it moved its whole travel without contact
+ALARM_ALREADY_TOUCHING = 4
+ALARM_NO_CONTACT = 5
+_SYSTEMS = ("G54", "G55", "G56", "G57", "G58", "G59")
+
+
+class ProbeError(GrblError):
+    """A probe of the height map failed: where, and what the user can do (mm, work)."""
+
+
+def work_offset_nm(link: GrblLink) -> tuple[int, int, int]:
+    """GRBL's work coordinate offset (machine = work + WCO): the active system's offset
+    (`$G`), plus G92's, plus the tool length offset on Z (`$#`)."""
+    modes = [word for line in link.command_checked("$G").lines if line.startswith("[GC:")
+             for word in line[4:].rstrip("]").split()]
+    active = next((name for name in _SYSTEMS if name in modes), "G54")
+    offsets = {}
+    for line in link.command_checked("$#").lines:
+        if line.startswith("[") and ":" in line:
+            name, _, value = line[1:].rstrip("]").partition(":")
+            offsets[name] = value.split(":")[0]
+    try:
+        system = [decimal_text_to_nm(v) for v in offsets[active].split(",")]
+        shift = [decimal_text_to_nm(v) for v in offsets["G92"].split(",")]
+        tool = decimal_text_to_nm(offsets.get("TLO", "0"))
+    except (KeyError, ValueError):
+        raise GrblError(f"GRBL's $# reply lacks the {active}, G92 or TLO offset: "
+                        f"{sorted(offsets)}") from None
+    return system[0] + shift[0], system[1] + shift[1], system[2] + shift[2] + tool
+
+
+def probe_height_map(link: GrblLink, grid: ProbeGrid,
+                     on_point: Callable[[int, int, tuple[int, int], int], None] | None = None
+                     ) -> HeightMap:
+    """Probes every node of `grid` (ProbeGrid.points order) and returns the map of the
+    surface's work Z there. `on_point(done, total, (x, y), z)` (nm) after each node.
+    ProbeError when a probe fails; GrblError for any other refusal or alarm."""
+    offset = work_offset_nm(link)
+    link.command_checked("G21 G90")
+    heights = []
+    points = grid.points()
+    for count, ((x, y), lines) in enumerate(zip(points, probe_lines(grid)), start=1):
+        rise, over, probe, retract = lines
+        link.command_checked(rise)
+        link.command_checked(over)
+        contact = _probe(link, probe, grid, (x, y))
+        link.command_checked(retract)
+        z = contact[2] - offset[2]
+        heights.append(z)
+        if on_point is not None:
+            on_point(count, len(points), (x, y), z)
+    link.wait_idle()
+    return HeightMap.from_points(grid, heights)
+
+
+def _probe(link: GrblLink, text: str, grid: ProbeGrid, at: tuple[int, int]
+           ) -> tuple[int, int, int]:
+    """One G38.2: the contact (machine nm), or ProbeError in the user's words."""
+    where = f"X {mm_text(at[0])} Y {mm_text(at[1])} mm (work)"
+    travel = (f"from Z {mm_text(grid.clearance_nm)} down to Z {mm_text(-grid.depth_nm)} mm "
+              f"(work)")
+    try:
+        reply = link.command(text)
+    except GrblError as exc:
+        if exc.alarm and exc.code == ALARM_NO_CONTACT:
+            raise ProbeError(
+                f"height map: the probe touched nothing at {where} {travel}: the board lies "
+                f"deeper there than probe_depth_mm = {mm_text(grid.depth_nm)} reaches, or "
+                f"the probe is not wired (GRBL ALARM:5: it waits for an unlock, $X, "
+                f"once you have looked)", exc.code, alarm=True) from None
+        if exc.alarm and exc.code == ALARM_ALREADY_TOUCHING:
+            raise ProbeError(
+                f"height map: the probe already touched at {where}, Z "
+                f"{mm_text(grid.clearance_nm)} mm (work), before it moved: the board lies "
+                f"higher there than probe_clearance_mm = {mm_text(grid.clearance_nm)}, or "
+                f"the probe's clip touches the plate (GRBL ALARM:4: it waits for an "
+                f"unlock, $X)", exc.code, alarm=True) from None
+        raise
+    if not reply.ok:
+        raise GrblError(f"GRBL refused {text!r} at {where}: {reply.text}", reply.code)
+    for line in reply.lines:
+        found = parse_prb(line)
+        if found is not None:
+            position, touched = found
+            if not touched:
+                raise ProbeError(f"height map: the probe touched nothing at {where} {travel}")
+            return position
+    raise ProbeError(f"height map: GRBL sent no [PRB:] report for the probe at {where} "
+                     f"(got {list(reply.lines)!r})")
