@@ -126,6 +126,7 @@ static void usage(FILE *out)
 		"                      [--max-seconds S] [--realtime | --max-speed F] [--no-wait]\n"
 		"                      [--simavr-uart-timing] [--stack-paint BYTE]\n"
 		"                      [--axis-pins SPEC] [--ocr1a-at-start N] [--replay-tcnt0]\n"
+		"                      [--probe PIN:Z0[:AMP:PX:PY] [--probe-dir-low-positive]]\n"
 		"                      [--exit-with-parent] [-v] ELF\n"
 		"\n"
 		"  --pty LINK        UART0 on a new pseudo-terminal, LINK a symlink to it;\n"
@@ -138,6 +139,11 @@ static void usage(FILE *out)
 		"  --pins SPEC       traced Arduino pins (default 8,9,10,11,12,13)\n"
 		"  --endstop A:P:T   axis A (X, Y, Z) drives home pin P low while its step\n"
 		"                    count from power-up is <= T, high otherwise\n"
+		"  --probe P:Z0[:AMP:PX:PY]  drive pin P low (touching) while the Z step\n"
+		"                    count is <= Z0 + AMP sin(2 pi x/PX) sin(2 pi y/PY), x, y\n"
+		"                    the X and Y step counts (flat at Z0 without AMP:PX:PY)\n"
+		"  --probe-dir-low-positive  the probe counts a step + when its dir pin is\n"
+		"                    low (GRBL's sense with $3=0; --endstop keeps high = +)\n"
 		"  --max-seconds S   stop after S seconds of simulated time\n"
 		"  --realtime        never run ahead of the wall clock (--max-speed 1)\n"
 		"  --max-speed F     never run more than F times faster than the wall clock\n"
@@ -187,6 +193,20 @@ static int parse_endstop(const char *spec, pins_t *pins)
 	return 0;
 }
 
+static int parse_probe(const char *spec, pins_t *pins, int dir_low_positive)
+{
+	int pin, used = 0, fields;
+	double z0, amp = 0.0, px = 0.0, py = 0.0;
+	fields = sscanf(spec, "%d:%lf%n:%lf:%lf:%lf%n", &pin, &z0, &used, &amp, &px, &py, &used);
+	if ((fields != 2 && fields != 5) || spec[used] ||
+	    pins_add_probe(pins, pin, z0, amp, px, py, dir_low_positive) < 0) {
+		fprintf(stderr, "galileo-simavr: --probe: expected PIN:Z0 or PIN:Z0:AMP:PX:PY (step "
+				"counts, PX and PY not 0) like 19:-800:40:1600:1600, got '%s'\n", spec);
+		return -1;
+	}
+	return 0;
+}
+
 static int parse_axis_pins(const char *spec, pins_t *pins)
 {
 	char *copy = strdup(spec), *save = NULL;
@@ -212,7 +232,8 @@ static int parse_args(int argc, char **argv, struct options *o, pins_t *pins)
 {
 	enum { OPT_FREQ = 256, OPT_MCU, OPT_PTY, OPT_STDIO, OPT_TRACE, OPT_PINS, OPT_ENDSTOP,
 	       OPT_MAX_SECONDS, OPT_REALTIME, OPT_MAX_SPEED, OPT_NO_WAIT, OPT_SIMAVR_UART,
-	       OPT_STACK_PAINT, OPT_AXIS_PINS, OPT_OCR1A, OPT_REPLAY_TCNT0, OPT_EXIT_WITH_PARENT };
+	       OPT_STACK_PAINT, OPT_AXIS_PINS, OPT_OCR1A, OPT_REPLAY_TCNT0, OPT_EXIT_WITH_PARENT,
+	       OPT_PROBE, OPT_PROBE_DIR_LOW };
 	static const struct option longs[] = {
 		{"freq", required_argument, 0, OPT_FREQ},
 		{"mcu", required_argument, 0, OPT_MCU},
@@ -231,6 +252,8 @@ static int parse_args(int argc, char **argv, struct options *o, pins_t *pins)
 		{"ocr1a-at-start", required_argument, 0, OPT_OCR1A},
 		{"replay-tcnt0", no_argument, 0, OPT_REPLAY_TCNT0},
 		{"exit-with-parent", no_argument, 0, OPT_EXIT_WITH_PARENT},
+		{"probe", required_argument, 0, OPT_PROBE},
+		{"probe-dir-low-positive", no_argument, 0, OPT_PROBE_DIR_LOW},
 		{"verbose", no_argument, 0, 'v'},
 		{"help", no_argument, 0, 'h'},
 		{0, 0, 0, 0},
@@ -243,6 +266,8 @@ static int parse_args(int argc, char **argv, struct options *o, pins_t *pins)
 	o->npins = (int)sizeof(default_pins);
 	int c;
 	char *end;
+	const char *probe_spec = NULL;
+	int probe_dir_low = 0;
 	while ((c = getopt_long(argc, argv, "vh", longs, NULL)) != -1) {
 		switch (c) {
 		case OPT_FREQ:
@@ -305,10 +330,19 @@ static int parse_args(int argc, char **argv, struct options *o, pins_t *pins)
 		}
 		case OPT_REPLAY_TCNT0: o->replay_tcnt0 = 1; break;
 		case OPT_EXIT_WITH_PARENT: o->exit_with_parent = 1; break;
+		case OPT_PROBE: probe_spec = optarg; break;
+		case OPT_PROBE_DIR_LOW: probe_dir_low = 1; break;
 		case 'v': o->verbose++; break;
 		case 'h': usage(stdout); exit(EXIT_OK);
 		default: usage(stderr); return -1;
 		}
+	}
+	/* after the loop: --probe-dir-low-positive may come after --probe */
+	if (probe_spec && parse_probe(probe_spec, pins, probe_dir_low) < 0)
+		return -1;
+	if (probe_dir_low && !probe_spec) {
+		fprintf(stderr, "galileo-simavr: --probe-dir-low-positive needs --probe\n");
+		return -1;
 	}
 	if (o->pty_link && o->stdio) {
 		fprintf(stderr, "galileo-simavr: --pty and --stdio exclude each other\n");
@@ -564,6 +598,10 @@ int main(int argc, char **argv)
 	if (opt.replay_tcnt0) /* its own line, before the summary, which stays last */
 		fprintf(stderr, "galileo-simavr: quirks: tcnt0_replays=%llu\n",
 			(unsigned long long)quirks.replays);
+	if (pins.probe.active)
+		fprintf(stderr, "galileo-simavr: probe: touches=%llu x=%lld y=%lld z=%lld\n",
+			(unsigned long long)pins.probe.touches, (long long)pins.probe.position[0],
+			(long long)pins.probe.position[1], (long long)pins.probe.position[2]);
 	fprintf(stderr,
 		"galileo-simavr: stop: %s; state=%s pc=0x%04x cycle=%llu (%.6f s) "
 		"uart0 rx=%llu tx=%llu frame=%llu cycles overruns=%llu dropped=%llu trace=%llu "

@@ -6,6 +6,7 @@
  */
 #include "pins.h"
 
+#include <math.h>
 #include <string.h>
 
 #include <avr_ioport.h>
@@ -73,24 +74,50 @@ static void record(pins_t *p, uint8_t pin, uint8_t level)
 	write_record(p, p->cycle_base + p->avr->cycle, pin, level);
 }
 
+/* Drives an input pin from outside (a switch, the probe). The "external" value
+ * is what simavr re-raises on an input pin at every PORTx/DDRx write; without it
+ * the firmware's pull-up (PORT bit 1) would overwrite the switch on the next
+ * write to that port. */
+static void drive_input(pins_t *p, uint8_t pin, int level)
+{
+	char port = 'B';
+	int bit = 0;
+	pins_arduino(pin, &port, &bit);
+	int k = port - 'B';
+	p->ext_mask[k] |= (uint8_t)(1u << bit);
+	p->ext_value[k] = (uint8_t)((p->ext_value[k] & ~(1u << bit)) | ((unsigned)level << bit));
+	avr_ioport_external_t ext = {.name = (unsigned)port, .mask = p->ext_mask[k], .value = p->ext_value[k]};
+	avr_ioctl(p->avr, AVR_IOCTL_IOPORT_SET_EXTERNAL(port), &ext);
+	avr_raise_irq(pin_irq(p->avr, pin), (uint32_t)level);
+}
+
 static void drive_home(pins_t *p, endstop_t *e)
 {
 	int level = e->position_steps <= e->trip_steps ? 0 : 1;
 	if (level == e->home_level)
 		return;
 	e->home_level = level;
-	char port = 'B';
-	int bit = 0;
-	pins_arduino(e->home_pin, &port, &bit);
-	int k = port - 'B';
-	p->ext_mask[k] |= (uint8_t)(1u << bit);
-	p->ext_value[k] = (uint8_t)((p->ext_value[k] & ~(1u << bit)) | ((unsigned)level << bit));
-	/* The "external" value is what simavr re-raises on an input pin at every
-	 * PORTx/DDRx write; without it the firmware's pull-up (PORT bit 1) would
-	 * overwrite the switch on the next write to that port. */
-	avr_ioport_external_t ext = {.name = (unsigned)port, .mask = p->ext_mask[k], .value = p->ext_value[k]};
-	avr_ioctl(p->avr, AVR_IOCTL_IOPORT_SET_EXTERNAL(port), &ext);
-	avr_raise_irq(pin_irq(p->avr, e->home_pin), (uint32_t)level);
+	drive_input(p, e->home_pin, level);
+}
+
+static double surface(const probe_t *pr)
+{
+	if (pr->amp == 0.0)
+		return pr->z0;
+	return pr->z0 + pr->amp * sin(2.0 * M_PI * (double)pr->position[0] / pr->px) *
+				 sin(2.0 * M_PI * (double)pr->position[1] / pr->py);
+}
+
+static void drive_probe(pins_t *p)
+{
+	probe_t *pr = &p->probe;
+	int level = (double)pr->position[2] <= surface(pr) ? 0 : 1;
+	if (level == pr->level)
+		return;
+	if (!level)
+		pr->touches++;
+	pr->level = level;
+	drive_input(p, pr->pin, level);
 }
 
 static void pin_hook(struct avr_irq_t *irq, uint32_t value, void *param)
@@ -111,6 +138,16 @@ static void pin_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 		if (e->active && e->step_pin == s->arduino) {
 			e->position_steps += p->pin[e->dir_pin].level ? 1 : -1;
 			drive_home(p, e);
+		}
+	}
+	probe_t *pr = &p->probe;
+	if (!pr->active)
+		return;
+	for (int a = 0; a < AXES; a++) {
+		if (pr->step_pin[a] == s->arduino) {
+			int up = p->pin[pr->dir_pin[a]].level != pr->dir_low_positive;
+			pr->position[a] += up ? 1 : -1;
+			drive_probe(p);
 		}
 	}
 }
@@ -146,6 +183,25 @@ int pins_add_endstop(pins_t *p, int axis, int home_pin, int64_t trip_steps)
 	e->trip_steps = trip_steps;
 	e->position_steps = 0;
 	e->home_level = -1;
+	return 0;
+}
+
+int pins_add_probe(pins_t *p, int pin, double z0, double amp, double px, double py,
+		   int dir_low_positive)
+{
+	char port;
+	int bit;
+	if (pins_arduino(pin, &port, &bit) < 0 || (amp != 0.0 && (px == 0.0 || py == 0.0)))
+		return -1;
+	probe_t *pr = &p->probe;
+	pr->active = 1;
+	pr->pin = (uint8_t)pin;
+	pr->z0 = z0;
+	pr->amp = amp;
+	pr->px = px;
+	pr->py = py;
+	pr->dir_low_positive = dir_low_positive;
+	pr->level = -1;
 	return 0;
 }
 
@@ -192,7 +248,34 @@ int pins_attach(pins_t *p, avr_t *avr, FILE *trace, const uint8_t *traced, int n
 		hook(p, e->home_pin);
 		drive_home(p, e);
 	}
+	probe_t *pr = &p->probe;
+	if (pr->active) {
+		for (int a = 0; a < AXES; a++) {
+			if (p->map_set) {
+				pr->step_pin[a] = p->map_step[a];
+				pr->dir_pin[a] = p->map_dir[a];
+			} else {
+				pins_axis_default(a, &pr->step_pin[a], &pr->dir_pin[a]);
+			}
+			hook(p, pr->step_pin[a]);
+			hook(p, pr->dir_pin[a]);
+		}
+		hook(p, pr->pin);
+		drive_probe(p);
+	}
 	return 0;
+}
+
+/* The switch is where it was, and the port's "external" value still holds it;
+ * only the PIN bit needs setting again, directly: simavr would filter an IRQ of
+ * the level it last raised. */
+static void restore_input(pins_t *p, uint8_t pin, int level)
+{
+	char port = 'B';
+	int bit = 0;
+	pins_arduino(pin, &port, &bit);
+	uint8_t *pin_reg = &p->avr->data[pin_register[port - 'B']];
+	*pin_reg = (uint8_t)((*pin_reg & ~(1u << bit)) | ((unsigned)level << bit));
 }
 
 void pins_reset(pins_t *p, uint64_t cycle)
@@ -201,15 +284,9 @@ void pins_reset(pins_t *p, uint64_t cycle)
 	p->cycle_base = cycle;
 	for (int a = 0; a < AXES; a++) {
 		endstop_t *e = &p->axis[a];
-		if (!e->active)
-			continue;
-		/* The switch is where it was, and the port's "external" value still holds
-		 * it; only the PIN bit needs setting again, directly: simavr would filter
-		 * an IRQ of the level it last raised. */
-		char port = 'B';
-		int bit = 0;
-		pins_arduino(e->home_pin, &port, &bit);
-		uint8_t *pin_reg = &p->avr->data[pin_register[port - 'B']];
-		*pin_reg = (uint8_t)((*pin_reg & ~(1u << bit)) | ((unsigned)e->home_level << bit));
+		if (e->active)
+			restore_input(p, e->home_pin, e->home_level);
 	}
+	if (p->probe.active)
+		restore_input(p, p->probe.pin, p->probe.level);
 }

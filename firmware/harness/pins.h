@@ -35,6 +35,18 @@ typedef struct endstop_t {
 	int home_level;         /* -1 until first driven */
 } endstop_t;
 
+/* --probe: a touch probe on a surface of Z step counts over X and Y. */
+typedef struct probe_t {
+	int active;
+	uint8_t pin;
+	double z0, amp, px, py;  /* surface(x, y) = z0 + amp sin(2 pi x/px) sin(2 pi y/py) */
+	int dir_low_positive;    /* count + when dir is low (GRBL's sense with $3=0) */
+	int64_t position[AXES];  /* X, Y, Z steps from power-up */
+	uint8_t step_pin[AXES], dir_pin[AXES];
+	int level;               /* -1 until first driven; 0 = touching */
+	uint64_t touches;        /* times the pin went low */
+} probe_t;
+
 typedef struct pins_t {
 	avr_t *avr;
 	FILE *trace;
@@ -45,6 +57,7 @@ typedef struct pins_t {
 	uint8_t ext_mask[3], ext_value[3]; /* driven inputs of ports B, C, D */
 	uint8_t map_step[AXES], map_dir[AXES]; /* --axis-pins, when map_set */
 	int map_set;
+	probe_t probe;
 } pins_t;
 
 /* The AVR port ('B', 'C', 'D') and bit of an Uno pin; -1 if there is none. */
@@ -56,6 +69,10 @@ void pins_axis_default(int axis, uint8_t *step_pin, uint8_t *dir_pin);
 int pins_set_axis(pins_t *p, int axis, int step_pin, int dir_pin);
 /* Before pins_attach(): drive `home_pin` from the axis' step count. */
 int pins_add_endstop(pins_t *p, int axis, int home_pin, int64_t trip_steps);
+/* Before pins_attach(): a touch probe on `pin`, low (touching) while the Z step
+ * count is <= z0 + amp sin(2 pi x/px) sin(2 pi y/py) (amp 0: flat). */
+int pins_add_probe(pins_t *p, int pin, double z0, double amp, double px, double py,
+		   int dir_low_positive);
 /* Hooks the traced pins and the end-stop axes' pins; drives the home pins. */
 int pins_attach(pins_t *p, avr_t *avr, FILE *trace, const uint8_t *traced, int ntraced);
 /* After avr_reset() at `cycle` (since power-up): writes the reset mark and drives

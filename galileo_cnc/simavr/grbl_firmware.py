@@ -17,11 +17,13 @@ it; galileo_cnc.grbl.firmware re-exports it.
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import re
 import shutil
 import subprocess
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -60,12 +62,51 @@ BUILD_PACKAGES = ("gcc-avr", "avr-libc", "make")
 AXIS_PINS: tuple[tuple[int, int], ...] = ((2, 5), (3, 6), (4, 7))
 LIMIT_PINS = (9, 10, 12)
 SPINDLE_PWM_PIN = 11
+# GRBL's probe input (cpu_map.h PROBE_BIT 5 of PORTC: A5, Arduino 19), pulled up;
+# with the stock $6=0 a low pin is touching (probe.c probe_get_state).
+PROBE_PIN = 19
 TRACE_PINS = (2, 3, 4, 5, 6, 7)
 # OCR1A at cycle 0: any small TOP lets the first step interrupt fire; GRBL sets
 # its own value there.
 OCR1A_AT_START = 16
 HARNESS_ARGS = ("--axis-pins", "X:2:5,Y:3:6,Z:4:7",
                 "--ocr1a-at-start", str(OCR1A_AT_START), "--replay-tcnt0")
+
+
+@dataclass(frozen=True)
+class ProbeSurface:
+    """The work surface the harness's probe pin touches (--probe), in GRBL's machine
+    steps from power-up (GRBL's own sense: negative Z is down): touching while
+    z <= z0 + amp sin(2 pi x/px) sin(2 pi y/py); amp 0 is flat at z0."""
+
+    z0: float
+    amp: float = 0.0
+    px: float = 0.0
+    py: float = 0.0
+
+    @classmethod
+    def parse(cls, text: str) -> "ProbeSurface":
+        """`Z0` or `Z0:AMP:PX:PY` (ValueError if it is neither, or PX, PY are 0)."""
+        fields = [float(field) for field in text.split(":")]
+        if len(fields) not in (1, 4) or (len(fields) == 4 and fields[1]
+                                         and not (fields[2] and fields[3])):
+            raise ValueError(f"expected Z0 or Z0:AMP:PX:PY in steps (PX, PY not 0), "
+                             f"got {text!r}")
+        return cls(*fields)
+
+    def height(self, x: float, y: float) -> float:
+        """The surface's Z (steps) over machine (x, y) (steps); the harness evaluates
+        the same formula in doubles."""
+        if not self.amp:
+            return self.z0
+        return self.z0 + self.amp * math.sin(2 * math.pi * x / self.px) \
+            * math.sin(2 * math.pi * y / self.py)
+
+    def harness_args(self) -> tuple[str, ...]:
+        fields = [self.z0] if not self.amp else [self.z0, self.amp, self.px, self.py]
+        spec = ":".join(f"{field:g}" if field != int(field) else str(int(field))
+                        for field in fields)
+        return ("--probe", f"{PROBE_PIN}:{spec}", "--probe-dir-low-positive")
 
 
 class GrblBuildError(GalileoError):
@@ -155,14 +196,16 @@ def _build_unless_current(src: Path, out_dir: Path, digest: str) -> Path:
 
 def grbl_board(elf: Path | None = None, *, limits: tuple = (), trace: bool = True,
                extra_pins: tuple[int, ...] = (), extra_args: tuple[str, ...] = (),
-               **kwargs) -> SimulatedBoard:
+               probe: ProbeSurface | None = None, **kwargs) -> SimulatedBoard:
     """A SimulatedBoard running GRBL. `limits`: (axis, trip in GRBL steps) pairs:
     the axis' limit switch closes while GRBL's position >= trip (GRBL homes
-    toward +; the harness counts steps with dir high as +, GRBL as -)."""
+    toward +; the harness counts steps with dir high as +, GRBL as -). `probe`: a
+    surface GRBL's probe pin (A5) touches, for G38.2."""
     endstops = [(axis, LIMIT_PINS["XYZ".index(axis)], -trip) for axis, trip in limits]
+    probe_args = probe.harness_args() if probe is not None else ()
     return SimulatedBoard(elf or build_grbl(), trace=trace,
                           pins=TRACE_PINS + tuple(extra_pins), endstops=endstops,
-                          extra_args=HARNESS_ARGS + tuple(extra_args), **kwargs)
+                          extra_args=HARNESS_ARGS + probe_args + tuple(extra_args), **kwargs)
 
 
 def grbl_step_trace(edges, dir_invert_mask: int = 0

@@ -1,6 +1,6 @@
 """pyserial URL handler for `simavr://`: a real firmware, running in simavr, as a port.
 
-    simavr://[?firmware=galileo|grbl&elf=PATH&config=PATH&realtime=0|1&trace=0|1&$N=VALUE...]
+    simavr://[?firmware=galileo|grbl&elf=PATH&config=PATH&realtime=0|1&trace=0|1&probe=SURFACE&$N=VALUE...]
 
 Opening the port starts the project's harness (galileo_cnc.simavr.board.SimulatedBoard,
 docs/harness.md; found by $GALILEO_SIMAVR, PATH or the checkout) on a firmware ELF and
@@ -16,6 +16,9 @@ opens the pseudo-terminal its UART0 is bridged to; closing the port stops the bo
   is handed over (then a soft reset, so the opener reads a fresh banner), as a user
   would have stored them in a real board's EEPROM:
   `simavr://?firmware=grbl&$100=160&$101=160&$102=160`.
+- `probe=Z0[:AMP:PX:PY]` (GRBL): its probe pin (A5) touches a surface at Z0 GRBL
+  machine steps from power-up (negative is down), waved by AMP sin(2 pi x/PX)
+  sin(2 pi y/PY) over the X, Y steps: what G38.2 finds (docs/harness.md "Probe").
 - `elf=PATH` runs that ELF instead (for either firmware).
 - `config=PATH` (our firmware): a machine profile TOML whose home pins and
   `sim_x/y/z_endstop_steps` place the board's end-stops, as on `sim://`; without it
@@ -47,7 +50,7 @@ from galileo_cnc.simavr.board import (SimulatedBoard, SimulatedBoardError, firmw
                                       firmware_path, harness_available, harness_missing_message)
 
 _FORM = ("simavr://[?firmware=galileo|grbl&elf=PATH&config=PATH&realtime=0|1&trace=0|1"
-         "&$N=VALUE]")
+         "&probe=Z0[:AMP:PX:PY]&$N=VALUE]")
 GALILEO, GRBL = "galileo", "grbl"
 _SETTING = re.compile(r"^\$(\d{1,3})$")
 _NUMBER = re.compile(r"^-?\d+(\.\d+)?$")
@@ -63,6 +66,7 @@ class SimavrUrl:
     trace: bool = False
     settings: tuple[tuple[int, str], ...] = ()     # GRBL's $N=VALUE, in URL order
     config: Path | None = None          # the profile placing our firmware's end-stops
+    probe: object = None                # GRBL's ProbeSurface (grbl_firmware), or None
 
 
 def parse_url(url: str) -> SimavrUrl:
@@ -71,7 +75,7 @@ def parse_url(url: str) -> SimavrUrl:
     if parts.scheme != "simavr" or parts.netloc or parts.path:
         raise SerialException(f"expected a URL of the form {_FORM}, got {url!r}")
     firmware, elf, realtime, trace, settings = GALILEO, None, True, False, []
-    config = None
+    config = probe = None
     try:
         pairs = urllib.parse.parse_qsl(parts.query, keep_blank_values=True,
                                        strict_parsing=bool(parts.query))
@@ -90,6 +94,12 @@ def parse_url(url: str) -> SimavrUrl:
             realtime = value == "1"
         elif option == "trace" and value in ("0", "1"):
             trace = value == "1"
+        elif option == "probe" and value:
+            from galileo_cnc.simavr.grbl_firmware import ProbeSurface
+            try:
+                probe = ProbeSurface.parse(value)
+            except ValueError as exc:
+                raise SerialException(f"simavr://: probe={value!r}: {exc}") from None
         elif setting and _NUMBER.match(value):
             settings.append((int(setting[1]), value))
         else:
@@ -101,7 +111,9 @@ def parse_url(url: str) -> SimavrUrl:
     if config is not None and firmware != GALILEO:
         raise SerialException("simavr://: config= places our firmware's end-stops; GRBL's "
                               "limit switches come with firmware=grbl")
-    return SimavrUrl(firmware, elf, realtime, trace, tuple(settings), config)
+    if probe is not None and firmware != GRBL:
+        raise SerialException("simavr://: probe= is GRBL's probe pin (A5): add firmware=grbl")
+    return SimavrUrl(firmware, elf, realtime, trace, tuple(settings), config, probe)
 
 
 def endstops(config: MachineConfig) -> list[tuple[str, int, int]]:
@@ -127,7 +139,8 @@ def _board_for(options: SimavrUrl) -> SimulatedBoard:
         elif not elf.is_file():
             raise SerialException(f"simavr://: no GRBL firmware at {elf} (leave out elf= "
                                   f"to build GRBL 1.1h from its source)")
-        return grbl_firmware.grbl_board(elf, trace=options.trace, realtime=options.realtime)
+        return grbl_firmware.grbl_board(elf, trace=options.trace, realtime=options.realtime,
+                                        probe=options.probe)
     elf = options.elf if options.elf is not None else firmware_path()
     if elf is None:        # say what else is missing too, so one look fixes both
         harness = "" if harness_available() else f"; and {harness_missing_message()}"
