@@ -14,9 +14,10 @@ looked. plan/mill/heightmap.py has the grid, the lines and the map; docs/mill.md
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Callable
 
-from galileo_cnc.grbl.link import GrblLink
+from galileo_cnc.grbl.link import GrblLink, Reply
 from galileo_cnc.grbl.numbers import decimal_text_to_nm
 from galileo_cnc.grbl.reports import GrblError
 from galileo_cnc.plan.mill.heightmap import (HeightMap, ProbeGrid, mm_text, parse_prb,
@@ -59,56 +60,87 @@ def probe_height_map(link: GrblLink, grid: ProbeGrid,
                      ) -> HeightMap:
     """Probes every node of `grid` (ProbeGrid.points order) and returns the map of the
     surface's work Z there. `on_point(done, total, (x, y), z)` (nm) after each node.
+    The lines are streamed with character counting (grbl/stream.py): GRBL holds the
+    next node's lines while it probes, so no round trip waits between two probes.
     ProbeError when a probe fails; GrblError for any other refusal or alarm."""
     offset = work_offset_nm(link)
-    link.command_checked("G21 G90")
-    heights = []
     points = grid.points()
-    for count, ((x, y), lines) in enumerate(zip(points, probe_lines(grid)), start=1):
-        rise, over, probe, retract = lines
-        link.command_checked(rise)
-        link.command_checked(over)
-        contact = _probe(link, probe, grid, (x, y))
-        link.command_checked(retract)
-        z = contact[2] - offset[2]
-        heights.append(z)
-        if on_point is not None:
-            on_point(count, len(points), (x, y), z)
+    lines = [("G21 G90", None)] + [(text, node) for node, texts in enumerate(probe_lines(grid))
+                                    for text in texts]
+    heights: list[int] = []
+    budget = link.rx_buffer_bytes - 1
+    in_flight: deque[tuple[str, int | None, int]] = deque()     # (line, node, bytes)
+    used = sent = 0
+    contact = None
+    while sent < len(lines) or in_flight:
+        while sent < len(lines) and used + len(lines[sent][0]) + 1 <= budget:
+            used += link.write_line(lines[sent][0])
+            in_flight.append((*lines[sent], len(lines[sent][0]) + 1))
+            sent += 1
+        line = link.read_line()
+        if line is None:
+            raise GrblError(f"GRBL gave no reply within {link.reply_timeout_s:g} s while "
+                            f"probing the height map ({in_flight[0][0]!r})")
+        text, node, size = in_flight[0]
+        try:
+            reply = link.classify(line)
+        except GrblError as exc:
+            raise _failed(exc, grid, points[node] if node is not None else None) from None
+        if reply is None or line.startswith("<"):
+            continue
+        if not isinstance(reply, Reply):
+            found = parse_prb(line)
+            if found is not None:
+                contact = found
+            continue
+        in_flight.popleft()
+        used -= size
+        if not reply.ok:
+            raise GrblError(f"GRBL refused {text!r} while probing the height map: "
+                            f"{reply.text}", reply.code)
+        if text.startswith("G38.2"):
+            heights.append(_height(contact, offset, grid, points[node]))
+            contact = None
+            if on_point is not None:
+                on_point(len(heights), len(points), points[node], heights[-1])
     link.wait_idle()
     return HeightMap.from_points(grid, heights)
 
 
-def _probe(link: GrblLink, text: str, grid: ProbeGrid, at: tuple[int, int]
-           ) -> tuple[int, int, int]:
-    """One G38.2: the contact (machine nm), or ProbeError in the user's words."""
-    where = f"X {mm_text(at[0])} Y {mm_text(at[1])} mm (work)"
-    travel = (f"from Z {mm_text(grid.clearance_nm)} down to Z {mm_text(-grid.depth_nm)} mm "
-              f"(work)")
-    try:
-        reply = link.command(text)
-    except GrblError as exc:
-        if exc.alarm and exc.code == ALARM_NO_CONTACT:
-            raise ProbeError(
-                f"height map: the probe touched nothing at {where} {travel}: the board lies "
-                f"deeper there than probe_depth_mm = {mm_text(grid.depth_nm)} reaches, or "
-                f"the probe is not wired (GRBL ALARM:5: it waits for an unlock, $X, "
-                f"once you have looked)", exc.code, alarm=True) from None
-        if exc.alarm and exc.code == ALARM_ALREADY_TOUCHING:
-            raise ProbeError(
-                f"height map: the probe already touched at {where}, Z "
-                f"{mm_text(grid.clearance_nm)} mm (work), before it moved: the board lies "
-                f"higher there than probe_clearance_mm = {mm_text(grid.clearance_nm)}, or "
-                f"the probe's clip touches the plate (GRBL ALARM:4: it waits for an "
-                f"unlock, $X)", exc.code, alarm=True) from None
-        raise
-    if not reply.ok:
-        raise GrblError(f"GRBL refused {text!r} at {where}: {reply.text}", reply.code)
-    for line in reply.lines:
-        found = parse_prb(line)
-        if found is not None:
-            position, touched = found
-            if not touched:
-                raise ProbeError(f"height map: the probe touched nothing at {where} {travel}")
-            return position
-    raise ProbeError(f"height map: GRBL sent no [PRB:] report for the probe at {where} "
-                     f"(got {list(reply.lines)!r})")
+def _where(at: tuple[int, int]) -> str:
+    return f"X {mm_text(at[0])} Y {mm_text(at[1])} mm (work)"
+
+
+def _height(contact, offset: tuple[int, int, int], grid: ProbeGrid, at: tuple[int, int]) -> int:
+    """The work Z of one probe's contact, or ProbeError when it reported none."""
+    if contact is None:
+        raise ProbeError(f"height map: GRBL sent no [PRB:] report for the probe at "
+                         f"{_where(at)}")
+    position, touched = contact
+    if not touched:
+        raise ProbeError(f"height map: the probe touched nothing at {_where(at)} from Z "
+                         f"{mm_text(grid.clearance_nm)} down to Z {mm_text(-grid.depth_nm)} "
+                         f"mm (work)")
+    return position[2] - offset[2]
+
+
+def _failed(exc: GrblError, grid: ProbeGrid, at: tuple[int, int] | None) -> GrblError:
+    """GRBL's alarm during a probe in the user's words (mm, work), else itself."""
+    if at is None or not exc.alarm:
+        return exc
+    where = _where(at)
+    if exc.code == ALARM_NO_CONTACT:
+        return ProbeError(
+            f"height map: the probe touched nothing at {where} from Z "
+            f"{mm_text(grid.clearance_nm)} down to Z {mm_text(-grid.depth_nm)} mm (work): the "
+            f"board lies deeper there than probe_depth_mm = {mm_text(grid.depth_nm)} reaches, "
+            f"or the probe is not wired (GRBL ALARM:5: it waits for an unlock, $X, once you "
+            f"have looked)", exc.code, alarm=True)
+    if exc.code == ALARM_ALREADY_TOUCHING:
+        return ProbeError(
+            f"height map: the probe already touched at {where}, Z "
+            f"{mm_text(grid.clearance_nm)} mm (work), before it moved: the board lies higher "
+            f"there than probe_clearance_mm = {mm_text(grid.clearance_nm)}, or the probe's "
+            f"clip touches the plate (GRBL ALARM:4: it waits for an unlock, $X)",
+            exc.code, alarm=True)
+    return exc

@@ -1,0 +1,138 @@
+"""The height map on stock GRBL 1.1h in simavr, over a board warped by +-0.2 mm: the
+harness's probe pin (--probe) touches a surface waved as 0.2 mm sin(2 pi x / 40 mm)
+sin(2 pi y / 40 mm) (machine x, y), the grid over a 20 x 10 mm job is probed with
+G38.2 (grbl/probe.py), isolation-style passes are streamed corrected by the map
+(plan/mill/heightmap.py), and from the Z steps in the pin trace the depth below the
+real surface stays within 0.01 mm of the set depth at every step of every cutting pass.
+
+The board (work X 0..20, Y 0..10 at machine X 10..30, Y -10..0) lies across half a
+wave: its edge Y = 0 runs from a trough (-0.2 mm) to a crest (+0.2 mm), its edge Y = 10
+is flat, and the surface twists between (where a diagonal cut sees a quadratic). Z has 800 steps/mm (a 3018's lead screw:
+1.25 um a step), X and Y the test machine's 160. The error budget, worst case: the
+bilinear map against the sine (1.538 mm grid: A k^2 s^2 / 4 = 2.9 um), the probe's
+contact at the first step at or below the surface (up to 1 step, 1.25 um), GRBL
+rounding a commanded Z to the step (0.6 um) and Bresenham's Z between two of them
+(under 1 step), the chord bound LINEAR_Z_BOUND_NM (1 um): 7.5 um in all.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from galileo_cnc.config.mill import MillConfig
+from galileo_cnc.grbl.gcode import GcodeLine
+from galileo_cnc.grbl.numbers import F32, lround_f32, read_float
+from galileo_cnc.grbl.probe import ProbeError, probe_height_map
+from galileo_cnc.grbl.stream import stream
+from galileo_cnc.plan.mill.heightmap import HeightCorrector, cutting_box, grid_over
+from galileo_cnc.simavr.grbl_firmware import ProbeSurface
+
+import pytest
+
+from grbl_support import QUICK_ACCEL, SETTINGS, grbl_machine, positions_and_ticks, settled_trace
+
+XY_STEPS_PER_MM, Z_STEPS_PER_MM = 160, 800
+#: the test machine with a 3018's Z: 800 steps/mm, at most 2000 mm/min (27 kHz); the
+#: steppers kept on ($1=255, as mills run: Z holds), which also spares the 25 ms GRBL
+#: waits each time its steppers go idle (st_go_idle), twice a probe
+WARPED = {**SETTINGS, **QUICK_ACCEL, 1: "255", 102: str(Z_STEPS_PER_MM), 112: "2000"}
+#: work (0, 0, 0) at machine (10, -10, -1) mm: set by `G10 L20 P1 X-10 Y10 Z1` at power-up
+WORK_ZERO_MM = (10, -10, -1)
+#: the board's top: 1 mm below power-up, waved by 0.2 mm over 40 mm periods (machine steps)
+SURFACE = ProbeSurface(z0=-1 * Z_STEPS_PER_MM, amp=0.2 * Z_STEPS_PER_MM,
+                       px=40 * XY_STEPS_PER_MM, py=40 * XY_STEPS_PER_MM)
+DEPTH_MM = 0.1
+TOLERANCE_MM = 0.01
+#: 1.6 mm spacing: 13 cells of 1.538 mm over 20 mm, 7 of 1.429 mm over 10: 14 x 8 probes
+MILL = MillConfig.from_table({"height_map": True, "height_map_spacing_mm": 1.6,
+                              "probe_clearance_mm": 0.3, "probe_depth_mm": 0.3,
+                              "probe_feed_mm_min": 1500, "cut_depth_mm": DEPTH_MM})
+
+
+def passes() -> list[tuple[str, bool]]:
+    """Isolation-style G-code (plan/mill/gcode.py's form, modal continuation lines
+    included) over the 20 x 10 mm board: a ring along its edges, trough to crest, both
+    diagonals and two lines at odd angles (where the bilinear surface is quadratic
+    along the cut). Each line with whether it cuts."""
+    rings = [[(0, 0), (20, 0), (20, 10), (0, 10), (0, 0)],
+             [(0, 0), (20, 10)], [(0, 10), (20, 0)], [(0, 2), (20, 7)], [(3, 0), (11, 10)]]
+    lines = [("G21 G90 G17 G94", False), ("G0 Z0.5", False), ("M3 S10000", False)]
+    for ring in rings:
+        lines += [(f"G0 X{ring[0][0]} Y{ring[0][1]}", False), (f"G1 Z{-DEPTH_MM} F1500", False),
+                  (f"G1 X{ring[1][0]} Y{ring[1][1]} F6000", True)]
+        lines += [(f"X{x} Y{y}", True) for x, y in ring[2:]]
+        lines.append(("G0 Z0.5", False))
+    return lines + [("M5", False), ("M2", False)]
+
+
+def machine_steps(text: str, axis: int) -> int:
+    """GRBL's target step for a work coordinate: (value + offset) * steps/mm in floats."""
+    spm = F32(XY_STEPS_PER_MM if axis < 2 else Z_STEPS_PER_MM)
+    return lround_f32(F32(F32(read_float(text) + F32(WORK_ZERO_MM[axis])) * spm))
+
+
+def test_height_mapped_passes_keep_their_depth_below_a_warped_board():
+    program = passes()
+    grid = grid_over(cutting_box(text for text, _ in program), MILL)
+    assert (len(grid.xs_nm), len(grid.ys_nm)) == (14, 8)
+    with grbl_machine(WARPED, probe=SURFACE) as (board, link):
+        link.command_checked("G10 L20 P1 X-10 Y10 Z1")
+        height_map = probe_height_map(link, grid)
+        after_probing = len(settled_trace(board)[0])
+        corrector = HeightCorrector(height_map)
+        sent = [(GcodeLine(out, index), cuts) for index, (text, cuts) in enumerate(program)
+                for out in corrector.line(text)]
+        stream(link, [line for line, _ in sent])
+        edges = settled_trace(board)
+
+    # the map holds the surface at every node to within a step (the probe stops on the
+    # first step at or below it) and the half um of [PRB:]'s three decimals
+    for y, row in zip(grid.ys_nm, height_map.z_nm):
+        for x, z in zip(grid.xs_nm, row):
+            true_mm = (SURFACE.height((x / 1e6 + WORK_ZERO_MM[0]) * XY_STEPS_PER_MM,
+                                      (y / 1e6 + WORK_ZERO_MM[1]) * XY_STEPS_PER_MM)
+                       / Z_STEPS_PER_MM - WORK_ZERO_MM[2])
+            assert -1.0 / Z_STEPS_PER_MM - 0.5e-3 <= z / 1e6 - true_mm <= 0.5e-3, (x, y, z)
+
+    pos = positions_and_ticks(edges)[0]
+    first = len(positions_and_ticks(tuple(e[:after_probing] for e in edges))[0]) - 1
+    row, at = first, tuple(pos[first])
+    cut_rows = []
+    for line, cuts in sent:
+        words = {w[0]: w[1:] for w in line.text.split()[1:]}
+        if not line.text.startswith(("G0", "G1")) or not set(words) & set("XYZ"):
+            continue
+        end = tuple(machine_steps(words[a], k) if a in words else at[k]
+                    for k, a in enumerate("XYZ"))
+        hits = np.nonzero(np.all(pos[row:] == end, axis=1))[0]
+        assert len(hits), f"{line.text} never reached {end}"
+        if cuts:
+            cut_rows.append(np.arange(row, row + int(hits[0]) + 1))
+        row, at = row + int(hits[0]), end
+    assert row == len(pos) - 1, "steps after the last line"
+    rows = np.concatenate(cut_rows)
+    x, y, z = pos[rows].T.astype(float)
+    surface = SURFACE.z0 + SURFACE.amp * np.sin(2 * math.pi * x / SURFACE.px) \
+        * np.sin(2 * math.pi * y / SURFACE.py)
+    depth_mm = (surface - z) / Z_STEPS_PER_MM
+    error = np.abs(depth_mm - DEPTH_MM)
+    # the passes ran over the whole warp, crest to trough
+    assert surface.max() - surface.min() >= 0.39 * Z_STEPS_PER_MM
+    assert len(rows) > 10_000
+    assert error.max() <= TOLERANCE_MM, (
+        f"depth {depth_mm[error.argmax()]:.4f} mm at machine step {pos[rows][error.argmax()]}")
+    print(f"\nsimulated {edges[0][-1] / 16e6:.1f} s; {len(rows)} steps of cutting passes: depth below the surface "
+          f"{depth_mm.min():.4f}..{depth_mm.max():.4f} mm (set {DEPTH_MM}), worst "
+          f"{error.max() * 1000:.2f} um off; {len(grid.points())} probes")
+
+
+def test_a_probe_that_touches_nothing_names_the_point_in_mm():
+    grid = grid_over((2_000_000, 3_000_000, 2_000_000, 3_000_000), MILL)
+    with grbl_machine(WARPED, probe=ProbeSurface(z0=-3 * Z_STEPS_PER_MM)) as (board, link):
+        with pytest.raises(ProbeError) as failed:
+            probe_height_map(link, grid)
+    assert ("the probe touched nothing at X 2.000 Y 3.000 mm (work) from Z 0.300 down to "
+            "Z -0.300 mm (work)") in str(failed.value)
+    assert failed.value.alarm and failed.value.code == 5
