@@ -7,12 +7,13 @@ real surface stays within 0.01 mm of the set depth at every step of every cuttin
 
 The board (work X 0..20, Y 0..10 at machine X 10..30, Y -10..0) lies across half a
 wave: its edge Y = 0 runs from a trough (-0.2 mm) to a crest (+0.2 mm), its edge Y = 10
-is flat, and the surface twists between (where a diagonal cut sees a quadratic). Z has 800 steps/mm (a 3018's lead screw:
-1.25 um a step), X and Y the test machine's 160. The error budget, worst case: the
-bilinear map against the sine (1.538 mm grid: A k^2 s^2 / 4 = 2.9 um), the probe's
-contact at the first step at or below the surface (up to 1 step, 1.25 um), GRBL
-rounding a commanded Z to the step (0.6 um) and Bresenham's Z between two of them
-(under 1 step), the chord bound LINEAR_Z_BOUND_NM (1 um): 7.5 um in all.
+is flat, and the surface twists between (where a diagonal cut sees a quadratic). Z has
+800 steps/mm (a 3018's lead screw: 1.25 um a step), X and Y the test machine's 160. The
+error budget, worst case: the bilinear map against the sine (1.538 mm grid:
+A k^2 s^2 / 4 = 2.9 um), the probe's contact at the first step at or below the surface
+(up to a step, 1.25 um) and [PRB:]'s three decimals (0.5 um), GRBL rounding a commanded
+Z to the step (0.6 um) and Bresenham's Z between two of them (under a step), the chord
+bound LINEAR_Z_BOUND_NM (1 um): 7.5 um in all.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from galileo_cnc.grbl.probe import ProbeError, probe_height_map
 from galileo_cnc.grbl.stream import stream
 from galileo_cnc.plan.mill.heightmap import HeightCorrector, cutting_box, grid_over
 from galileo_cnc.simavr.grbl_firmware import ProbeSurface
+from galileo_cnc.stream.journal import Journal, JournalEntry
 
 import pytest
 
@@ -73,7 +75,7 @@ def machine_steps(text: str, axis: int) -> int:
     return lround_f32(F32(F32(read_float(text) + F32(WORK_ZERO_MM[axis])) * spm))
 
 
-def test_height_mapped_passes_keep_their_depth_below_a_warped_board():
+def test_height_mapped_passes_keep_their_depth_below_a_warped_board(tmp_path):
     program = passes()
     grid = grid_over(cutting_box(text for text, _ in program), MILL)
     assert (len(grid.xs_nm), len(grid.ys_nm)) == (14, 8)
@@ -123,9 +125,19 @@ def test_height_mapped_passes_keep_their_depth_below_a_warped_board():
     assert len(rows) > 10_000
     assert error.max() <= TOLERANCE_MM, (
         f"depth {depth_mm[error.argmax()]:.4f} mm at machine step {pos[rows][error.argmax()]}")
-    print(f"\nsimulated {edges[0][-1] / 16e6:.1f} s; {len(rows)} steps of cutting passes: depth below the surface "
-          f"{depth_mm.min():.4f}..{depth_mm.max():.4f} mm (set {DEPTH_MM}), worst "
-          f"{error.max() * 1000:.2f} um off; {len(grid.points())} probes")
+    print(f"\nsimulated {edges[0][-1] / 16e6:.1f} s; {len(rows)} steps of cutting passes: "
+          f"depth below the surface {depth_mm.min():.4f}..{depth_mm.max():.4f} mm "
+          f"(set {DEPTH_MM}), worst {error.max() * 1000:.2f} um off; "
+          f"{len(grid.points())} probes")
+
+    # kept with the job's journal, the map gives a resume the very lines that were sent
+    journal = Journal(tmp_path / "journal-grbl.json")
+    journal.begin(JournalEntry(source="passes", digest="", offset_nm=(0, 0), profile="",
+                               group=False, total=len(sent), confirmed=-1, first_index=0,
+                               first_seq=0), height_map=height_map)
+    again = HeightCorrector(Journal(journal.path).height_map(journal.load()))
+    assert [out for text, _ in program for out in again.line(text)] == \
+        [line.text for line, _ in sent]
 
 
 def test_a_probe_that_touches_nothing_names_the_point_in_mm():

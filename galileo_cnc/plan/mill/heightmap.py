@@ -1,7 +1,7 @@
 """The height map: a board's top probed on a grid, and a mill program's Z corrected by it.
 
 A board is never flat (a warped laminate, a spoil board not surfaced): at a cut depth of
-0.1 mm a warp of 0.2 mm cuts nothing on the crests and twice too deep in the troughs.
+0.1 mm a warp of 0.2 mm cuts nothing on the crests and three times too deep in the troughs.
 So the top is probed with G38.2 on a grid over where the job cuts, and every Z the
 program commands is taken as depth below that surface:
 
@@ -315,8 +315,11 @@ class HeightCorrector:
 
     def line(self, text: str) -> list[str]:
         """The lines to send for one program line (itself when nothing changes)."""
+        moves = self.state.read(text)
+        if not moves:                       # a comment, a blank line, a $ command
+            return [text]
         out: list[str] = []
-        for move in self.state.read(text):
+        for move in moves:
             if move.kind is None:
                 if move.rebase_z is not None:
                     x, y, _ = move.end
@@ -400,8 +403,8 @@ class _Move:
 
     def other_words(self) -> list[str]:
         """The line's words but its motion and axes (F, S, and G codes of modes)."""
-        return [f"{letter}{number}" for letter, number, _ in self.words
-                if letter not in "XYZIJ" and not (letter == "G" and code_number(number) in _MOTION)]
+        return [f"{letter}{number}" for letter, number, _ in self.words if letter not in "XYZIJ"
+                and not (letter == "G" and code_number(number) in _MOTION)]
 
 
 #: G codes that are neither motion nor a mode the correction must know: passed on
