@@ -5,9 +5,9 @@ A board is never flat (a warped laminate, a spoil board not surfaced): at a cut 
 So the top is probed with G38.2 on a grid over where the job cuts, and every Z the
 program commands is taken as depth below that surface:
 
-- the grid (`grid_over`) spans the XY extent of the job's cutting moves (Z < 0), nodes at
-  most `height_map_spacing_mm` apart, the same count of equal cells per axis; each node
-  is probed from `probe_clearance_mm` above Z = 0 down to at most `probe_depth_mm` below
+- the grid (`job_grid`, `grid_over`) spans the XY extent of the job's cutting moves
+  (Z < 0) in the fewest equal cells at most `height_map_spacing_mm` wide; each node is
+  probed from `probe_clearance_mm` above Z = 0 down to at most `probe_depth_mm` below
   it, in rows that alternate their direction (`ProbeGrid.points`, `probe_lines`);
 - GRBL reports each contact as `[PRB:x,y,z:1]` in machine coordinates (`parse_prb`); the
   height is that Z less the work offset: heights are work Z of the surface, so Z = 0
@@ -124,6 +124,15 @@ def grid_over(box_nm: tuple[int, int, int, int], mill: MillConfig) -> ProbeGrid:
                      mill.probe_clearance_nm, mill.probe_depth_nm, mill.probe_feed_um_min)
 
 
+def job_grid(lines: Iterable[str], mill: MillConfig, source: str = "G-code") -> ProbeGrid:
+    """The probe grid over where the job's G-code lines cut (grid_over(cutting_box))."""
+    box = cutting_box(lines, source)
+    if box is None:
+        raise HeightMapError(f"{source}: the job cuts nowhere below Z = 0: there is no "
+                             f"board to map")
+    return grid_over(box, mill)
+
+
 def probe_lines(grid: ProbeGrid) -> list[list[str]]:
     """The probing, one list of G-code lines per node in `grid.points()` order: up to
     the clearance, over the node, G38.2 down (GRBL answers `[PRB:...]`), up again."""
@@ -172,18 +181,23 @@ class HeightMap:
         return cls(grid.xs_nm, grid.ys_nm,
                    tuple(tuple(at[x, y] for x in grid.xs_nm) for y in grid.ys_nm))
 
-    def exact(self, x_nm: int, y_nm: int) -> Fraction:
-        """The bilinear height at (x, y), exact; clamped to the grid's edge outside it."""
-        (i0, i1, wx0, wx1, dx), (j0, j1, wy0, wy1, dy) = \
-            _cell(self.xs_nm, x_nm), _cell(self.ys_nm, y_nm)
-        z = self.z_nm
-        return Fraction(z[j0][i0] * wx0 * wy0 + z[j0][i1] * wx1 * wy0
-                        + z[j1][i0] * wx0 * wy1 + z[j1][i1] * wx1 * wy1, dx * dy)
+    def exact(self, x_nm, y_nm) -> Fraction:
+        """The bilinear height at (x, y) (integers or Fractions), exact; clamped to the
+        grid's edge outside it."""
+        return Fraction(*self._weighted(x_nm, y_nm))
 
     def at(self, x_nm: int, y_nm: int) -> int:
         """The bilinear height at (x, y) to the nm (half away from zero)."""
-        value = self.exact(x_nm, y_nm)
-        return round_half_away(value.numerator, value.denominator)
+        return round_half_away(*self._weighted(x_nm, y_nm))
+
+    def _weighted(self, x_nm, y_nm) -> tuple:
+        """(numerator, denominator) of the bilinear height: the corners weighted by the
+        opposite sub-rectangles, over the cell's area."""
+        (i0, i1, wx0, wx1, dx), (j0, j1, wy0, wy1, dy) = \
+            _cell(self.xs_nm, x_nm), _cell(self.ys_nm, y_nm)
+        z = self.z_nm
+        return (z[j0][i0] * wx0 * wy0 + z[j0][i1] * wx1 * wy0
+                + z[j1][i0] * wx0 * wy1 + z[j1][i1] * wx1 * wy1, dx * dy)
 
     def contains(self, x_nm: int, y_nm: int) -> bool:
         return (self.xs_nm[0] <= x_nm <= self.xs_nm[-1]
@@ -245,6 +259,8 @@ def split_parameters(height_map: HeightMap, start: tuple[int, int], end: tuple[i
             low, high = min(p, p + d), max(p, p + d)
             for node in nodes[bisect.bisect_right(nodes, low):bisect.bisect_left(nodes, high)]:
                 cuts.add(Fraction(node - p, d))
+    if not cuts and _pieces(height_map, (px + qx) // 2, (py + qy) // 2, dx, dy, bound_nm) == 1:
+        return []                   # the common short chord inside one cell: no Fractions
     edges = [Fraction(0), *sorted(cuts), Fraction(1)]
     out = []
     for a, b in zip(edges, edges[1:]):
@@ -265,7 +281,9 @@ def _pieces(height_map: HeightMap, mid_x: Fraction, mid_y: Fraction, span_x: Fra
     j0, j1, _, _, wy = _cell(height_map.ys_nm, math.floor(mid_y))
     z = height_map.z_nm
     twist = z[j0][i0] - z[j0][i1] - z[j1][i0] + z[j1][i1]
-    need = abs(twist * span_x * span_y) / (4 * bound_nm * wx * wy)     # n^2 >= need
+    if abs(twist * span_x * span_y) <= 4 * bound_nm * wx * wy:
+        return 1
+    need = Fraction(abs(twist * span_x * span_y)) / (4 * bound_nm * wx * wy)   # n^2 >= need
     pieces = max(1, math.isqrt(math.ceil(need)))
     while pieces * pieces < need:
         pieces += 1
@@ -280,17 +298,17 @@ def cutting_box(lines: Iterable[str], source: str = "G-code") -> tuple[int, int,
     state = _State(source)
     box = None
     for text in lines:
-        for move in state.read(text):
-            if move.kind is None or move.passthrough or not move.cuts:
-                continue
-            points = [p for p in (move.start[:2], move.end[:2]) if None not in p]
-            if move.centre is not None:
-                cx, cy = move.centre
-                r = math.isqrt((move.start[0] - cx) ** 2 + (move.start[1] - cy) ** 2) + 1
-                points += [(cx - r, cy - r), (cx + r, cy + r)]
-            for x, y in points:
-                box = (x, y, x, y) if box is None else (
-                    min(box[0], x), min(box[1], y), max(box[2], x), max(box[3], y))
+        move = state.read(text)
+        if move is None or move.kind is None or move.passthrough or not move.cuts:
+            continue
+        points = [p for p in (move.start[:2], move.end[:2]) if None not in p]
+        if move.centre is not None:
+            cx, cy = move.centre
+            r = math.isqrt((move.start[0] - cx) ** 2 + (move.start[1] - cy) ** 2) + 1
+            points += [(cx - r, cy - r), (cx + r, cy + r)]
+        for x, y in points:
+            box = (x, y, x, y) if box is None else (
+                min(box[0], x), min(box[1], y), max(box[2], x), max(box[3], y))
     return box
 
 
@@ -315,24 +333,18 @@ class HeightCorrector:
 
     def line(self, text: str) -> list[str]:
         """The lines to send for one program line (itself when nothing changes)."""
-        moves = self.state.read(text)
-        if not moves:                       # a comment, a blank line, a $ command
+        move = self.state.read(text)
+        if move is None or move.passthrough or move.end[2] is None:
+            return [text]           # a comment, a mode, a probe, a move of unknown Z
+        if move.kind is None:
+            if move.rebase_z is not None:
+                x, y, _ = move.end
+                if x is None or y is None:
+                    raise self.state.error("G92 Z where X and Y are unknown: the height "
+                                           "map cannot be re-based")
+                self.height_map = self.height_map.rebased(x, y)
             return [text]
-        out: list[str] = []
-        for move in moves:
-            if move.kind is None:
-                if move.rebase_z is not None:
-                    x, y, _ = move.end
-                    if x is None or y is None:
-                        raise self.state.error("G92 Z where X and Y are unknown: the height "
-                                               "map cannot be re-based")
-                    self.height_map = self.height_map.rebased(x, y)
-                out.append(text)
-            elif move.end[2] is None or move.passthrough:
-                out.append(text)
-            else:
-                out += self._move(move)
-        return out
+        return self._move(move)
 
     def _move(self, move: "_Move") -> list[str]:
         x, y, z = move.end
@@ -425,19 +437,19 @@ class _State:
     def error(self, message: str) -> HeightMapError:
         return HeightMapError(f"{self.source}:{self.number}: {message} ({self.text.strip()!r})")
 
-    def read(self, text: str) -> list[_Move]:
-        """The line's effect (an empty list for a blank line, a comment, a $ command)."""
+    def read(self, text: str) -> _Move | None:
+        """The line's effect (None for a blank line, a comment, a $ command)."""
         self.number += 1
         self.text = text
         stripped = text.strip()
         if not stripped or stripped.startswith(("$", "%")):
-            return []
+            return None
         try:
             words = split_words(stripped, self.source, self.number)
         except GcodeError as exc:
             raise self.error(f"not G-code the height map can read: {exc}") from None
         if not words:
-            return []
+            return None
         g_codes = [code_number(n) for letter, n, _ in words if letter == "G"]
         axes = {letter: scaled(n, NM_PER_MM) for letter, n, _ in words if letter in "XYZIJ"}
         for code in g_codes:
@@ -453,24 +465,23 @@ class _State:
         if any(code.startswith("38.") for code in g_codes):
             # a probe stops wherever it touches: Z is unknown until set again
             self._moved(axes, unknown=True)
-            return [_Move(text, "G38", start, tuple(self.position), words, passthrough=True)]
+            return _Move(text, "G38", start, tuple(self.position), words, passthrough=True)
         if any(code in ("28", "30", "53") for code in g_codes):
             self._moved(axes, unknown=True)
-            return [_Move(text, "G53", start, tuple(self.position), words, passthrough=True)]
+            return _Move(text, "G53", start, tuple(self.position), words, passthrough=True)
         if "10" in g_codes or ("92" in g_codes and ("X" in axes or "Y" in axes)):
             raise self.error("a work offset moved in X or Y: the height map's points would "
                              "lie elsewhere on the board")
         if "92" in g_codes:
             self._moved(axes)
-            return [_Move(text, None, start, tuple(self.position), words,
-                          rebase_z=axes.get("Z"))]
+            return _Move(text, None, start, tuple(self.position), words, rebase_z=axes.get("Z"))
         for code in g_codes:
             if code in _MOTION:
                 self.motion = _MOTION[code]
             elif code not in _PLAIN_G:
                 raise self.error(f"G{code}: a code the height map does not know")
         if not any(letter in axes for letter in "XYZ"):
-            return [_Move(text, None, start, start, words)]
+            return _Move(text, None, start, start, words, passthrough=True)
         self._moved(axes)
         end = tuple(self.position)
         centre = None
@@ -482,7 +493,7 @@ class _State:
                 (None in start[:2] or None in end[:2]) and \
                 any(z is not None and z < 0 for z in (start[2], end[2])):
             raise self.error("a cut from an unknown position: the height map cannot split it")
-        return [_Move(text, self.motion, start, end, words, has_z="Z" in axes, centre=centre)]
+        return _Move(text, self.motion, start, end, words, has_z="Z" in axes, centre=centre)
 
     def _moved(self, axes: dict, unknown: bool = False) -> None:
         for a, letter in enumerate("XYZ"):

@@ -15,7 +15,7 @@ import pytest
 from galileo_cnc.config.mill import MillConfig
 from galileo_cnc.plan.mill.heightmap import (
     LINEAR_Z_BOUND_NM, HeightCorrector, HeightMap, HeightMapError, axis_nodes, corrected_lines,
-    cutting_box, grid_over, parse_prb, probe_lines, split_parameters,
+    cutting_box, grid_over, job_grid, parse_prb, probe_lines, split_parameters,
 )
 from galileo_cnc.stream.journal import Journal, JournalEntry, JournalError
 
@@ -174,6 +174,9 @@ def test_the_grid_spans_where_the_job_cuts_in_rows_that_turn():
     box = cutting_box(ISOLATION)
     assert box == (MM, MM, 9 * MM, 3 * MM)              # the travel above the board is not
     grid = grid_over(box, mill)
+    assert job_grid(ISOLATION, mill) == grid
+    with pytest.raises(HeightMapError, match="board.nc: the job cuts nowhere below Z = 0"):
+        job_grid(["G0 X1 Y1", "G1 Z0.5"], mill, "board.nc")
     assert grid.xs_nm == (MM, 3_666_666, 6_333_333, 9 * MM) and grid.ys_nm == (MM, 3 * MM)
     assert grid.points()[:5] == [(MM, MM), (3_666_666, MM), (6_333_333, MM), (9 * MM, MM),
                                  (9 * MM, 3 * MM)]
