@@ -21,17 +21,16 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from galileo_cnc.config.mill import MillConfig
 from galileo_cnc.grbl.gcode import GcodeLine
 from galileo_cnc.grbl.numbers import F32, lround_f32, read_float
 from galileo_cnc.grbl.probe import ProbeError, probe_height_map
 from galileo_cnc.grbl.stream import stream
-from galileo_cnc.plan.mill.heightmap import HeightCorrector, cutting_box, grid_over
+from galileo_cnc.plan.mill.heightmap import HeightCorrector, grid_over, job_grid
 from galileo_cnc.simavr.grbl_firmware import ProbeSurface
 from galileo_cnc.stream.journal import Journal, JournalEntry
-
-import pytest
 
 from grbl_support import QUICK_ACCEL, SETTINGS, grbl_machine, positions_and_ticks, settled_trace
 
@@ -77,7 +76,7 @@ def machine_steps(text: str, axis: int) -> int:
 
 def test_height_mapped_passes_keep_their_depth_below_a_warped_board(tmp_path):
     program = passes()
-    grid = grid_over(cutting_box(text for text, _ in program), MILL)
+    grid = job_grid([text for text, _ in program], MILL)
     assert (len(grid.xs_nm), len(grid.ys_nm)) == (14, 8)
     with grbl_machine(WARPED, probe=SURFACE) as (board, link):
         link.command_checked("G10 L20 P1 X-10 Y10 Z1")
