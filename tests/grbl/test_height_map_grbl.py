@@ -48,8 +48,8 @@ DEPTH_MM = 0.1
 TOLERANCE_MM = 0.01
 #: 1.6 mm spacing: 13 cells of 1.538 mm over 20 mm, 7 of 1.429 mm over 10: 14 x 8 probes
 MILL = MillConfig.from_table({"height_map": True, "height_map_spacing_mm": 1.6,
-                              "probe_clearance_mm": 0.3, "probe_depth_mm": 0.3,
-                              "probe_feed_mm_min": 1500, "cut_depth_mm": DEPTH_MM})
+                              "probe_clearance_mm": 0.25, "probe_depth_mm": 0.25,
+                              "probe_feed_mm_min": 2000, "cut_depth_mm": DEPTH_MM})
 
 
 def passes() -> list[tuple[str, bool]]:
@@ -62,7 +62,7 @@ def passes() -> list[tuple[str, bool]]:
     lines = [("G21 G90 G17 G94", False), ("G0 Z0.5", False), ("M3 S10000", False)]
     for ring in rings:
         lines += [(f"G0 X{ring[0][0]} Y{ring[0][1]}", False), (f"G1 Z{-DEPTH_MM} F1500", False),
-                  (f"G1 X{ring[1][0]} Y{ring[1][1]} F6000", True)]
+                  (f"G1 X{ring[1][0]} Y{ring[1][1]} F8000", True)]
         lines += [(f"X{x} Y{y}", True) for x, y in ring[2:]]
         lines.append(("G0 Z0.5", False))
     return lines + [("M5", False), ("M2", False)]
@@ -144,6 +144,6 @@ def test_a_probe_that_touches_nothing_names_the_point_in_mm():
     with grbl_machine(WARPED, probe=ProbeSurface(z0=-3 * Z_STEPS_PER_MM)) as (board, link):
         with pytest.raises(ProbeError) as failed:
             probe_height_map(link, grid)
-    assert ("the probe touched nothing at X 2.000 Y 3.000 mm (work) from Z 0.300 down to "
-            "Z -0.300 mm (work)") in str(failed.value)
+    assert ("the probe touched nothing at X 2.000 Y 3.000 mm (work) from Z 0.250 down to "
+            "Z -0.250 mm (work)") in str(failed.value)
     assert failed.value.alarm and failed.value.code == 5
