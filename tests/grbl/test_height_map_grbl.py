@@ -1,19 +1,21 @@
 """The height map on stock GRBL 1.1h in simavr, over a board warped by +-0.2 mm: the
 harness's probe pin (--probe) touches a surface waved as 0.2 mm sin(2 pi x / 40 mm)
-sin(2 pi y / 40 mm) (machine x, y), the grid over a 20 x 10 mm job is probed with
-G38.2 (grbl/probe.py), isolation-style passes are streamed corrected by the map
+sin(2 pi y / 40 mm) (machine x, y), the grid over the job is probed with G38.2
+(grbl/probe.py), isolation-style passes are streamed corrected by the map
 (plan/mill/heightmap.py), and from the Z steps in the pin trace the depth below the
 real surface stays within 0.01 mm of the set depth at every step of every cutting pass.
 
-The board (work X 0..20, Y 0..10 at machine X 10..30, Y -10..0) lies across half a
-wave: its edge Y = 0 runs from a trough (-0.2 mm) to a crest (+0.2 mm), its edge Y = 10
-is flat, and the surface twists between (where a diagonal cut sees a quadratic). Z has
-800 steps/mm (a 3018's lead screw: 1.25 um a step), X and Y the test machine's 160. The
-error budget, worst case: the bilinear map against the sine (1.538 mm grid:
-A k^2 s^2 / 4 = 2.9 um), the probe's contact at the first step at or below the surface
-(up to a step, 1.25 um) and [PRB:]'s three decimals (0.5 um), GRBL rounding a commanded
-Z to the step (0.6 um) and Bresenham's Z between two of them (under a step), the chord
-bound LINEAR_Z_BOUND_NM (1 um): 7.5 um in all.
+The board, a 20 x 4 mm strip (work X 0..20, Y 0..4 at machine X 10..30, Y -12..-8),
+runs along the wave from a trough (-0.2 mm) to a crest (+0.2 mm) over the ridge at
+machine Y -10, which it straddles, so the surface also bends and twists across it. A
+strip, not a square: GRBL in simavr runs at a real board's pace, and the probes are
+most of the test's time (4 rows, not 8). Z has 800 steps/mm (a 3018's lead screw:
+1.25 um a step), X and Y the test machine's 160. The error budget, worst case: the
+bilinear map against the sine (1.538 mm grid: A k^2 s^2 / 4 = 2.9 um), the probe's
+contact at the first step at or below the surface (up to a step, 1.25 um) and [PRB:]'s
+three decimals (0.5 um), GRBL rounding a commanded Z to the step (0.6 um) and
+Bresenham's Z between two of them (under a step), the chord bound LINEAR_Z_BOUND_NM
+(1 um): 7.5 um in all.
 """
 
 from __future__ import annotations
@@ -28,25 +30,29 @@ from galileo_cnc.grbl.gcode import GcodeLine
 from galileo_cnc.grbl.numbers import F32, lround_f32, read_float
 from galileo_cnc.grbl.probe import ProbeError, probe_height_map
 from galileo_cnc.grbl.stream import stream
-from galileo_cnc.plan.mill.heightmap import HeightCorrector, grid_over, job_grid
+from galileo_cnc.plan.mill.heightmap import HeightCorrector, ProbeGrid, job_grid
 from galileo_cnc.simavr.grbl_firmware import ProbeSurface
 from galileo_cnc.stream.journal import Journal, JournalEntry
 
-from grbl_support import QUICK_ACCEL, SETTINGS, grbl_machine, positions_and_ticks, settled_trace
+from grbl_support import SETTINGS, grbl_machine, positions_and_ticks, settled_trace
 
+MM = 1_000_000            # nm
 XY_STEPS_PER_MM, Z_STEPS_PER_MM = 160, 800
 #: the test machine with a 3018's Z: 800 steps/mm, at most 2000 mm/min (27 kHz); the
 #: steppers kept on ($1=255, as mills run: Z holds), which also spares the 25 ms GRBL
-#: waits each time its steppers go idle (st_go_idle), twice a probe
-WARPED = {**SETTINGS, **QUICK_ACCEL, 1: "255", 102: str(Z_STEPS_PER_MM), 112: "2000"}
-#: work (0, 0, 0) at machine (10, -10, -1) mm: set by `G10 L20 P1 X-10 Y10 Z1` at power-up
-WORK_ZERO_MM = (10, -10, -1)
+#: waits each time its steppers go idle (st_go_idle), twice a probe; accelerating at
+#: 40000 mm/s^2, as the depth below the surface holds at any acceleration (a probe
+#: takes 45 ms of machine time, not 65)
+WARPED = {**SETTINGS, 1: "255", 102: str(Z_STEPS_PER_MM), 112: "2000",
+          120: "40000", 121: "40000", 122: "40000"}
+#: work (0, 0, 0) at machine (10, -12, -1) mm: set by `G10 L20 P1 X-10 Y12 Z1` at power-up
+WORK_ZERO_MM = (10, -12, -1)
 #: the board's top: 1 mm below power-up, waved by 0.2 mm over 40 mm periods (machine steps)
 SURFACE = ProbeSurface(z0=-1 * Z_STEPS_PER_MM, amp=0.2 * Z_STEPS_PER_MM,
                        px=40 * XY_STEPS_PER_MM, py=40 * XY_STEPS_PER_MM)
 DEPTH_MM = 0.1
 TOLERANCE_MM = 0.01
-#: 1.6 mm spacing: 13 cells of 1.538 mm over 20 mm, 7 of 1.429 mm over 10: 14 x 8 probes
+#: 1.6 mm spacing: 13 cells of 1.538 mm over 20 mm, 3 of 1.333 mm over 4: 14 x 4 probes
 MILL = MillConfig.from_table({"height_map": True, "height_map_spacing_mm": 1.6,
                               "probe_clearance_mm": 0.25, "probe_depth_mm": 0.25,
                               "probe_feed_mm_min": 2000, "cut_depth_mm": DEPTH_MM})
@@ -54,11 +60,11 @@ MILL = MillConfig.from_table({"height_map": True, "height_map_spacing_mm": 1.6,
 
 def passes() -> list[tuple[str, bool]]:
     """Isolation-style G-code (plan/mill/gcode.py's form, modal continuation lines
-    included) over the 20 x 10 mm board: a ring along its edges, trough to crest, both
-    diagonals and two lines at odd angles (where the bilinear surface is quadratic
-    along the cut). Each line with whether it cuts."""
-    rings = [[(0, 0), (20, 0), (20, 10), (0, 10), (0, 0)],
-             [(0, 0), (20, 10)], [(0, 10), (20, 0)], [(0, 2), (20, 7)], [(3, 0), (11, 10)]]
+    included) over the 20 x 4 mm strip: a ring along its edges, trough to crest, a
+    line along the ridge, both diagonals and a steep line (where the bilinear surface
+    is quadratic along the cut). Each line with whether it cuts."""
+    rings = [[(0, 0), (20, 0), (20, 4), (0, 4), (0, 0)],
+             [(0, 2), (20, 2)], [(0, 0), (20, 4)], [(0, 4), (20, 0)], [(3, 0), (9, 4)]]
     lines = [("G21 G90 G17 G94", False), ("G0 Z0.5", False), ("M3 S10000", False)]
     for ring in rings:
         lines += [(f"G0 X{ring[0][0]} Y{ring[0][1]}", False), (f"G1 Z{-DEPTH_MM} F1500", False),
@@ -77,9 +83,9 @@ def machine_steps(text: str, axis: int) -> int:
 def test_height_mapped_passes_keep_their_depth_below_a_warped_board(tmp_path):
     program = passes()
     grid = job_grid([text for text, _ in program], MILL)
-    assert (len(grid.xs_nm), len(grid.ys_nm)) == (14, 8)
+    assert (len(grid.xs_nm), len(grid.ys_nm)) == (14, 4)
     with grbl_machine(WARPED, probe=SURFACE) as (board, link):
-        link.command_checked("G10 L20 P1 X-10 Y10 Z1")
+        link.command_checked("G10 L20 P1 X-10 Y12 Z1")
         height_map = probe_height_map(link, grid)
         after_probing = len(settled_trace(board)[0])
         corrector = HeightCorrector(height_map)
@@ -87,6 +93,15 @@ def test_height_mapped_passes_keep_their_depth_below_a_warped_board(tmp_path):
                 for out in corrector.line(text)]
         stream(link, [line for line, _ in sent])
         edges = settled_trace(board)
+        # a probe whose reach ends above the board (0.1 mm below Z = 0, over the trough
+        # at -0.2 mm) touches nothing: GRBL's ALARM:5, named in mm
+        short = ProbeGrid((0,), (2 * MM,), 250_000, 100_000, 2_000_000)
+        with pytest.raises(ProbeError) as failed:
+            probe_height_map(link, short)
+    assert ("the probe touched nothing at X 0.000 Y 2.000 mm (work) from Z 0.250 down to "
+            "Z -0.100 mm (work): the board lies deeper there than probe_depth_mm = 0.100 "
+            "reaches") in str(failed.value)
+    assert failed.value.alarm and failed.value.code == 5
 
     # the map holds the surface at every node to within a step (the probe stops on the
     # first step at or below it) and the half um of [PRB:]'s three decimals
@@ -138,12 +153,3 @@ def test_height_mapped_passes_keep_their_depth_below_a_warped_board(tmp_path):
     assert [out for text, _ in program for out in again.line(text)] == \
         [line.text for line, _ in sent]
 
-
-def test_a_probe_that_touches_nothing_names_the_point_in_mm():
-    grid = grid_over((2_000_000, 3_000_000, 2_000_000, 3_000_000), MILL)
-    with grbl_machine(WARPED, probe=ProbeSurface(z0=-3 * Z_STEPS_PER_MM)) as (board, link):
-        with pytest.raises(ProbeError) as failed:
-            probe_height_map(link, grid)
-    assert ("the probe touched nothing at X 2.000 Y 3.000 mm (work) from Z 0.250 down to "
-            "Z -0.250 mm (work)") in str(failed.value)
-    assert failed.value.alarm and failed.value.code == 5
