@@ -41,8 +41,8 @@ XY_STEPS_PER_MM, Z_STEPS_PER_MM = 160, 800
 #: the test machine with a 3018's Z: 800 steps/mm, at most 2000 mm/min (27 kHz); the
 #: steppers kept on ($1=255, as mills run: Z holds), which also spares the 25 ms GRBL
 #: waits each time its steppers go idle (st_go_idle), twice a probe; accelerating at
-#: 40000 mm/s^2, as the depth below the surface holds at any acceleration (a probe
-#: takes 45 ms of machine time, not 65)
+#: 40000 mm/s^2, as the depth below the surface holds at any acceleration (the probes'
+#: short moves are mostly speeding up and slowing down)
 WARPED = {**SETTINGS, 1: "255", 102: str(Z_STEPS_PER_MM), 112: "2000",
           120: "40000", 121: "40000", 122: "40000"}
 #: work (0, 0, 0) at machine (10, -12, -1) mm: set by `G10 L20 P1 X-10 Y12 Z1` at power-up
