@@ -85,6 +85,7 @@ def probe_height_map(link: GrblLink, grid: ProbeGrid,
         try:
             reply = link.classify(line)
         except GrblError as exc:
+            _answered(link, len(in_flight))
             raise _failed(exc, grid, points[node] if node is not None else None) from None
         if reply is None or line.startswith("<"):
             continue
@@ -105,6 +106,20 @@ def probe_height_map(link: GrblLink, grid: ProbeGrid,
                 on_point(len(heights), len(points), points[node], heights[-1])
     link.wait_idle()
     return HeightMap.from_points(grid, heights)
+
+
+def _answered(link: GrblLink, lines: int) -> None:
+    """Reads the replies GRBL still owes the lines in flight after an alarm (the probe's
+    own, then error:9 for each behind it), so the next command reads its own reply."""
+    while lines > 0:
+        line = link.read_line()
+        if line is None:
+            return
+        try:
+            reply = link.classify(line)
+        except GrblError:
+            continue
+        lines -= isinstance(reply, Reply)
 
 
 def _where(at: tuple[int, int]) -> str:

@@ -98,10 +98,19 @@ def test_height_mapped_passes_keep_their_depth_below_a_warped_board(tmp_path):
         short = ProbeGrid((0,), (2 * MM,), 250_000, 100_000, 2_000_000)
         with pytest.raises(ProbeError) as failed:
             probe_height_map(link, short)
+        # unlocked, one that starts below the crest (+0.2 mm) already touches: ALARM:4
+        link.command_checked("$X")
+        low = ProbeGrid((20 * MM,), (2 * MM,), 100_000, 100_000, 2_000_000)
+        with pytest.raises(ProbeError) as touching:
+            probe_height_map(link, low)
     assert ("the probe touched nothing at X 0.000 Y 2.000 mm (work) from Z 0.250 down to "
             "Z -0.100 mm (work): the board lies deeper there than probe_depth_mm = 0.100 "
             "reaches") in str(failed.value)
     assert failed.value.alarm and failed.value.code == 5
+    assert ("the probe already touched at X 20.000 Y 2.000 mm (work), Z 0.100 mm (work), "
+            "before it moved: the board lies higher there than probe_clearance_mm = 0.100"
+            ) in str(touching.value)
+    assert touching.value.code == 4
 
     # the map holds the surface at every node to within a step (the probe stops on the
     # first step at or below it) and the half um of [PRB:]'s three decimals
