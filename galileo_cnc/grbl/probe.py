@@ -60,8 +60,9 @@ def probe_height_map(link: GrblLink, grid: ProbeGrid,
                      ) -> HeightMap:
     """Probes every node of `grid` (ProbeGrid.points order) and returns the map of the
     surface's work Z there. `on_point(done, total, (x, y), z)` (nm) after each node.
-    The lines are streamed with character counting (grbl/stream.py): GRBL holds the
-    next node's lines while it probes, so no round trip waits between two probes.
+    The lines are streamed with character counting, as grbl/stream.py streams a job:
+    GRBL holds the next node's lines while it probes, so no round trip waits between
+    two probes. A reply may wait a whole probe, at its feed.
     ProbeError when a probe fails; GrblError for any other refusal or alarm."""
     offset = work_offset_nm(link)
     points = grid.points()
@@ -72,15 +73,17 @@ def probe_height_map(link: GrblLink, grid: ProbeGrid,
     in_flight: deque[tuple[str, int | None, int]] = deque()     # (line, node, bytes)
     used = sent = 0
     contact = None
+    patience_s = link.reply_timeout_s + 60 * (grid.clearance_nm + grid.depth_nm) \
+        / (grid.feed_um_min * 1000)
     while sent < len(lines) or in_flight:
         while sent < len(lines) and used + len(lines[sent][0]) + 1 <= budget:
             used += link.write_line(lines[sent][0])
             in_flight.append((*lines[sent], len(lines[sent][0]) + 1))
             sent += 1
-        line = link.read_line()
+        line = link.read_line(patience_s)
         if line is None:
-            raise GrblError(f"GRBL gave no reply within {link.reply_timeout_s:g} s while "
-                            f"probing the height map ({in_flight[0][0]!r})")
+            raise GrblError(f"GRBL gave no reply within {patience_s:.0f} s while probing "
+                            f"the height map ({in_flight[0][0]!r})")
         text, node, size = in_flight[0]
         try:
             reply = link.classify(line)
@@ -97,6 +100,7 @@ def probe_height_map(link: GrblLink, grid: ProbeGrid,
         in_flight.popleft()
         used -= size
         if not reply.ok:
+            _answered(link, len(in_flight))
             raise GrblError(f"GRBL refused {text!r} while probing the height map: "
                             f"{reply.text}", reply.code)
         if text.startswith("G38.2"):
