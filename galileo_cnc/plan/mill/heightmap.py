@@ -27,8 +27,10 @@ program commands is taken as depth below that surface:
   axis-parallel move is not split within a cell: the surface is linear along it);
 - arcs (G2/G3: milled holes and slots, which go through the board) get their end Z
   corrected only: GRBL moves Z linearly along the arc;
-- `G92 Z` after a G38.2 (a drill change's re-zero on the board at X, Y) moves the work
-  zero to the surface there: the map is re-based so its height there is 0.
+- `G92 Z v` at X, Y re-bases the map there to 0: the program names its Z where the tool
+  stands, so its frame and GRBL's move together and the height there is taken up by
+  the new zero. After a G38.2 the tool stands on a plate v thick on the surface (a drill
+  change's re-zero), which gives the same. `G92.1` takes the probed map back.
 
 Integer nm inside; mm in every message and in the G-code (exact, readers/gcode/writer.mm).
 `corrected_lines` is the whole program as a generator, one input line at a time, so the
@@ -322,28 +324,29 @@ def corrected_lines(lines: Iterable[str], height_map: HeightMap,
 
 
 class HeightCorrector:
-    """Corrects a program line by line (`line`), keeping its modal state and the map
-    (re-based by a `G92 Z`)."""
+    """Corrects a program line by line (`line`), keeping its modal state and the map in
+    the program's Z frame (a `G92 Z` re-bases it, `G92.1` takes the probed one back)."""
 
     def __init__(self, height_map: HeightMap, source: str = "G-code",
                  bound_nm: int = LINEAR_Z_BOUND_NM):
         self.height_map = height_map
         self.bound_nm = bound_nm
         self.state = _State(source)
+        self.probed_map = height_map
 
     def line(self, text: str) -> list[str]:
         """The lines to send for one program line (itself when nothing changes)."""
         move = self.state.read(text)
-        if move is None or move.passthrough or move.end[2] is None:
+        if move is not None and move.kind is None and move.rebase_z is not None:
+            x, y, _ = move.end
+            if x is None or y is None:
+                raise self.state.error("G92 Z where X and Y are unknown: the height map "
+                                       "cannot follow it")
+            self.height_map = self.height_map.rebased(x, y)
+        elif move is not None and move.clears_g92:
+            self.height_map = self.probed_map
+        if move is None or move.passthrough or move.kind is None or move.end[2] is None:
             return [text]           # a comment, a mode, a probe, a move of unknown Z
-        if move.kind is None:
-            if move.rebase_z is not None:
-                x, y, _ = move.end
-                if x is None or y is None:
-                    raise self.state.error("G92 Z where X and Y are unknown: the height "
-                                           "map cannot be re-based")
-                self.height_map = self.height_map.rebased(x, y)
-            return [text]
         return self._move(move)
 
     def _move(self, move: "_Move") -> list[str]:
@@ -386,7 +389,7 @@ def _lerp(a: int, b: int, t: Fraction) -> int:
 @dataclass(slots=True)
 class _Move:
     """One line's effect: a motion (kind G0..G3, from start to end, nm, None = unknown),
-    or none (kind None) with a G92 Z re-zero's value in rebase_z."""
+    or none (kind None) with a G92 Z's value in rebase_z, or a G92.1 (clears_g92)."""
 
     text: str
     kind: str | None
@@ -397,6 +400,7 @@ class _Move:
     centre: tuple | None = None
     passthrough: bool = False
     rebase_z: int | None = None
+    clears_g92: bool = False
 
     @property
     def cuts(self) -> bool:
@@ -421,7 +425,7 @@ class _Move:
 
 #: G codes that are neither motion nor a mode the correction must know: passed on
 _PLAIN_G = {"4", "17", "21", "28.1", "30.1", "40", "43.1", "49", "54", "55", "56", "57",
-            "58", "59", "61", "80", "90", "90.1", "91.1", "92.1", "93", "94"}
+            "58", "59", "61", "80", "90", "90.1", "91.1", "93", "94"}
 
 
 class _State:
@@ -472,6 +476,9 @@ class _State:
         if "10" in g_codes or ("92" in g_codes and ("X" in axes or "Y" in axes)):
             raise self.error("a work offset moved in X or Y: the height map's points would "
                              "lie elsewhere on the board")
+        if "92.1" in g_codes:          # the G92 offset gone: Z in the old numbers
+            self.position[2] = None
+            return _Move(text, None, start, tuple(self.position), words, clears_g92=True)
         if "92" in g_codes:
             self._moved(axes)
             return _Move(text, None, start, tuple(self.position), words, rebase_z=axes.get("Z"))

@@ -154,6 +154,8 @@ def test_an_arc_gets_its_end_z_and_a_re_zero_re_bases_the_map():
     # Z = 0 is now the surface at X4 Y2: the map's height there is 0
     assert corrector.height_map.at(4 * MM, 2 * MM) == 0
     assert out[6] == ["G0 Z2"] and out[7] == ["G1 Z-0.1"]
+    # G92.1 clears the offset: the probed map again
+    assert corrector.line("G92.1") == ["G92.1"] and corrector.height_map == WARPED
 
 
 @pytest.mark.parametrize("lines, message", [
