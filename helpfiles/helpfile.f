@@ -58,6 +58,18 @@ getg [--mode ink|centre] [--pens MM,MM] [--layers A,B] [--units mm|in]
     x=MM another turn-over line (board mm), --registration adds crosses on
     both sides, --layer FILE=ROLE places a file (galileo-cnc info BOARD).
 
+[preview]
+preview [getg's options] [FILE] [-o OUT.png|OUT.svg]
+    Write a picture of what getg would plot, without the machine: the
+    strokes of each pen over the artwork, the copper the ink leaves bare and
+    the ink outside it in colours of their own, drill marks white, a board's
+    outline and silk in green and ochre. It uses the offsets getg proposes.
+    A board gets one picture per side (NAME-top.png, NAME-bottom.png, the
+    bottom mirrored as it is plotted, both with one offset); --side picks
+    one. Without -o the pictures are written in the current folder, named
+    after the file: preview --silk myboard/ writes myboard-top.png and
+    myboard-bottom.png.
+
 [setup]
 setup
     1) Jog: asks for a distance in units of 10 um (1000 = 1 cm, as the

@@ -134,6 +134,7 @@ class Machine:
     checks_jobs = False         # check_job: the job run through a check mode
     queues_jogs = False         # jogs queue up in the machine (cancel_jog drops them)
     preview_note = ""           # added to a preview's line (what the preview shows)
+    runs_mill = False           # prepare_mill: runs a mill job's G-code (GRBL)
 
     # ---- connection ----------------------------------------------------------------
     def describe(self) -> str:
@@ -260,6 +261,22 @@ class Machine:
         if not self.find_position(resumption, operator):
             return None
         return self.run_job(resumption.job, operator)
+
+    # ---- mill jobs (plan/mill/'s G-code; docs/mill.md) --------------------------------
+    def prepare_mill(self, program) -> MachineJob:
+        """A mill job (grbl.mill_job.MillProgram) made ready for this machine; `run_job`
+        streams it, and its M0 pauses come to the operator's `pen_change` as a
+        grbl.mill_job.MillPause ("paused for a bit change: put in the 1.000 mm bit")."""
+        raise NotImplementedError
+
+    def pending_mill(self):
+        """The interrupted mill job: (journal entry, MillProgram); GalileoError when none."""
+        raise NotImplementedError
+
+    def plan_mill_resume(self, pending) -> Resumption:
+        """Where the interrupted mill job `pending` (pending_mill's) goes on; `resume`
+        runs it."""
+        raise NotImplementedError
 
     # ---- a command line -----------------------------------------------------------
     def send_line(self, text: str, say: Callable[[str], None]) -> bool:

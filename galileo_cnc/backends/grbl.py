@@ -23,9 +23,10 @@ from galileo_cnc.config.machine import MIN_FEED_STEPS_PER_S, MachineConfig
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.grbl.check import check_job
 from galileo_cnc.grbl.jog import cancel_jog, home, jog, unlock, wait_jog
-from galileo_cnc.grbl.job import (GrblJob, InterruptiblePort, grbl_journal,
+from galileo_cnc.grbl.job import (GrblJob, InterruptiblePort, cut_short, grbl_journal,
                                   journal_config, link_scale, pending_job, resume_from)
 from galileo_cnc.grbl.link import GrblLink
+from galileo_cnc.grbl.mill_job import GrblMillJob, mill_journal, pending_mill_job
 from galileo_cnc.grbl.numbers import read_float
 from galileo_cnc.grbl.reports import GrblError, Status, alarm_text, banner_version
 from galileo_cnc.grbl.stream import GrblStreamError
@@ -53,6 +54,7 @@ class GrblMachine(Machine):
     simulated = False
     checks_jobs = True              # GRBL's check mode ($C)
     queues_jogs = True              # jogs queue up: a held key is followed, then cancelled
+    runs_mill = True                # a mill job's G-code (grbl/mill_job.py)
     preview_note = " (the plan: GRBL cannot report its steps)"
 
     def __init__(self, link: GrblLink, port: InterruptiblePort, name: str,
@@ -330,13 +332,23 @@ class GrblMachine(Machine):
         return check_job(self.link, engine.lines, where=engine.where)
 
     def run_job(self, job: MachineJob, operator) -> JobResult:
-        """The travel check, then the job journalled and streamed. Raises GrblPortLost
-        (a PortGone) for a lost port, GrblStreamError for a refusal or an alarm."""
-        engine: GrblJob = job.engine
+        """The travel check, then the job journalled and streamed (a mill job: in the
+        mill journal; its M0s come to operator.pen_change as a MillPause). Raises
+        GrblPortLost (a PortGone) for a lost port, GrblStreamError for a refusal, an
+        alarm or a probe that touched nothing."""
+        engine = job.engine
+        if isinstance(engine, GrblMillJob):
+            engine.begin_journal(mill_journal(), engine.entry)
+            return self._streamed(engine, operator, f"the spindle stopped, the tool lifted "
+                                                    f"to {engine.program.safe_mm} mm")
         engine.check_travel()
         if engine.entry is None:                # a new job
             self._warn_g92(operator)
         engine.begin_journal(grbl_journal(), engine.entry)
+        return self._streamed(engine, operator, "the pen lifted")
+
+    def _streamed(self, engine, operator, lifted: str) -> JobResult:
+        """A journalled GrblJob or GrblMillJob run; `lifted`: what a stop left."""
         self._kept = None
         self._job = engine
         try:
@@ -352,7 +364,7 @@ class GrblMachine(Machine):
                 self._kept = self._keeping()
             except GrblError:
                 where = "GRBL's position was not reported"
-            lifted = f"; {engine.lift_failed}" if engine.lift_failed else "; the pen lifted"
+            lifted = f"; {engine.lift_failed}" if engine.lift_failed else f"; {lifted}"
             return JobResult(False, result.confirmed, result.total, result.elapsed_s,
                              result.reason, "G-code lines", where, HELD + lifted)
         return JobResult(True, result.total, result.total, result.elapsed_s,
@@ -416,6 +428,8 @@ class GrblMachine(Machine):
         on from there; else home ($H) or have the user re-zero: GRBL was reset since
         the job stopped."""
         engine: GrblJob = resumption.job.engine
+        if isinstance(engine, GrblMillJob):
+            return self._find_mill_position(engine, operator, resumption)
         if self.kept_position():
             operator.say(f"GRBL kept its position since the job stopped: "
                          f"{stands_at(self.link.status())}; the job goes on from there")
@@ -430,6 +444,66 @@ class GrblMachine(Machine):
         if found:
             operator.say(resumption.job.estimate_line())
         return found
+
+    # ---- mill jobs -------------------------------------------------------------------
+    def _mill_machine_job(self, job: GrblMillJob) -> MachineJob:
+        return MachineJob(job.program, len(job.lines), job.start, job.estimate_s,
+                          "G-code lines", "G-code lines", "on GRBL (its planner's estimate)",
+                          job, None)
+
+    def prepare_mill(self, program) -> MachineJob:
+        """A mill job's G-code as GRBL runs it (grbl/mill_job.py): sent in mm, GRBL's own
+        $100-$102 apply, so the profile's steps/mm are not checked against them."""
+        job = GrblMillJob(self.link, self.port, program)
+        job.port_name = self.port_name
+        return self._mill_machine_job(job)
+
+    def pending_mill(self):
+        return pending_mill_job(mill_journal())
+
+    def plan_mill_resume(self, pending) -> Resumption:
+        entry, program = pending
+        job = GrblMillJob(self.link, self.port, program)
+        job.port_name = self.port_name
+        if entry.total != len(job.lines):
+            raise GalileoError(f"{entry.source}: the journal counts {entry.total} G-code "
+                               f"lines, the kept G-code has {len(job.lines)}: it cannot be "
+                               f"resumed")
+        start, why = job.resume_point(entry, cut_short(self.link, entry))
+        if start >= len(job.lines):
+            journal = mill_journal()
+            journal.begin(entry)
+            journal.end(FINISHED, "every line was confirmed before the job stopped")
+            return Resumption(None, why, nothing_left="nothing left to resume: GRBL had "
+                              "confirmed every line of the mill job")
+        job.entry = entry
+        job.go_on_from(start)
+        return Resumption(self._mill_machine_job(job), why)
+
+    def _find_mill_position(self, engine: GrblMillJob, operator, resumption) -> bool:
+        """As for a plot: the kept position, else $H, else the user puts the tool at the
+        job's work zero (X0 Y0, its tip on the board's top), which becomes G54's zero,
+        and the tool goes up to the safe height at once."""
+        if self.kept_position():
+            operator.say(f"GRBL kept its position since the job stopped: "
+                         f"{stands_at(self.link.status())}; the job goes on from there")
+        elif self.link.settings.homing:
+            operator.say("homing ($H): the reset lost GRBL's position")
+            try:
+                home(self.link)
+            except GrblError as problem:
+                self._alarm_settled(problem)
+        else:
+            if not operator.confirm("GRBL has no homing ($22=0): the reset lost its "
+                                    "position. The tool in the spindle must stand at the "
+                                    "job's work zero: X0 Y0, its tip on the board's top"):
+                return False
+            if self.link.status().state == "Alarm":
+                unlock(self.link)
+            self.link.command_checked("G10 L20 P1 X0 Y0 Z0")
+            self.link.command_checked(f"G0 Z{engine.program.safe_mm}")
+        operator.say(resumption.job.estimate_line())
+        return True
 
     # ---- a command line -----------------------------------------------------------
     def send_line(self, text: str, say) -> bool:

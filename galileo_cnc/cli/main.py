@@ -158,6 +158,7 @@ def _layers(args: argparse.Namespace) -> tuple[str, ...]:
 
 
 def _run_plot(args: argparse.Namespace) -> int:
+    from galileo_cnc.cli.mill import MillRequest
     from galileo_cnc.cli.plot import PlotOptions, run_plot
     from galileo_cnc.stream.homing import check_homeable
     from galileo_cnc.transport.discovery import GRBL, open_board
@@ -201,7 +202,7 @@ def _run_plot(args: argparse.Namespace) -> int:
                               layers=_layers(args), units=args.units, optimize=args.optimize,
                               transform=_transform(args), home=args.home, check=args.check,
                               handle=handle, kind=kind, allow_open=args.allow_open,
-                              board=_board_choice(args))
+                              board=_board_choice(args), mill=MillRequest.from_args(args))
         return run_plot(options)
     finally:
         if handle is not None:
@@ -209,30 +210,14 @@ def _run_plot(args: argparse.Namespace) -> int:
 
 
 def _run_preview(args: argparse.Namespace) -> int:
-    from galileo_cnc.preview.job_path import JobPath
-    from galileo_cnc.preview.render import render_preview
+    from galileo_cnc.preview.write import write_preview
 
     check_output(args.output, "--output")
-    kind = preview_kind(args.output, "--output")
+    preview_kind(args.output, "--output")
     config = _profile(args).config
     planned = _plan(args, config)
     _say_feed_warnings(planned)
-    try:
-        if kind == "svg":               # from the job's commands: nothing to step
-            from galileo_cnc.preview.svg import render_svg
-            info = render_svg(planned.program, planned.job, config, planned.offset_nm,
-                              args.output, copper=planned.copper,
-                              pen_roles=planned.pen_roles)
-        else:
-            # the job's path from its commands: the reference machine's steps to
-            # within one, without planning or stepping them (docs/preview.md, "Cost")
-            path = JobPath(planned.job.commands, config)
-            info = render_preview(planned.program, path, config, planned.offset_nm,
-                                  args.output, job=planned.job, copper=planned.copper,
-                                  marks=planned.marks,
-                                  pen_roles=planned.pen_roles)
-    except OSError as problem:
-        raise GalileoError(f"--output {args.output}: cannot write: {problem.strerror}") from None
+    info = write_preview(planned, config, args.output)
     print(f"{args.output}: {info.summary()}")
     _say_open_traces(planned)
     return 0
@@ -490,6 +475,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="plot a board although the ink leaves trace pieces out (open "
                       "traces: a centre line would join another copper island); refused "
                       "otherwise, with a summary and the widest pen that draws them all")
+    add_mill_options(plot)
     plot.add_argument("--check", action="store_true",
                       help="GRBL only: run the job through GRBL's check mode ($C), moving "
                       "nothing, and list every line GRBL rejects (exit 1 if any)")

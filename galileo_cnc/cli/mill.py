@@ -14,14 +14,17 @@ isolation, drilling and cut-out files of one board agree.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import sys
+
+from dataclasses import dataclass
 
 from galileo_cnc.config.machine import ConfigError
 from galileo_cnc.config.mill import MillConfig
 from galileo_cnc.errors import GalileoError
 
-MILL_JOBS = ("isolate", "drill", "cutout")
+MILL_JOBS = ("isolate", "drill", "cutout", "all")
 
 
 def add_mill_options(parser: argparse.ArgumentParser) -> None:
@@ -29,7 +32,8 @@ def add_mill_options(parser: argparse.ArgumentParser) -> None:
                         help="write a mill's G-code instead of a plot: isolate (passes "
                         "round every copper island at the tool's cut), drill (a board's "
                         "holes and slots, bit by bit), cutout (along the board's outline, "
-                        "with tabs); docs/mill.md")
+                        "with tabs), all (the three in that order, a tool change between); "
+                        "docs/mill.md")
     parser.add_argument("--mill-set", action="append", default=[], metavar="KEY=VALUE",
                         help="a [mill] key over the profile's (e.g. passes=2, "
                         "tool=endmill, diameter_mm=0.3); may be repeated")
@@ -146,6 +150,8 @@ def mill_text(args: argparse.Namespace, mill: MillConfig,
     from galileo_cnc.plan.widths import mm_text
     source = _MillSource(args, choice)
     try:
+        if args.mill == "all":
+            return _whole_board(args, mill, source)
         if args.mill == "isolate":
             text = mill_gcode(source.copper(), mill, accept_shorts=args.accept_shorts)
             rings = sum(1 for line in text.splitlines() if line.startswith("G1 Z"))
@@ -169,8 +175,193 @@ def mill_text(args: argparse.Namespace, mill: MillConfig,
         source.close()
 
 
+def _whole_board(args: argparse.Namespace, mill: MillConfig,
+                 source: "_MillSource") -> tuple[str, list[str], str]:
+    """--mill all: isolation, drilling and cut-out as one job, a tool change (M0 naming
+    the tool, Z re-zeroed) before the drilling's first bit and before the end mill."""
+    from galileo_cnc.plan.mill.cutout import cuts_gcode, plan_cutout
+    from galileo_cnc.plan.mill.drill import mm_text, plan_drilling, plan_gcode
+    from galileo_cnc.plan.mill.gcode import mill_gcode
+    source.needs_board("all")
+    isolation = mill_gcode(source.copper(), mill, accept_shorts=args.accept_shorts)
+    drilling = plan_drilling(source.holes(), mill, args.drill_order)
+    outline = source.outline()
+    cutout = plan_cutout(outline, mill)
+    first_bit = f"{mm_text(drilling.groups[0].bit_nm)} mm bit"
+    end_mill = f"{mm_text(mill.diameter_nm)} mm end mill"
+    text = joined_jobs([(isolation, None),
+                        (plan_gcode(drilling, mill, os.fsdecode(args.file)), first_bit),
+                        (cuts_gcode(cutout.cuts, mill, outline.source, cutout.notes),
+                         end_mill)], mill)
+    notes = drilling.notes + cutout.notes
+    return text, notes, (f"isolation ({mill.describe()}), drilling "
+                         f"({drilling.tool_changes + 1} bit(s)), cut-out with the "
+                         f"{end_mill}: {_count(drilling.tool_changes + 2, 'tool change')}")
+
+
+def joined_jobs(parts: list[tuple[str, str | None]], mill: MillConfig) -> str:
+    """Mill jobs' G-code as one: before each next part a tool change to its tool
+    (drill.tool_change_lines), its own start (modes, safe height, spindle on) left
+    out, as every part's end (M2) but the last's."""
+    from galileo_cnc.plan.mill.drill import tool_change_lines
+    out: list[str] = []
+    for k, (text, tool) in enumerate(parts):
+        lines = text.splitlines()
+        if k < len(parts) - 1 and lines and lines[-1] == "M2":
+            lines = lines[:-1]
+        if tool is not None:
+            start = lines.index("G21 G90 G17 G94")
+            spindle = next(i for i, line in enumerate(lines) if line.startswith("M3"))
+            lines = lines[:start] + tool_change_lines(tool, mill) + lines[spindle + 1:]
+        out += lines
+    return "\n".join(out) + "\n"
+
+
 def _count(n: int, what: str) -> str:
     return f"{n} {what}{'' if n == 1 else 's'}"
+
+
+def mill_program(file, job: str, mill: MillConfig, choice=None, *, accept_shorts: bool = False,
+                 drill_order: str = "plated-first"):
+    """(MillProgram, notes, summary): the `--mill` job of a file or board (job one of
+    MILL_JOBS) as a machine runs it (Machine.prepare_mill; grbl/mill_job.py)."""
+    from galileo_cnc.grbl.mill_job import MillProgram
+    from galileo_cnc.readers.gcode.writer import mm
+    if job not in MILL_JOBS:
+        raise GalileoError(f"--mill {job!r}: must be one of {', '.join(MILL_JOBS)}")
+    args = argparse.Namespace(file=file, mill=job, accept_shorts=accept_shorts,
+                              drill_order=drill_order)
+    text, notes, summary = mill_text(args, mill, choice)
+    name = f"{os.path.basename(os.fsdecode(file).rstrip('/'))} (--mill {job})"
+    program = MillProgram(text, os.fsdecode(file), name, mm(mill.safe_height_nm),
+                          mm(mill.plunge_feed_um_min * 1000))
+    return program, notes, summary
+
+
+@dataclass(frozen=True)
+class MillRequest:
+    """`plot --mill JOB` (and its options): what PlotOptions.mill carries."""
+
+    job: str                            # one of MILL_JOBS
+    mill_set: tuple[str, ...] = ()      # --mill-set KEY=VALUE over the profile's [mill]
+    accept_shorts: bool = False
+    drill_order: str = "plated-first"
+
+    @classmethod
+    def from_args(cls, args: argparse.Namespace) -> "MillRequest | None":
+        """The request add_mill_options' options make, None without --mill."""
+        if not getattr(args, "mill", None):
+            return None
+        return cls(args.mill, tuple(args.mill_set), args.accept_shorts, args.drill_order)
+
+
+#: What sim:// (or a galileo-cnc plotter: it runs no G-code) does with a mill job.
+DRY_RUN_NOTE = ("a dry run: the mill job's XY paths are plotted from its G-code (Z at or "
+                "below 0 cuts, drawn with the pen down; M3/M5 lower and lift the pen, no "
+                "spindle turns); every G38.2 touches at once at the touch plate's top (work "
+                "Z = the plate's thickness: the Z zero stays) and the M0 pauses are listed, "
+                "not waited for")
+#: The dry run's G-code, kept for plot --resume on sim://.
+DRY_RUN_NAME = "mill-dry-run.nc"
+
+
+def run_mill_plot(options, out=None) -> int:
+    """`plot FILE|BOARD --mill JOB`: the mill job on the machine at --port through the
+    machine interface: GRBL runs its G-code (grbl/mill_job.py: M0 pauses asked like
+    pen changes, G38.2, the journal, --resume); elsewhere (sim://, our firmware) a dry
+    run, plotted as DRY_RUN_NOTE says."""
+    from galileo_cnc.backends import open_machine
+    from galileo_cnc.cli.plot import PlotOperator, TextProgress, _run, run_plot
+    from galileo_cnc.transport.discovery import GRBL, open_board
+    from galileo_cnc.transport.port import SIM_URL
+    out = out if out is not None else sys.stdout
+    request: MillRequest = options.mill
+    profile = options.profile
+    mill = MillConfig.from_table(mill_table(list(request.mill_set)), "--mill-set",
+                                 base=profile.mill)
+    program = notes = summary = None
+    if not options.resume:
+        program, notes, summary = mill_program(options.file, request.job, mill, options.board,
+                                               accept_shorts=request.accept_shorts,
+                                               drill_order=request.drill_order)
+    port, kind, handle = profile.port or SIM_URL, options.kind, options.handle
+    if kind is None:                    # cli/main probes before; a caller may not have
+        port, kind, handle = open_board(profile.port, profile.baud)
+    if kind != GRBL:
+        out.write(f"note: {port} runs galileo-cnc firmware, not G-code: {DRY_RUN_NOTE}\n")
+        return _dry_run(dataclasses.replace(options, handle=handle, kind=kind), program, out,
+                        run_plot)
+    if options.trace or options.preview:
+        if handle is not None:
+            handle.close()
+        raise GalileoError("plot --mill on GRBL writes no --trace or --preview (the "
+                           "convert --mill G-code shows the paths)")
+    progress = TextProgress(out)
+    operator = PlotOperator(progress, options.yes)
+    machine = open_machine(port, profile, on_message=progress.message, handle=handle,
+                           kind=kind, shown_as=profile.port or port)
+    named = dataclasses.replace(options, file=f"{os.fsdecode(options.file)} --mill "
+                                              f"{request.job}")
+    try:
+        out.write(machine.describe() + "\n")
+        if options.resume:
+            resumption = machine.plan_mill_resume(machine.pending_mill())
+            progress.message(resumption.why)
+            if resumption.job is None:
+                progress.message(resumption.nothing_left)
+                return 0
+            result = _run(machine, named, operator, lambda: machine.resume(resumption, operator))
+        else:
+            for note in notes:
+                progress.message(f"note: {note}")
+            job = machine.prepare_mill(program)
+            out.write(f"{program.name}: {summary}\n{job.estimate_line()}\n")
+            result = _run(machine, named, operator, lambda: machine.run_job(job, operator))
+        if isinstance(result, int):
+            return result
+        where = f"; {result.where}" if result.where else ""
+        progress.message(f"\amill job finished{where}")
+        return 0
+    finally:
+        machine.close()
+
+
+def _dry_run(options, program, out, run_plot) -> int:
+    """sim:// (or our firmware): the job's G-code plotted as DRY_RUN_NOTE says."""
+    from galileo_cnc.config.userdirs import data_dir
+    from galileo_cnc.grbl.mill_job import mill_lines
+    path = data_dir() / DRY_RUN_NAME
+    if program is not None:
+        lines, pauses = mill_lines(program.text)
+        for index, message in pauses.items():
+            out.write(f"M0 at {program.name}:{lines[index].command + 1}: {message}\n")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(dry_run_gcode(program.text), encoding="ascii")
+    return run_plot(dataclasses.replace(options, file=str(path), mill=None, board=None), out)
+
+
+def dry_run_gcode(text: str) -> str:
+    """The mill job's G-code as the G-code reader plots it: each G38.2 a move down to
+    the plate's top (the G92 after it names it) and that G92 left out, M0 kept as a
+    comment."""
+    lines = text.splitlines()
+    out = []
+    for k, line in enumerate(lines):
+        code = line.split("(")[0].strip()
+        if code.startswith("G38.2"):
+            after = lines[k + 1].split() if k + 1 < len(lines) else []
+            plate = next((w[1:] for w in after if w.startswith("Z")), "0") \
+                if after[:1] == ["G92"] else "0"
+            feed = next((f" {w}" for w in code.split() if w.startswith("F")), "")
+            out.append(f"G1 Z{plate}{feed} (G38.2: the probe touches the plate's top)")
+        elif code.startswith("G92") and k and lines[k - 1].startswith("G38.2"):
+            out.append(f"({code}: the zero stays)")
+        elif code.split()[:1] in (["M0"], ["M00"]):
+            said = "; ".join(part.split(")")[0] for part in line.split("(")[1:])
+            out.append(f"(M0: {said})")
+        else:
+            out.append(line)
+    return "\n".join(out) + "\n"
 
 
 def run_mill_convert(args: argparse.Namespace, profile, choice=None) -> int:

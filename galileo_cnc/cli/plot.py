@@ -153,6 +153,8 @@ class PlotOptions:
     kind: str | None = None
     #: a board's side and choices (plan/board_plan.py); None: the defaults on a board
     board: Any = None
+    #: plot --mill: a cli.mill.MillRequest (the mill job instead of a plot), else None
+    mill: Any = None
 
     @property
     def plan(self) -> PlanOptions:
@@ -196,6 +198,9 @@ BACKGROUND_COMMANDS = 20_000
 def run_plot(options: PlotOptions, out: TextIO | None = None, err: TextIO | None = None) -> int:
     # the streams of the call, not of the import (a test may have replaced them since)
     out = out if out is not None else sys.stdout
+    if options.mill is not None:
+        from galileo_cnc.cli.mill import run_mill_plot
+        return run_mill_plot(options, out)
     profile = options.profile
     progress = TextProgress(out)
     operator = PlotOperator(progress, options.yes)
@@ -365,13 +370,6 @@ def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO)
     if job is None or not (options.trace or options.preview):
         return
     planned, config = job.planned, job.config
-    svg = options.preview is not None and is_svg(options.preview)
-    if svg:
-        from galileo_cnc.preview.svg import render_svg      # from the commands: no trace
-        info = render_svg(planned.program, planned.job, config, planned.offset_nm,
-                          options.preview, copper=planned.copper,
-                          pen_roles=planned.pen_roles)
-        out.write(f"preview: {options.preview}: {info.summary()}\n")
     if options.trace:
         reported = recorder.trace()
         if reported is not None:
@@ -384,11 +382,9 @@ def _write_outputs(options: PlotOptions, machine, recorder, job, *, out: TextIO)
             trace.save(options.trace)
             out.write(f"step trace: {options.trace} ({len(trace)} steps): the reference "
                       f"machine's, since {machine.port_name} cannot report its steps\n")
-    if options.preview and not svg:
-        from galileo_cnc.preview.job_path import JobPath
-        from galileo_cnc.preview.render import render_preview
-        info = render_preview(planned.program, JobPath(planned.job.commands, config), config,
-                              planned.offset_nm, options.preview, job=planned.job,
-                              copper=planned.copper, marks=planned.marks,
-                              pen_roles=planned.pen_roles)
-        out.write(f"preview: {options.preview}: {info.summary()}{machine.preview_note}\n")
+    if options.preview:
+        from galileo_cnc.preview.write import write_preview
+        info = write_preview(planned, config, options.preview)
+        # an SVG is drawn from the commands alone: the machine's note is about steps
+        note = "" if is_svg(options.preview) else machine.preview_note
+        out.write(f"preview: {options.preview}: {info.summary()}{note}\n")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from prompt_toolkit.completion import PathCompleter, WordCompleter
 
-from galileo_cnc.console import getg, machine_commands, resume, setup, show_help
+from galileo_cnc.console import getg, machine_commands, preview, resume, setup, show_help
 from galileo_cnc.console.registry import ConsoleCommand, Registry
 
 
@@ -30,6 +30,9 @@ def build_registry() -> Registry:
         ConsoleCommand("getg", "getg [FILE]", "plot a Gerber, G-code or DXF file",
                        getg.run, needs_machine=True,
                        arguments=PathCompleter(expanduser=True)),
+        ConsoleCommand("preview", "preview [FILE] [-o OUT]",
+                       "write a picture of what getg would plot (each side of a board)",
+                       preview.run, arguments=PathCompleter(expanduser=True)),
         ConsoleCommand("setup", "setup", "jog the head with the keypad, set the feed rate",
                        setup.run, needs_machine=True),
         ConsoleCommand("status", "status", "the machine's state and position",

@@ -28,7 +28,7 @@ from galileo_cnc.program.ops import NM_PER_MM
 
 
 def run(console, arguments: list[str]) -> None:
-    options, config, board, arguments = _options(console, arguments)
+    options, config, board, arguments = parse_options(console, arguments)
     path = " ".join(arguments) if arguments else console.ask(
         "file to plot: ", completer=PathCompleter(expanduser=True))
     if not path:
@@ -137,7 +137,7 @@ def turn_over_line(planned) -> str:
            f"mm (work)"
 
 
-def _options(console, arguments: list[str]):
+def parse_options(console, arguments: list[str], command: str = "getg"):
     """`--mode ink|centre`, `--pens 0.3,0.8` (the profile's pens otherwise), a DXF
     drawing's `--layers A,B` and `--units mm|in`, and `--optimize` (order G-code's
     paths too), before the file name; a board's `--side`, `--drill-marks`,
@@ -160,7 +160,7 @@ def _options(console, arguments: list[str]):
             continue
         value = rest.pop(0) if rest else ""
         if flag in BOARD_FLAGS:
-            _board_option(board, flag, value)
+            _board_option(board, flag, value, command)
             continue
         if flag in ("--scale", "--rotate"):
             scale, rotate = (value, rotate) if flag == "--scale" else (scale, value)
@@ -174,8 +174,8 @@ def _options(console, arguments: list[str]):
         elif flag == "--units" and value in ("mm", "in"):
             units = value
         else:
-            raise GalileoError(f"getg: unknown option {flag} {value}".rstrip()
-                               + " (getg [--mode ink|centre] [--pens MM,MM] [--layers A,B] "
+            raise GalileoError(f"{command}: unknown option {flag} {value}".rstrip()
+                               + f" ({command} [--mode ink|centre] [--pens MM,MM] [--layers A,B] "
                                "[--units mm|in] [--optimize] [--scale F] [--rotate 90|180|270] "
                                "[--fit] [--side top|bottom] [--drill-marks none|small|actual] "
                                "[--mirror-axis x=MM] [--registration] [--outline] [--silk] "
@@ -187,7 +187,7 @@ def _options(console, arguments: list[str]):
 BOARD_FLAGS = ("--side", "--drill-marks", "--mirror-axis", "--layer")
 
 
-def _board_option(board: dict, flag: str, value: str) -> None:
+def _board_option(board: dict, flag: str, value: str, command: str) -> None:
     if flag == "--side" and value in ("top", "bottom"):
         board["side"] = value
     elif flag == "--drill-marks" and value in ("none", "small", "actual"):
@@ -196,11 +196,11 @@ def _board_option(board: dict, flag: str, value: str) -> None:
         try:
             board["mirror_axis"] = parse_axis(value)
         except ValueError as problem:
-            raise GalileoError(f"getg: {problem}") from None
+            raise GalileoError(f"{command}: {problem}") from None
     elif flag == "--layer" and "=" in value:
         board["layers"] = (*board.get("layers", ()), value)
     else:
-        raise GalileoError(f"getg: {flag} {value}: expected --side top|bottom, --drill-marks "
+        raise GalileoError(f"{command}: {flag} {value}: expected --side top|bottom, --drill-marks "
                            f"none|small|actual, --mirror-axis x=MM or y=MM, --layer FILE=ROLE")
 
 

@@ -318,38 +318,15 @@ class GrblJob:
 
         journal = self.journal
         on_reply = journal_replies(journal) if journal is not None else None
-        end = journal.end if journal is not None else (lambda *args: None)
-        if self.port is not None:
-            self.port.arm()
-        try:
-            stream_job(self.link, lines, job.pen_changes, self.where, show, ask_pen,
-                       start=self.start, lead=self.lead, on_reply=on_reply, on_status=seen)
-        except (JobInterrupted, StreamAborted):
-            self._disarm()
-            self._stop_and_lift()
-            end(ABORTED, STOPPED)
-            return StreamResult(False, done, total, time.monotonic() - began, STOPPED)
-        except KeyboardInterrupt:          # as our firmware's streamer: a stop
-            self._disarm()
-            self._stop_and_lift()
-            end(ABORTED, "stopped with Ctrl-C")
-            return StreamResult(False, done, total, time.monotonic() - began,
-                                "stopped with Ctrl-C")
-        except GrblStreamError as stopped:
-            end(FAILED, str(stopped))
-            raise
-        except (serial.SerialException, OSError) as lost:
-            end(INTERRUPTED, port_error_text(lost))
-            acknowledged = journal.entry.confirmed + 1 if journal is not None else done
-            name = f"{self.port_name}: " if self.port_name else ""
-            raise GrblPortLost(f"{name}{port_error_text(lost)}", acknowledged, total) from None
-        except GrblError as problem:
-            end(FAILED, str(problem))
-            raise
-        finally:
-            self._disarm()
-        end(FINISHED)
-        return StreamResult(True, total, total, time.monotonic() - began)
+        return run_journalled(
+            self, lambda: stream_job(self.link, lines, job.pen_changes, self.where, show,
+                                     ask_pen, start=self.start, lead=self.lead,
+                                     on_reply=on_reply, on_status=seen),
+            lambda: done, total, began)
+
+    def explain(self, stopped: GrblStreamError) -> GrblStreamError:
+        """The error a refusal or an alarm is raised as (a mill job names a probe's)."""
+        return stopped
 
     def _stop_and_lift(self) -> None:
         """Decelerate, drop GRBL's queue (its position kept), then lift the pen."""
@@ -362,6 +339,42 @@ class GrblJob:
     def _disarm(self) -> None:
         if self.port is not None:
             self.port.disarm()
+
+
+def run_journalled(job, body, done, total: int, began: float) -> StreamResult:
+    """`body()` streams `job` (a GrblJob or a grbl.mill_job.GrblMillJob); its journal
+    ended with how it went: a stop (JobInterrupted, or StreamAborted from a pen change
+    or a pause) and Ctrl-C hold and reset GRBL, lift the tool and return; a refusal or
+    an alarm is raised as `job.explain` says; a lost port raises GrblPortLost. `done()`:
+    the lines done so far."""
+    journal = job.journal
+    end = journal.end if journal is not None else (lambda *args: None)
+    if job.port is not None:
+        job.port.arm()
+    try:
+        body()
+    except (JobInterrupted, StreamAborted, KeyboardInterrupt) as stop:
+        job._disarm()
+        job._stop_and_lift()
+        reason = "stopped with Ctrl-C" if isinstance(stop, KeyboardInterrupt) else STOPPED
+        end(ABORTED, reason)
+        return StreamResult(False, done(), total, time.monotonic() - began, reason)
+    except GrblStreamError as stopped:
+        stopped = job.explain(stopped)
+        end(FAILED, str(stopped))
+        raise stopped from None
+    except (serial.SerialException, OSError) as lost:
+        end(INTERRUPTED, port_error_text(lost))
+        acknowledged = journal.entry.confirmed + 1 if journal is not None else done()
+        name = f"{job.port_name}: " if job.port_name else ""
+        raise GrblPortLost(f"{name}{port_error_text(lost)}", acknowledged, total) from None
+    except GrblError as problem:
+        end(FAILED, str(problem))
+        raise
+    finally:
+        job._disarm()
+    end(FINISHED)
+    return StreamResult(True, total, total, time.monotonic() - began)
 
 
 def resume_from(link, entry: JournalEntry, lines: list[GcodeLine]) -> tuple[int, str]:

@@ -53,6 +53,8 @@ CRITICAL_ALARMS = (1, 2)
 RESET_TO_CONTINUE = "[MSG:Reset to continue]"
 #: How long a reset waits for that line (it follows the ALARM line at once).
 CRITICAL_MESSAGE_WAIT_S = 3.0
+#: Standing Idle this long with a line unanswered: a cycle start (StatusWatch).
+IDLE_NUDGE_S = 0.4
 
 
 @dataclass(frozen=True, slots=True)
@@ -334,7 +336,14 @@ class StatusWatch:
     answered no `?` for the link's status_silence_s (at least three queries), or one
     that stood Idle, not moving, with a line unanswered for reply_timeout_s, unless
     that line is a dwell (a byte lost on the line: GRBL waits for the rest).
-    Each report goes to `on_status` (with WCO carried over: the link's tracker)."""
+    Each report goes to `on_status` (with WCO carried over: the link's tracker).
+
+    GRBL 1.1h can stall Idle with moves still planned: very short blocks at a high
+    feed (a mill's 0.01 mm chords at 50 mm/s, seen in simavr) drain its segment buffer
+    faster than it refills it, the stepper's cycle stops, and a line that waits for the
+    buffer (M5, G4) waits in a loop that never restarts it. A cycle start (`~`) does;
+    while Idle, it only starts moves already planned, so the watch sends one after
+    IDLE_NUDGE_S of standing Idle with a line unanswered (`nudges` counts them)."""
 
     def __init__(self, link: GrblLink, every_s: float = STATUS_EVERY_S,
                  on_status: Callable[[Status], None] | None = None):
@@ -349,6 +358,8 @@ class StatusWatch:
         self.queries = 0
         self.reports = 0
         self.last: Status | None = link.tracker.last
+        self.nudged_at = now
+        self.nudges = 0
 
     def read_line(self) -> str | None:
         """Asks `?` when one is due, then one line or None by the next one."""
@@ -390,7 +401,14 @@ class StatusWatch:
         if silent >= self.silence_s:
             return (f"GRBL gave no answer to status queries for {silent:.1f} s (asked "
                     f"every {self.every_s:g} s; last reported at {position_mm(self.last)})")
-        stood = time.monotonic() - self.progress_at
+        now = time.monotonic()
+        stood = now - self.progress_at
+        if stood >= IDLE_NUDGE_S and now - self.nudged_at >= IDLE_NUDGE_S and \
+                self.last is not None and self.last.state == "Idle" and \
+                not is_dwell(waiting_for):
+            self.link.realtime(CYCLE_START)
+            self.nudged_at = now
+            self.nudges += 1
         if stood >= self.link.reply_timeout_s and not is_dwell(waiting_for):
             return (f"GRBL stood Idle for {stood:.0f} s without answering a line sent to "
                     f"it (a byte lost on the line?), at {position_mm(self.last)}")

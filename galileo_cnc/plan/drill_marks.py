@@ -11,7 +11,8 @@ centres the bit (KiCad's plot option "drill marks", for toner and pen transfer).
 The copper around a mark is still inked. A mark must leave a ring the smallest pen
 can fill (its width plus the edge margins, as the ink's `limit`, ink/inking.py):
 where the copper round a hole is thinner, the copper wins: the mark shrinks, down
-to MIN_MARK_NM, or is left out, and a warning names the hole's place in mm. A mark
+to MIN_MARK_NM, or is left out, and a warning names the hole's place in mm. Two dots too
+close for the pen to pass between share the room between them the same way. A mark
 whose centre is off the copper (an unplated hole without a pad) is left out quietly:
 the board is bare there already.
 
@@ -167,7 +168,69 @@ def fit_marks(marks: list[DrillMark], copper: list, ring_nm: int, pen_nm: int,
         else:
             warnings.append(f"drill mark of {mark.where} left out: {reach} round a mark at "
                             f"least {mm_text(MIN_MARK_NM)} mm wide; the pad is inked solid")
-    return FittedMarks(kept, warnings, off)
+    kept, crowded = _crowded_marks_shrunk(kept, rings, ring_nm, pen_nm, clearance_nm)
+    return FittedMarks(kept, warnings + crowded, off)
+
+
+def _crowded_marks_shrunk(marks: list[DrillMark], rings: list[np.ndarray], ring_nm: int,
+                          pen_nm: int, clearance_nm: int) -> tuple[list[DrillMark], list[str]]:
+    """Two dots closer than the pen can pass between (less than `ring_nm` of copper
+    between their clearances, the copper whole between them) share what room there is:
+    each shrinks to half of it, or is left out below MIN_MARK_NM. A pour stitched with
+    vias 0.635 mm apart otherwise keeps a lens of copper between each two marks that
+    no 0.4 mm pen reaches, bare beside inked copper. Returns the marks and a warning
+    for each mark changed."""
+    dots = [k for k, mark in enumerate(marks) if len(mark.path) == 1]
+    if len(dots) < 2:
+        return marks, []
+    reach = 2 * max(marks[k].radius_nm for k in dots) + 2 * clearance_nm + ring_nm
+    cells: dict[tuple[int, int], list[int]] = {}
+    for k in dots:
+        x, y = marks[k].path[0]
+        cells.setdefault((x // reach, y // reach), []).append(k)
+    pairs = []
+    for (cx, cy), members in cells.items():
+        near = [j for dx in (-1, 0, 1) for dy in (-1, 0, 1)
+                for j in cells.get((cx + dx, cy + dy), ())]
+        for k in members:
+            for j in near:
+                if j > k:
+                    distance = math.dist(marks[k].path[0], marks[j].path[0])
+                    if distance < (marks[k].radius_nm + marks[j].radius_nm
+                                   + 2 * clearance_nm + ring_nm):
+                        pairs.append((k, j, distance))
+    if not pairs:
+        return marks, []
+    middles = np.array([[(marks[k].path[0][0] + marks[j].path[0][0]) // 2,
+                         (marks[k].path[0][1] + marks[j].path[0][1]) // 2]
+                        for k, j, _ in pairs], dtype=np.int64)
+    allowed: dict[int, tuple[int, int]] = {}     # mark -> (radius, the neighbour that set it)
+    for (k, j, distance), between_on_copper in zip(pairs, _inside(rings, middles).tolist()):
+        if not between_on_copper:
+            continue
+        share = math.floor((distance - 2 * clearance_nm - ring_nm) / 2)
+        for mark, other in ((k, j), (j, k)):
+            if share < allowed.get(mark, (marks[mark].radius_nm, -1))[0]:
+                allowed[mark] = (share, other)
+    kept, warnings = [], []
+    for k, mark in enumerate(marks):
+        if k not in allowed:
+            kept.append(mark)
+            continue
+        radius, other = allowed[k]
+        ox, oy = marks[other].path[0]
+        why = (f"the hole at X {ox / NM_PER_MM:.3f}, Y {oy / NM_PER_MM:.3f} mm is "
+               f"{math.dist(mark.path[0], (ox, oy)) / NM_PER_MM:.3f} mm away and the "
+               f"{mm_text(pen_nm)} mm pen needs {(ring_nm + 2 * clearance_nm) / NM_PER_MM:.2f} "
+               "mm between the marks")
+        if 2 * radius >= MIN_MARK_NM:
+            kept.append(dataclasses.replace(mark, radius_nm=radius))
+            warnings.append(f"drill mark of {mark.where} made {2 * radius / NM_PER_MM:.2f} mm "
+                            f"wide, not {mm_text(2 * mark.radius_nm)} mm: {why}")
+        else:
+            warnings.append(f"drill mark of {mark.where} left out: {why}; the pad is inked "
+                            "solid")
+    return kept, warnings
 
 
 def _short_slots_joined(marks: list[DrillMark], ring_nm: int, clearance_nm: int,

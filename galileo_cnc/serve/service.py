@@ -37,7 +37,7 @@ from galileo_cnc.plan.board_plan import BoardChoice, plan_source
 from galileo_cnc.plan.feeds import machine_refusal
 from galileo_cnc.plan.open_traces import open_traces
 from galileo_cnc.plan.pipeline import PlanOptions
-from galileo_cnc.preview.svg import render_svg
+from galileo_cnc.preview.write import write_preview
 from galileo_cnc.program.ops import NM_PER_MM
 from galileo_cnc.serve.operator import Prompt, WebOperator
 from galileo_cnc.serve.uploads import Upload, UploadStore
@@ -297,8 +297,7 @@ class MachineService:
         plan_id = f"p{next(self._plan_ids)}"
         preview = self.folder / "previews" / f"{plan_id}.svg"
         preview.parent.mkdir(parents=True, exist_ok=True)
-        info = render_svg(planned.program, planned.job, config, planned.offset_nm, preview,
-                          copper=planned.copper)
+        info = write_preview(planned, config, preview)
         # its title names the file as the client knows it, not where the server keeps it
         svg = re.sub(r"<title>.*?</title>", f"<title>{escape(upload.name)}: galileo-cnc "
                      f"preview (work mm)</title>", preview.read_text(encoding="utf-8"), 1)

@@ -14,6 +14,7 @@ import pytest
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.plan.board_plan import BoardChoice, plan_board
 from galileo_cnc.plan.pipeline import PlanOptions
+from galileo_cnc.preview.render import LINE_COLOURS
 from galileo_cnc.simavr.board import SimulatedBoard
 from galileo_cnc.stream.journal import FINISHED
 from galileo_cnc.stream.resume import position_after
@@ -125,3 +126,53 @@ def test_a_one_sided_board_is_plotted_without_a_turn_over(home, tmp_path):  # no
         user.line("status")
         screen = user.expect(r"state \w+")
         assert "turn the blank over about the" not in user.screen.text[:screen.end()]
+
+
+def test_getg_draws_the_outline_and_the_silk_after_the_copper(home, tmp_path):  # noqa: F811
+    """`getg BOARD --outline --silk`: on each side the copper, then the outline and the
+    silk, each after a pen change that names it; the silk off the copper is said in mm,
+    the journal keeps both choices for resume, and the head ends where the plan of the
+    bottom with both ends."""
+    board = make_board(tmp_path / "board", silk=True)
+    with console_in_thread(home) as user:
+        user.line(f"getg --outline --silk {board}")
+        user.expect(r"use these offsets\?")
+        user.line("y")
+        for side in ("top", "bottom"):
+            user.expect(r"--silk: [\d.]+ mm of the silk (and \d+ dots? )?left out within "
+                        r"0\.250 mm of copper")
+            if side == "bottom":
+                user.expect(r"plot the bottom side\?")
+                user.line("y")
+            user.expect(r"insert the 0\.4 mm pen")
+            user.type("\r")
+            user.expect(re.escape("insert the outline pen (0.4 mm)"))
+            user.type("\r")
+            user.expect(re.escape("insert the silk pen (0.4 mm)"))
+            user.type("\r")
+            user.expect(r"process has finished")
+        status = user.status()
+        # a picture of each side, as `preview` on the shell draws it
+        pictures = tmp_path / "pictures"
+        pictures.mkdir()
+        user.line(f"preview --outline --silk {board} -o {pictures / 'board.svg'}")
+        for side in ("top", "bottom"):
+            user.expect(rf"{side} side, ")
+            user.expect(re.escape(f"{pictures / f'board-{side}.svg'}: "))
+        user.line(f"preview --side bottom --mode sideways {board}")
+        user.expect(r"preview: unknown option --mode sideways \(preview \[--mode")
+    for side in ("top", "bottom"):
+        svg = (pictures / f"board-{side}.svg").read_text()
+        for role in ("outline", "silk"):
+            assert 'color="#%02x%02x%02x"' % LINE_COLOURS[role] in svg, role
+    choice = BoardChoice(side="top", outline=True, silk=True)
+    top = plan_board(board, MachineConfig(), choice=choice)
+    bottom = plan_board(board, MachineConfig(), top.offset_nm,
+                        choice=BoardChoice(side="bottom", outline=True, silk=True))
+    plain = plan_board(board, MachineConfig(), top.offset_nm,
+                       choice=BoardChoice(side="bottom"))
+    assert len(bottom.job) > len(plain.job)
+    assert status == ("idle", *position_after(bottom.job, len(bottom.job), MachineConfig()))
+    entry = journal_of(home)
+    assert entry["state"] == FINISHED and entry["board"]["side"] == "bottom"
+    assert entry["board"]["outline"] is True and entry["board"]["silk"] is True

@@ -130,27 +130,38 @@ def plan_gcode(plan: DrillPlan, mill: MillConfig, source: str = "") -> str:
 
 
 def _tool_change(bit_nm: int, mill: MillConfig) -> list[str]:
-    """Spindle off at the safe height, M0 naming the bit, Z re-zeroed, spindle on."""
+    return tool_change_lines(f"{mm_text(bit_nm)} mm bit", mill)
+
+
+#: What every tool change's M0 comment begins with: a sender finds the changes by it
+#: (grbl/mill_job.py names the tool to the user and re-zeroes again on a resume).
+TOOL_CHANGE = "TOOL CHANGE: put in the "
+#: The dwell after the spindle is switched on again: it comes up to speed.
+SPIN_UP = "G4 P2"
+
+
+def tool_change_lines(tool: str, mill: MillConfig) -> list[str]:
+    """Spindle off at the safe height, M0 naming the tool (`tool`: "0.800 mm bit"), Z
+    re-zeroed (probe or touch-off), spindle on again and up to speed."""
     safe = mm(mill.safe_height_nm)
-    lines = [f"G0 Z{safe}", "M5", f"M0 (TOOL CHANGE: put in the {mm_text(bit_nm)} mm bit)"]
+    lines = [f"G0 Z{safe}", "M5", f"M0 ({TOOL_CHANGE}{tool})"]
     if mill.probe:
-        lines += [f"M0 (PROBE: clip the probe to the {mm_text(bit_nm)} mm bit, the plate "
-                  f"on the board)",
+        lines += [f"M0 (PROBE: clip the probe to the {tool}, the plate on the board)",
                   f"G38.2 Z{mm(-PROBE_REACH_NM)} F{mm(mill.plunge_feed_um_min * 1000)}",
                   f"G92 Z{mm(mill.probe_plate_nm)}",
                   f"G0 Z{safe}",
                   "M0 (PROBE DONE: take the probe clip and the plate away)"]
     else:
-        lines += _touch_off(bit_nm, mill)
-    lines += [f"M3 S{mill.spindle_rpm}", "G4 P2"]     # let the spindle come up to speed
+        lines += _touch_off(tool, mill)
+    lines += [f"M3 S{mill.spindle_rpm}", SPIN_UP]
     return lines
 
 
-def _touch_off(bit_nm: int, mill: MillConfig) -> list[str]:
+def _touch_off(tool: str, mill: MillConfig) -> list[str]:
     """No probe: the collet-drop touch-off any sender can run (M0 and cycle start only).
     The spindle goes down to Z = 0 with the new bit loose in its collet, so the bit
     rests on the board's top; the user tightens it there: Z = 0 holds for the new bit."""
-    return [f"M0 (TOUCH OFF: leave the {mm_text(bit_nm)} mm bit loose in the collet, its tip "
+    return [f"M0 (TOUCH OFF: leave the {tool} loose in the collet, its tip "
             f"above the board; resume: the spindle goes down to Z = 0)",
             f"G1 Z0 F{mm(mill.plunge_feed_um_min * 1000)}",
             "M0 (TOUCH OFF: let the bit rest on the board's top, tighten the collet, resume)",

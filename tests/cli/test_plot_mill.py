@@ -1,0 +1,74 @@
+"""`plot BOARD --mill JOB` (issue 35) through the machine interface (cli/mill.py's
+run_mill_plot, reached from run_plot with PlotOptions.mill): on GRBL 1.1h in simavr
+with its probe pin (simavr://?firmware=grbl&probe=0) the drilling runs with its bit
+change asked like a pen change and ends on the last hole's step; on sim:// a dry run
+that says what it does, lists the M0 pauses and draws the paths."""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+from pathlib import Path
+
+import pytest
+
+from galileo_cnc.cli.mill import DRY_RUN_NOTE, MillRequest, dry_run_gcode
+from galileo_cnc.cli.plot import PlotOptions, run_plot
+from galileo_cnc.config.profile import load_profile
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "grbl"))
+from grbl_support import QUICK_ACCEL, SETTINGS, grbl_elf  # noqa: E402
+from mill_support import square_pad_board  # noqa: E402
+from test_cli import galileo  # noqa: E402
+
+#: the mill's [mill] options over the default profile: a probe, fast feeds, a thin board
+MILL_SET = ("probe=true", "safe_height_mm=1", "feed_mm_min=4000", "plunge_feed_mm_min=2000",
+            "board_thickness_mm=0.4", "breakthrough_mm=0.1", "tab_height_mm=0.2")
+GRBL_URL = "simavr://?firmware=grbl&realtime=0&probe=0&" + "&".join(
+    f"${number}={value}" for number, value in {**SETTINGS, **QUICK_ACCEL}.items())
+
+
+@pytest.fixture
+def board(tmp_path, monkeypatch):
+    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path / "home"))
+    return square_pad_board(tmp_path / "board")
+
+
+def plot_mill(board: Path, port: str, job: str, capsys) -> tuple[int, str]:
+    profile = dataclasses.replace(load_profile(None), port=port)
+    code = run_plot(PlotOptions(str(board), profile, yes=True,
+                                mill=MillRequest(job, MILL_SET)))
+    out, err = capsys.readouterr()
+    return code, out + err
+
+
+def test_plot_mill_drill_on_grbl_asks_for_the_bit_and_probes(board, capsys):
+    grbl_elf()                      # built (or skipped with the missing package) first
+    code, out = plot_mill(board, GRBL_URL, "drill", capsys)
+    assert code == 0, out[-2000:]
+    assert "board (--mill drill): 3 holes and slots with 0.8, 1 mm bits, 1 bit " \
+           "change" in out
+    assert out.count("paused for a bit change: put in the 1.000 mm bit") == 1
+    assert "paused (M0): PROBE: clip the probe to the 1.000 mm bit" in out
+    # the last hole (1.0 mm, at 3, 7) drilled, the tool up at the safe height
+    assert "mill job finished; GRBL stands at X 3.000 Y 7.000 Z 1.000 mm (work)" in out
+
+
+def test_plot_mill_on_sim_is_a_dry_run_that_says_so(board, tmp_path):
+    # as a user types it: the command line, its --mill options, the built-in machine
+    result = galileo("plot", str(board), "--mill", "all", "--port", "sim://?speed=0", "--yes",
+                     *(f"--mill-set={pair}" for pair in MILL_SET), home=tmp_path / "home")
+    out = result.stdout + result.stderr
+    assert result.returncode == 0, out[-2000:]
+    assert DRY_RUN_NOTE in out
+    assert out.count(": TOOL CHANGE: put in the ") == 3         # listed, not waited for
+    assert "process has finished" in out
+
+
+def test_dry_run_gcode_probes_at_the_plate_and_keeps_the_pauses_as_comments():
+    text = ("M5\nM0 (TOOL CHANGE: put in the 1.000 mm bit)\nG38.2 Z-10 F600\nG92 Z0.5\n"
+            "G0 Z2\n")
+    assert dry_run_gcode(text) == (
+        "M5\n(M0: TOOL CHANGE: put in the 1.000 mm bit)\n"
+        "G1 Z0.5 F600 (G38.2: the probe touches the plate's top)\n"
+        "(G92 Z0.5: the zero stays)\nG0 Z2\n")
