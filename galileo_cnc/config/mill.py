@@ -23,6 +23,11 @@ tabs = 4                   # cut-out: tabs holding the board (0: none)
 tab_spacing_mm = 0         # cut-out: a tab every this many mm instead of a count (0: use tabs)
 tab_width_mm = 2.0         # cut-out: the board's material each tab leaves, along the edge
 tab_height_mm = 0.5        # cut-out: the tab's height above the board's bottom
+height_map = false         # probe the board's top on a grid first, Z corrected by it
+height_map_spacing_mm = 5.0  # height map: the most its grid's points lie apart
+probe_feed_mm_min = 50     # height map: G38.2's feed
+probe_clearance_mm = 1.0   # height map: each probe starts this far above Z = 0
+probe_depth_mm = 1.0       # height map: and finds the board no deeper than this below it
 ```
 
 A V-bit at depth d cuts tip + 2 d tan(angle / 2) wide at the copper's top; an end mill
@@ -80,6 +85,11 @@ class MillConfig:
     tab_spacing_nm: int = 0
     tab_width_nm: int = 2_000_000
     tab_height_nm: int = 500_000
+    height_map: bool = False
+    height_map_spacing_nm: int = 5_000_000
+    probe_feed_um_min: int = 50_000
+    probe_clearance_nm: int = 1_000_000
+    probe_depth_nm: int = 1_000_000
 
     @property
     def cut_width_nm(self) -> int:
@@ -138,11 +148,12 @@ class MillConfig:
                 raise ConfigError(f"{source}: [mill] tabs = {tabs!r}: must be a whole number "
                                   f"0..{MAX_TABS}")
             values["tabs"] = tabs
-        if "probe" in table:
-            if not isinstance(table["probe"], bool):
-                raise ConfigError(f"{source}: [mill] probe = {table['probe']!r}: must be "
-                                  f"true or false")
-            values["probe"] = table["probe"]
+        for key in ("probe", "height_map"):
+            if key in table:
+                if not isinstance(table[key], bool):
+                    raise ConfigError(f"{source}: [mill] {key} = {table[key]!r}: must be "
+                                      f"true or false")
+                values[key] = table[key]
         if "drills" in table:
             values["drills_nm"] = _drills(source, table["drills"])
         config = dataclasses.replace(base, **values) if base is not None else cls(**values)
@@ -196,5 +207,9 @@ _NUMBERS = {
     "tab_spacing_mm": ("tab_spacing_nm", NM_PER_MM, 0.0, 10_000.0, False),
     "tab_width_mm": ("tab_width_nm", NM_PER_MM, 0.0, MAX_HEIGHT_MM, True),
     "tab_height_mm": ("tab_height_nm", NM_PER_MM, 0.0, MAX_HEIGHT_MM, True),
+    "height_map_spacing_mm": ("height_map_spacing_nm", NM_PER_MM, 0.0, MAX_HEIGHT_MM, True),
+    "probe_feed_mm_min": ("probe_feed_um_min", 1000, 1.0, 100_000.0, False),
+    "probe_clearance_mm": ("probe_clearance_nm", NM_PER_MM, 0.0, MAX_HEIGHT_MM, True),
+    "probe_depth_mm": ("probe_depth_nm", NM_PER_MM, 0.0, MAX_TOOL_MM, True),
 }
-_KEYS = ("tool", *_NUMBERS, "passes", "drills", "probe", "tabs")
+_KEYS = ("tool", *_NUMBERS, "passes", "drills", "probe", "tabs", "height_map")

@@ -12,6 +12,11 @@ reply reached us.
 Resuming replans the same file with the same offset and profile (the planner is
 deterministic), checks the machine stands where the confirmed commands leave
 it, and sends the rest: no move is repeated and none is skipped.
+
+A milling job cut with a height map (plan/mill/heightmap.py) keeps the map beside the
+journal (journal.heightmap.json beside journal.json) and its SHA-256 in the entry: the
+corrected lines are a function of the map, so a resume corrects the rest of the job by
+the same map, never a new probing (`Journal.height_map`).
 """
 
 from __future__ import annotations
@@ -27,8 +32,11 @@ from pathlib import Path
 from galileo_cnc import protocol as P
 from galileo_cnc.config.userdirs import data_dir
 from galileo_cnc.errors import GalileoError
+from galileo_cnc.plan.mill.heightmap import HeightMap, HeightMapError
 
 JOURNAL_NAME = "journal.json"
+#: the height map's file: the journal's name with this suffix
+HEIGHT_MAP_SUFFIX = ".heightmap.json"
 #: Write at most this often while streaming (and always when the job stops).
 WRITE_INTERVAL_S = 0.25
 
@@ -89,6 +97,9 @@ class JournalEntry:
     #: a board's side (plan/board_plan.py's BoardChoice as a dict): `source` is then the
     #: board (folder, .zip or .gbrjob); None: a file alone (older journals: none)
     board: dict | None = None
+    #: a milling job cut with a height map: the SHA-256 of the map's file beside the
+    #: journal (Journal.height_map); None: no map (older journals: none)
+    height_map: str | None = None
 
     def index_of_seq(self, seq: int) -> int | None:
         """The command a sequence number of this session would belong to (the
@@ -146,6 +157,8 @@ _FIELD_CHECKS = {
     "stopped_at": (lambda v: v is None or _integers(3)(v), "null or a list of 3 integers"),
     "board": (lambda v: v is None or (isinstance(v, dict) and all(isinstance(k, str) for k in v)),
               "null or the board's side and choices"),
+    "height_map": (lambda v: v is None or (isinstance(v, str) and re.fullmatch(r"[0-9a-f]{64}", v)
+                                            is not None), "null or a SHA-256 in hex"),
 }
 _REQUIRED = ("source", "digest", "offset_nm", "profile", "group", "total", "confirmed",
              "first_index", "first_seq")
@@ -215,9 +228,52 @@ class Journal:
         return JournalError(f"{self.path}: damaged job journal: {what} (delete it to start "
                             "afresh; the interrupted job then cannot be resumed)")
 
-    def begin(self, entry: JournalEntry) -> None:
+    def begin(self, entry: JournalEntry, height_map: HeightMap | None = None) -> None:
+        """A job's session: its entry, and for a new job the height map its lines were
+        corrected by (kept beside the journal, its digest in the entry). An interrupted
+        job going on keeps its map (its entry names it); a job without one removes a
+        stale map."""
         self.entry = entry
+        if height_map is not None:
+            entry.height_map = self._write_height_map(height_map)
+        elif entry.height_map is None:
+            self.height_map_path.unlink(missing_ok=True)
         self.write()
+
+    @property
+    def height_map_path(self) -> Path:
+        return self.path.with_suffix(HEIGHT_MAP_SUFFIX)
+
+    def _write_height_map(self, height_map: HeightMap) -> str:
+        text = json.dumps(height_map.to_json())
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        temp = self.height_map_path.with_suffix(".tmp")
+        temp.write_text(text)
+        os.replace(temp, self.height_map_path)
+        return hashlib.sha256(text.encode()).hexdigest()
+
+    def height_map(self, entry: JournalEntry) -> HeightMap | None:
+        """The height map `entry`'s job was corrected by, None when it had none;
+        JournalError when the map's file is gone, changed or damaged: the job cannot
+        resume by another map (its depths would jump where the old one left off)."""
+        if entry.height_map is None:
+            return None
+        path = self.height_map_path
+        refuse = (f"the job was cut with a height map kept in {path}, which is "
+                  f"{{}}: it cannot resume by another map (the depths would jump where it "
+                  f"left off); delete the journal to start afresh, probing again")
+        try:
+            raw = path.read_bytes()
+        except FileNotFoundError:
+            raise JournalError(refuse.format("missing")) from None
+        except OSError as exc:
+            raise JournalError(refuse.format(f"unreadable ({exc.strerror})")) from None
+        if hashlib.sha256(raw).hexdigest() != entry.height_map:
+            raise JournalError(refuse.format("not the one the journal names (changed since)"))
+        try:
+            return HeightMap.from_json(json.loads(raw.decode("utf-8")))
+        except (ValueError, HeightMapError) as exc:
+            raise JournalError(refuse.format(f"damaged ({exc})")) from None
 
     def confirm(self, index: int) -> None:
         self.entry.confirmed = index

@@ -64,3 +64,24 @@ def test_options_over_the_profile_keep_what_they_do_not_name(tmp_path):
         "endmill", 300_000, 4, 500)
     with pytest.raises(ConfigError, match=r"command line: \[mill\] passes = 40: must be"):
         MillConfig.from_table({"passes": 40}, "command line", base=mill)
+
+
+def test_the_height_map_keys_in_mm_made_integer_and_each_refused_naming_it(tmp_path):
+    mill = _profile(tmp_path, "[mill]\nheight_map = true\nheight_map_spacing_mm = 2.5\n"
+                              "probe_feed_mm_min = 30\nprobe_clearance_mm = 0.5\n"
+                              "probe_depth_mm = 0.8\n").mill
+    assert (mill.height_map, mill.height_map_spacing_nm, mill.probe_feed_um_min) == (
+        True, 2_500_000, 30_000)
+    assert (mill.probe_clearance_nm, mill.probe_depth_nm) == (500_000, 800_000)
+    assert MillConfig().height_map is False
+    for text, expected in (
+            ("height_map = 1", "[mill] height_map = 1: must be true or false"),
+            ("height_map_spacing_mm = 0", "[mill] height_map_spacing_mm = 0: must be > 0"),
+            ("probe_feed_mm_min = 0.5", "[mill] probe_feed_mm_min = 0.5: must be >= 1"),
+            ("probe_clearance_mm = -1", "[mill] probe_clearance_mm = -1: must be > 0"),
+            ("probe_depth_mm = 20", "[mill] probe_depth_mm = 20: must be > 0 and <= 10"),
+            ("height_map_spacing = 5", "unknown key(s): height_map_spacing (did you mean "
+                                       "height_map_spacing_mm?)")):
+        with pytest.raises(ConfigError) as caught:
+            _profile(tmp_path, f"[mill]\n{text}\n")
+        assert expected in str(caught.value) and "profile.toml" in str(caught.value)
