@@ -461,6 +461,12 @@ class GrblMachine(Machine):
     def pending_mill(self):
         return pending_mill_job(mill_journal())
 
+    def probe_height_map(self, grid, on_point=None):
+        """The surface under the job probed with G38.2 at every node of `grid`
+        (grbl/probe.py): a HeightMap in work Z; ProbeError naming the node in mm."""
+        from galileo_cnc.grbl.probe import probe_height_map
+        return probe_height_map(self.link, grid, on_point)
+
     def plan_mill_resume(self, pending) -> Resumption:
         entry, program = pending
         job = GrblMillJob(self.link, self.port, program)

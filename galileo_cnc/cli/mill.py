@@ -314,8 +314,11 @@ def run_mill_plot(options, out=None) -> int:
         else:
             for note in notes:
                 progress.message(f"note: {note}")
+            out.write(f"{program.name}: {summary}\n")
+            if mill.height_map:
+                program = _with_height_map(machine, program, mill, operator, progress)
             job = machine.prepare_mill(program)
-            out.write(f"{program.name}: {summary}\n{job.estimate_line()}\n")
+            out.write(f"{job.estimate_line()}\n")
             result = _run(machine, named, operator, lambda: machine.run_job(job, operator))
         if isinstance(result, int):
             return result
@@ -324,6 +327,22 @@ def run_mill_plot(options, out=None) -> int:
         return 0
     finally:
         machine.close()
+
+
+def _with_height_map(machine, program, mill: MillConfig, operator, progress):
+    """[mill] height_map = true: the surface under the cuts probed (the user clips the
+    probe on first, and takes it off after), the program to follow it; the map goes
+    into the job's journal with it (grbl/mill_job.py)."""
+    from galileo_cnc.plan.mill.heightmap import job_grid
+    grid = job_grid(program.text.splitlines(), mill, program.name)
+    if not operator.confirm(f"height map: clip the probe to the tool; it probes "
+                            f"{grid.describe()}"):
+        raise GalileoError("the height map was not probed: nothing was cut")
+    height_map = machine.probe_height_map(grid)
+    progress.message(height_map.describe())
+    if not operator.confirm("height map probed: take the probe clip off the tool"):
+        raise GalileoError("the probe clip stays on: nothing was cut")
+    return dataclasses.replace(program, height_map=height_map)
 
 
 def _dry_run(options, program, out, run_plot) -> int:

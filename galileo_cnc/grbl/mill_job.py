@@ -17,7 +17,8 @@ GRBL board, as grbl/job.py runs a plot (docs/mill.md, "Running a mill job on GRB
   height, relative: after a tool change only the reset-dropped G92 knew the new bit's Z.
 - The journal: journal-mill.json (stream/journal.py's format, counting G-code lines)
   with the G-code kept beside it (mill-job.nc), so a resume sends the same lines
-  without planning anything again.
+  without planning anything again; a job cut by a height map keeps the map there too,
+  and a resume corrects the kept G-code by that map, never a new one.
 - A resume goes on after the last line GRBL confirmed (or, when the stop cut GRBL's
   queue short, from the first line that may not have run: `mill_rewind`), after the
   lead-in `mill_lead_in`: the modes, the G92 offset cleared, then with no tool change
@@ -45,6 +46,7 @@ from galileo_cnc.grbl.resume import PREAMBLE_TEXT, STEPPER_BLOCKS, GrblResumeErr
 from galileo_cnc.grbl.session import hold_and_reset, stream_piece
 from galileo_cnc.grbl.stream import GrblStreamError
 from galileo_cnc.plan.mill.drill import SPIN_UP, TOOL_CHANGE
+from galileo_cnc.plan.mill.heightmap import HeightCorrector, HeightMap
 from galileo_cnc.program.ops import NM_PER_MM
 from galileo_cnc.stream.journal import RUNNING, Journal, JournalEntry, file_digest
 from galileo_cnc.stream.streamer import PenChange, Progress, StreamResult
@@ -73,6 +75,8 @@ class MillProgram:
     name: str                   # how messages name its lines: "{name}:{line}"
     safe_mm: str                # the safe height, as the G-code writes it ("2")
     plunge_mm_min: str          # the plunge feed, mm/min
+    #: the probed surface the cuts follow (plan/mill/heightmap.py), None: a flat board
+    height_map: HeightMap | None = None
 
     @property
     def program(self) -> "MillProgram":
@@ -91,6 +95,20 @@ class MillPause(PenChange):
         if self.message.startswith(TOOL_CHANGE):
             return f"paused for a bit change: {self.message[len('TOOL CHANGE: '):]}"
         return f"paused (M0): {self.message}"
+
+
+def height_corrected(lines: list[GcodeLine], pauses: dict[int, str], height_map: HeightMap,
+                     name: str) -> tuple[list[GcodeLine], dict[int, str]]:
+    """`lines` with Z following `height_map` (each cut split where the map bends, the
+    pieces keeping their file line) and the pauses moved with their lines."""
+    corrector = HeightCorrector(height_map, name)
+    corrected: list[GcodeLine] = []
+    moved: dict[int, str] = {}
+    for index, line in enumerate(lines):
+        if index in pauses:
+            moved[len(corrected)] = pauses[index]
+        corrected += [GcodeLine(text, line.command) for text in corrector.line(line.text)]
+    return corrected, moved
 
 
 def mill_lines(text: str) -> tuple[list[GcodeLine], dict[int, str]]:
@@ -275,7 +293,7 @@ def pending_mill_job(journal: Journal) -> tuple[JournalEntry, MillProgram]:
                               f"be resumed; run the job again")
     board = entry.board
     return entry, MillProgram(text, board["mill"], board["name"], board["safe_mm"],
-                              board["plunge_mm_min"])
+                              board["plunge_mm_min"], journal.height_map(entry))
 
 
 # ---- the job ----------------------------------------------------------------------------
@@ -292,6 +310,9 @@ class GrblMillJob:
         self.config = None
         self.scale = link_scale(link)
         self.lines, self.pauses = mill_lines(program.text)
+        if program.height_map is not None:
+            self.lines, self.pauses = height_corrected(self.lines, self.pauses,
+                                                       program.height_map, program.name)
         if not self.lines:
             raise GalileoError(f"{program.name}: no G-code lines to run")
         self.start = 0
@@ -356,7 +377,8 @@ class GrblMillJob:
         journal.begin(JournalEntry(
             str(kept), file_digest(str(kept)), (0, 0), "", False, len(self.lines), -1, 0, 0,
             board={"mill": program.source, "name": program.name,
-                   "safe_mm": program.safe_mm, "plunge_mm_min": program.plunge_mm_min}))
+                   "safe_mm": program.safe_mm, "plunge_mm_min": program.plunge_mm_min}),
+            height_map=program.height_map)
 
     def stop(self) -> None:
         """From another thread: feed hold now; the streaming thread's next read raises

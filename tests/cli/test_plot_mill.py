@@ -15,6 +15,8 @@ import pytest
 from galileo_cnc.cli.mill import DRY_RUN_NOTE, MillRequest, dry_run_gcode, run_mill_plot
 from galileo_cnc.cli.plot import PlotOptions
 from galileo_cnc.config.profile import load_profile
+from galileo_cnc.grbl.mill_job import MILL_JOURNAL_NAME
+from galileo_cnc.stream.journal import FINISHED, Journal
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "grbl"))
 from grbl_support import QUICK_ACCEL, SETTINGS, grbl_elf  # noqa: E402
@@ -34,10 +36,11 @@ def board(tmp_path, monkeypatch):
     return square_pad_board(tmp_path / "board")
 
 
-def plot_mill(board: Path, port: str, job: str, capsys) -> tuple[int, str]:
+def plot_mill(board: Path, port: str, job: str, capsys, extra: tuple[str, ...] = ()
+              ) -> tuple[int, str]:
     profile = dataclasses.replace(load_profile(None), port=port)
     code = run_mill_plot(PlotOptions(str(board), profile, yes=True,
-                                     mill=MillRequest(job, MILL_SET)))
+                                     mill=MillRequest(job, MILL_SET + extra)))
     out, err = capsys.readouterr()
     return code, out + err
 
@@ -52,6 +55,27 @@ def test_plot_mill_drill_on_grbl_asks_for_the_bit_and_probes(board, capsys):
     assert "paused (M0): PROBE: clip the probe to the 1.000 mm bit" in out
     # the last hole (1.0 mm, at 3, 7) drilled, the tool up at the safe height
     assert "mill job finished; GRBL stands at X 3.000 Y 7.000 Z 1.000 mm (work)" in out
+
+
+def test_plot_mill_with_a_height_map_probes_first_and_journals_the_map(board, tmp_path,
+                                                                     capsys):
+    """[mill] height_map = true: the grid over the cuts probed before the job (the
+    user asked to clip the probe on, then to take it off), the isolation cut by the
+    map, and the map kept with the job's journal for a resume."""
+    grbl_elf()
+    code, out = plot_mill(board, GRBL_URL, "isolate", capsys,
+                          ("height_map=true", "height_map_spacing_mm=6"))
+    assert code == 0, out[-2000:]
+    assert out.index("height map: clip the probe to the tool; it probes 2 x 2 points") \
+        < out.index("surface lies at Z 0.000..0.000 mm") \
+        < out.index("height map probed: take the probe clip off the tool") \
+        < out.index("mill job finished")
+    journal = Journal(tmp_path / "home" / MILL_JOURNAL_NAME)
+    entry = journal.load()
+    assert entry.state == FINISHED and entry.height_map is not None
+    kept = journal.height_map(entry)
+    assert (len(kept.xs_nm), len(kept.ys_nm)) == (2, 2)
+    assert {z for row in kept.z_nm for z in row} == {0}
 
 
 def test_plot_mill_on_sim_is_a_dry_run_that_says_so(board, tmp_path):
