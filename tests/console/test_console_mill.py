@@ -104,3 +104,17 @@ def test_getg_mill_drills_asks_for_the_bit_and_resumes_a_stopped_cutout(home, tm
     program, _, _ = mill_program(str(board), "cutout", mill)
     assert tuple(round(float(v) * MM) for v in finished.groups()) == job_end(program.text)
     assert "Traceback" not in user.screen.text
+
+
+def test_getg_mill_on_a_machine_without_gcode_says_it_needs_grbl(home, tmp_path):  # noqa: F811
+    board = square_pad_board(tmp_path / "board")
+    with console_in_thread(home) as user:                       # sim://: no G-code
+        user.line(f"getg --mill drill {board}")
+        user.expect(r"getg --mill: sim://\S* runs no G-code: the console's mill job needs a "
+                    r"GRBL board \(connect PORT\); galileo-cnc plot BOARD --mill drill --port "
+                    r"sim:// does a dry run of it")
+        user.expect(r">>")
+        user.line(f"getg --accept-shorts {board}")              # a mill option alone
+        user.expect(r"getg: --mill-set, --accept-shorts and --drill-order go with --mill")
+        user.expect(r">>")
+    assert "Traceback" not in user.screen.text
