@@ -83,7 +83,7 @@ def test_getg_mill_drills_asks_for_the_bit_and_resumes_a_stopped_cutout(home, tm
         user.line(mill_line("cutout", CUTOUT_SET, board))
         user.expect(r"run the mill job\? \[Y/n\]")
         user.line("")
-        user.expect(r"q or Ctrl-C stops")
+        user.expect(r"\(q (or Ctrl-C )?stops")      # the bar: its title is the board
         wait_confirmed("cutout", 20)        # GRBL cuts the outline's first edges
         user.type("q")
         stopped = user.expect(r"job stopped after (\d+) of (\d+) G-code lines: stopped by "
