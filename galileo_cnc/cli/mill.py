@@ -22,7 +22,7 @@ from galileo_cnc.config.mill import MillConfig
 from galileo_cnc.errors import GalileoError
 # the job's setup is shared with the console and the web page (grbl/mill_plan.py)
 from galileo_cnc.grbl.mill_plan import (MILL_JOBS, MillRequest, mill_program,  # noqa: F401
-                                        mill_table, mill_text)
+                                        mill_table, mill_text, with_height_map)
 
 
 def add_mill_options(parser: argparse.ArgumentParser) -> None:
@@ -64,9 +64,10 @@ def run_mill_plot(options, out=None) -> int:
     out = out if out is not None else sys.stdout
     request: MillRequest = options.mill
     profile = options.profile
+    mill = request.mill(profile.mill)
     program = notes = summary = None
     if not options.resume:
-        program, notes, summary = request.program(options.file, profile.mill, options.board)
+        program, notes, summary = request.program(options.file, mill, options.board)
     port, kind, handle = profile.port or SIM_URL, options.kind, options.handle
     if kind is None:                    # cli/main probes before; a caller may not have
         port, kind, handle = open_board(profile.port, profile.baud)
@@ -99,7 +100,8 @@ def run_mill_plot(options, out=None) -> int:
                 progress.message(f"note: {note}")
             out.write(f"{program.name}: {summary}\n")
             if mill.height_map:
-                program = _with_height_map(machine, program, mill, operator, progress)
+                program = with_height_map(machine, program, mill, operator.confirm,
+                                          progress.message)
             job = machine.prepare_mill(program)
             out.write(f"{job.estimate_line()}\n")
             result = _run(machine, named, operator, lambda: machine.run_job(job, operator))
@@ -110,22 +112,6 @@ def run_mill_plot(options, out=None) -> int:
         return 0
     finally:
         machine.close()
-
-
-def _with_height_map(machine, program, mill: MillConfig, operator, progress):
-    """[mill] height_map = true: the surface under the cuts probed (the user clips the
-    probe on first, and takes it off after), the program to follow it; the map goes
-    into the job's journal with it (grbl/mill_job.py)."""
-    from galileo_cnc.plan.mill.heightmap import job_grid
-    grid = job_grid(program.text.splitlines(), mill, program.name)
-    if not operator.confirm(f"height map: clip the probe to the tool; it probes "
-                            f"{grid.describe()}"):
-        raise GalileoError("the height map was not probed: nothing was cut")
-    height_map = machine.probe_height_map(grid)
-    progress.message(height_map.describe())
-    if not operator.confirm("height map probed: take the probe clip off the tool"):
-        raise GalileoError("the probe clip stays on: nothing was cut")
-    return dataclasses.replace(program, height_map=height_map)
 
 
 def _dry_run(options, program, out, run_plot) -> int:

@@ -2,10 +2,11 @@
 [--drill-order plated-first|unplated-first] BOARD`: a mill job (docs/mill.md) planned
 as `plot --mill` plans it (grbl/mill_plan.py), its notes and summary said, confirmed,
 then run on a GRBL board through the Machine under the progress bar; each M0 (a bit
-change, the probe clipped on) is asked like a pen change. A machine that runs no
-G-code (sim://, our firmware) is told apart: the console runs no dry run (`plot
-BOARD --mill JOB --port sim://` does). `resume` continues an interrupted mill job
-(jobs.resume_mill)."""
+change, the probe clipped on) is asked like a pen change; with the [mill] key
+height_map = true the surface is probed first (mill_plan.with_height_map). A machine
+that runs no G-code (sim://, our firmware) is told apart: the console runs no dry run
+(`plot BOARD --mill JOB --port sim://` does). `resume` continues an interrupted mill
+job (jobs.resume: the mill journal's first)."""
 
 from __future__ import annotations
 
@@ -13,7 +14,8 @@ import os
 
 from galileo_cnc.console import jobs
 from galileo_cnc.errors import GalileoError
-from galileo_cnc.grbl.mill_plan import MILL_JOBS, MillRequest, profile_mill
+from galileo_cnc.grbl.mill_plan import (MILL_JOBS, MillRequest, profile_mill,
+                                        with_height_map)
 from galileo_cnc.plan.board_plan import BoardChoice
 from galileo_cnc.readers.board import is_board
 
@@ -71,11 +73,14 @@ def run(console, request: MillRequest, path: str, board: dict) -> None:
                            f"board (a folder, .zip or .gbrjob); {path} is one file")
     console.say(f"planning the mill job ({request.job}) ...")
     # a refusal (islands closer than the cut, listed in mm) is a GalileoError: said as is
-    program, notes, summary = request.program(path, profile_mill(console.config_path), choice)
+    mill = request.mill(profile_mill(console.config_path))
+    program, notes, summary = request.program(path, mill, choice)
     for note in notes:
         console.say(f"note: {note}")
-    job = machine.prepare_mill(program)
     console.say(f"{program.name}: {summary}")
+    if mill.height_map:                     # probed now, before the job is confirmed
+        program = with_height_map(machine, program, mill, console.confirm, console.say)
+    job = machine.prepare_mill(program)
     console.say(job.estimate_line())
     if not console.confirm("run the mill job?"):
         console.say(f"not run (getg --mill {request.job} {os.path.basename(path)} asks again)")

@@ -8,6 +8,7 @@ the job's G-code as a MillProgram (grbl/mill_job.py) with the notes and a summar
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 
 from dataclasses import dataclass
@@ -233,9 +234,10 @@ class MillRequest:
         """The profile's [mill] (`base`) with this request's --mill-set over it."""
         return MillConfig.from_table(mill_table(list(self.mill_set)), "--mill-set", base=base)
 
-    def program(self, file, base: MillConfig, choice=None):
-        """(MillProgram, notes, summary) of this job on `file` (mill_program)."""
-        return mill_program(file, self.job, self.mill(base), choice,
+    def program(self, file, mill: MillConfig, choice=None):
+        """(MillProgram, notes, summary) of this job on `file` (mill_program) with the
+        tool `mill` (self.mill's)."""
+        return mill_program(file, self.job, mill, choice,
                             accept_shorts=self.accept_shorts, drill_order=self.drill_order)
 
 
@@ -245,3 +247,19 @@ def profile_mill(path=None) -> MillConfig:
     plans a mill job with."""
     from galileo_cnc.config.profile import load_profile
     return load_profile(path).mill
+
+
+def with_height_map(machine, program, mill: MillConfig, confirm, say):
+    """[mill] height_map = true: the surface under the cuts probed on `machine` (the
+    user clips the probe on first, and takes it off after: `confirm(question)`), the
+    program to follow it; the map goes into the job's journal with it
+    (grbl/mill_job.py). `say`: the map's summary."""
+    from galileo_cnc.plan.mill.heightmap import job_grid
+    grid = job_grid(program.text.splitlines(), mill, program.name)
+    if not confirm(f"height map: clip the probe to the tool; it probes {grid.describe()}"):
+        raise GalileoError("the height map was not probed: nothing was cut")
+    height_map = machine.probe_height_map(grid)
+    say(height_map.describe())
+    if not confirm("height map probed: take the probe clip off the tool"):
+        raise GalileoError("the probe clip stays on: nothing was cut")
+    return dataclasses.replace(program, height_map=height_map)

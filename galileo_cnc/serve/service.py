@@ -36,7 +36,8 @@ from galileo_cnc.backends import Machine
 from galileo_cnc.config.machine import MachineConfig, pen_widths_from_text
 from galileo_cnc.config.userdirs import data_dir
 from galileo_cnc.errors import GalileoError
-from galileo_cnc.grbl.mill_plan import MILL_JOBS, mill_program, profile_mill
+from galileo_cnc.grbl.mill_plan import (MILL_JOBS, mill_program, profile_mill,
+                                        with_height_map)
 from galileo_cnc.machine.timing import duration_text
 from galileo_cnc.plan.board_plan import BoardChoice, plan_source
 from galileo_cnc.plan.feeds import machine_refusal
@@ -94,6 +95,7 @@ class MillPlan:
     id: str
     upload: Upload
     program: Any                    # grbl.mill_job.MillProgram
+    mill: Any                       # config.mill.MillConfig: the tool (its height_map)
     options: dict
     lines: list[str] = field(default_factory=list)
     preview: Path | None = None
@@ -380,7 +382,7 @@ class MachineService:
         lines = [f"{upload.name} (mill {job}): {summary}", *(f"note: {note}" for note in notes)]
         options = {"mill": job, "side": side if choice is not None else None,
                    "mill_set": mill_set, "accept_shorts": accept_shorts}
-        return self._keep(MillPlan(f"p{next(self._plan_ids)}", upload, program, options,
+        return self._keep(MillPlan(f"p{next(self._plan_ids)}", upload, program, mill, options,
                                    [line.replace(str(path), upload.name) for line in lines]))
 
     def _keep(self, plan):
@@ -442,10 +444,21 @@ class MachineService:
                             first=job.estimate_line())
 
     def _run_mill(self, plan: MillPlan) -> dict:
+        """The mill job; with [mill] height_map the surface probed first, the page asked
+        to clip the probe on and take it off (confirm prompts)."""
         machine = self.machine
-        job = machine.prepare_mill(plan.program)
-        return self._stream(plan.program.name, job, lambda op: machine.run_job(job, op),
-                            first=job.estimate_line())
+        operator = WebOperator(self.publish, self._set_prompt)
+        program = plan.program
+        if plan.mill.height_map:
+            self.operator = operator            # its prompts are answered through the API
+            try:
+                program = with_height_map(machine, program, plan.mill, operator.confirm,
+                                          operator.say)
+            finally:
+                self.operator = None
+        job = machine.prepare_mill(program)
+        return self._stream(program.name, job, lambda op: machine.run_job(job, op),
+                            first=job.estimate_line(), operator=operator)
 
     def _pending_mill(self):
         """The interrupted mill job (entry, MillProgram) of a machine that runs them,
@@ -482,8 +495,8 @@ class MachineService:
             return {"result": "nothing left"}
         return self._stream(name, resumption.job, lambda op: machine.resume(resumption, op))
 
-    def _stream(self, name: str, job, run, first: str = "") -> dict:
-        operator = WebOperator(self.publish, self._set_prompt)
+    def _stream(self, name: str, job, run, first: str = "", operator=None) -> dict:
+        operator = operator or WebOperator(self.publish, self._set_prompt)
         self._job = {"name": name, "total": job.total, "start": job.start, "unit": job.unit,
                      "began": time.monotonic()}
         self.operator = operator
