@@ -57,6 +57,18 @@ getg [--mode ink|centre] [--pens MM,MM] [--layers A,B] [--units mm|in]
     with the same offsets. --side top|bottom plots one side, --mirror-axis
     x=MM another turn-over line (board mm), --registration adds crosses on
     both sides, --layer FILE=ROLE places a file (galileo-cnc info BOARD).
+    A mill job on a GRBL board (docs/mill.md):
+    getg --mill isolate|drill|cutout|all [--mill-set KEY=VALUE]
+         [--accept-shorts] [--drill-order plated-first|unplated-first] BOARD
+    isolates the copper, drills the holes bit by bit or cuts the outline with
+    tabs (all: the three, a tool change between), the tool from the profile's
+    [mill] with --mill-set over it (--mill-set passes=2). It shows what the
+    job does and asks before it runs; islands closer than the tool can part
+    are listed in mm and the job is refused unless --accept-shorts. Each
+    pause of the job asks like a pen change ("paused for a bit change: put in
+    the 1.000 mm bit"): do it, press Enter. On a machine that runs no G-code
+    (sim://, this plotter) it says so: galileo-cnc plot BOARD --mill JOB
+    --port sim:// does a dry run.
 
 [preview]
 preview [getg's options] [FILE] [-o OUT.png|OUT.svg]
@@ -157,7 +169,9 @@ resume
     GRBL board stopped in this session it goes on from where GRBL kept its
     position; else it homes with $H (or, with no switches, asks you to put
     the pen back at work zero), then goes on after the last line GRBL
-    confirmed.
+    confirmed. An interrupted mill job (getg --mill, plot --mill) goes on
+    first: after a reset with no homing you put the tool at the job's work
+    zero; a bit change it stopped in is done again.
 
 [exit]
 exit

@@ -13,7 +13,7 @@ import os
 from prompt_toolkit.completion import PathCompleter
 
 from galileo_cnc.config.machine import pen_widths_from_text
-from galileo_cnc.console import jobs
+from galileo_cnc.console import jobs, mill
 from galileo_cnc.plan.offsets import offset_from_text
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.plan.board_plan import BoardChoice, copper_sides, plan_board
@@ -28,10 +28,14 @@ from galileo_cnc.program.ops import NM_PER_MM
 
 
 def run(console, arguments: list[str]) -> None:
+    request, arguments = mill.split_mill_options(arguments)
     options, config, board, arguments = parse_options(console, arguments)
     path = " ".join(arguments) if arguments else console.ask(
         "file to plot: ", completer=PathCompleter(expanduser=True))
     if not path:
+        return
+    if request is not None:                 # getg --mill JOB: the mill job (console/mill.py)
+        mill.run(console, request, os.path.expanduser(path), board)
         return
     console.machine.check_profile()         # e.g. a board built for another machine
     if is_board(os.path.expanduser(path)):

@@ -5,6 +5,8 @@ lends it the progress bar (job_screen.JobScreen, an Operator)."""
 from __future__ import annotations
 
 from galileo_cnc.console.job_screen import BELL, ConsoleOperator, JobScreen
+from galileo_cnc.errors import GalileoError
+from galileo_cnc.grbl.resume import GrblResumeError
 from galileo_cnc.machine.timing import duration_text
 from galileo_cnc.transport.link import PortGone
 
@@ -21,29 +23,58 @@ def plot(console, planned, config) -> bool:
     return _run(console, job, lambda operator: machine.run_job(job, operator))
 
 
+def run_mill(console, job) -> bool:
+    """getg --mill's job (console/mill.py), prepared by the machine: journalled and
+    streamed, its M0 pauses asked as pen changes; True when it ran to its end."""
+    return _run(console, job, lambda operator: console.machine.run_job(job, operator))
+
+
 def resume(console) -> None:
     """The job the machine's journal holds (from getg or `galileo-cnc plot`), continued
-    as `plot --resume` does it."""
+    as `plot --resume` does it; on GRBL an interrupted mill job first (its own journal)."""
     machine = console.machine
+    if machine.runs_mill:
+        try:
+            pending = machine.pending_mill()
+        except GrblResumeError:
+            raise                       # its G-code changed or is gone: said as is
+        except GalileoError:
+            pending = None              # none: a plot may be
+        if pending is not None:
+            _resume_mill(console, pending)
+            return
     entry = machine.pending()                      # GalileoError: none, and why
     resumption = machine.plan_resume(entry, on_stage=console.say_stage,
                                      plan=console.plans.plan_file,
                                      timing=console.plans.timing)
-    console.say(f"{entry.source}: {resumption.why}")
-    if resumption.job is None:
-        console.say(resumption.nothing_left)
-        return
-    if not console.confirm("continue the job?"):
-        return
-    if not machine.find_position(resumption, ConsoleOperator(console)):
-        console.say("then move it there (setup jogs the head), and type resume again")
-        return
-    job = resumption.job
-    if _run(console, job, lambda operator: machine.run_job(job, operator)):
-        planned = job.planned.job
+    if _went_on(console, entry.source, resumption, "job"):
+        planned = resumption.job.planned.job
         if planned.board is not None and planned.board.get("side") == "top":
             console.say(f"the top side is done: turn the blank over and type getg --side "
                         f"bottom {planned.source} for the bottom")
+
+
+def _resume_mill(console, pending) -> None:
+    """The interrupted mill job (getg --mill, plot --mill) from where GRBL stopped."""
+    resumption = console.machine.plan_mill_resume(pending)
+    _went_on(console, pending[1].name, resumption, "mill job")
+
+
+def _went_on(console, name: str, resumption, what: str) -> bool:
+    """The resumption said, confirmed, its position found, the rest run; True when it
+    ran to its end."""
+    machine = console.machine
+    console.say(f"{name}: {resumption.why}")
+    if resumption.job is None:
+        console.say(resumption.nothing_left)
+        return False
+    if not console.confirm(f"continue the {what}?"):
+        return False
+    if not machine.find_position(resumption, ConsoleOperator(console)):
+        console.say("then move it there (setup jogs the head), and type resume again")
+        return False
+    job = resumption.job
+    return _run(console, job, lambda operator: machine.run_job(job, operator))
 
 
 def _run(console, job, run) -> bool:

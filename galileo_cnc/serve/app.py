@@ -114,13 +114,16 @@ async def upload(request: Request) -> JSONResponse:
 
 
 async def make_plan(request: Request) -> JSONResponse:
-    """{upload, pens?, mode?, side?, offset?, allow_open?}: planned, its preview drawn."""
+    """{upload, pens?, mode?, side?, offset?, allow_open?}: planned, its preview drawn;
+    with {mill: isolate|drill|cutout|all, mill_set?, accept_shorts?} a mill job."""
     data = await _json(request)
     service = _service(request)
     plan = await asyncio.to_thread(
         service.plan, str(data.get("upload", "")), pens=str(data.get("pens") or ""),
         mode=str(data.get("mode") or "auto"), side=str(data.get("side") or "top"),
-        offset=str(data.get("offset") or "auto"), allow_open=bool(data.get("allow_open")))
+        offset=str(data.get("offset") or "auto"), allow_open=bool(data.get("allow_open")),
+        mill=str(data.get("mill") or ""), mill_set=data.get("mill_set") or {},
+        accept_shorts=data.get("accept_shorts") is True)
     return JSONResponse(plan.public(), status_code=201)
 
 
@@ -130,6 +133,8 @@ async def get_plan(request: Request) -> JSONResponse:
 
 async def preview(request: Request) -> Response:
     plan = _service(request).get_plan(request.path_params["plan_id"])
+    if plan.preview is None:
+        raise NotFound(f"plan {plan.id} is a mill job: it has no preview")
     body = await asyncio.to_thread(plan.preview.read_bytes)
     return Response(body, media_type="image/svg+xml",
                     headers={"content-security-policy": "default-src 'none'; "

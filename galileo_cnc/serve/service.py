@@ -10,12 +10,16 @@ command takes. Pages come and go; the job runs on until it ends, is stopped, or 
 port is lost (the journal then keeps it for `resume`).
 
 Planning is the same as the console's and plot's (plan.board_plan.plan_source), done
-in the caller's thread (the app's thread pool): it needs no machine.
+in the caller's thread (the app's thread pool): it needs no machine. A mill job
+(`mill`: isolate, drill, cutout or all; docs/mill.md) is planned from the uploaded
+board as `plot --mill` plans it (grbl/mill_plan.py) and run by a machine that runs
+G-code (GRBL); its M0 pauses (a bit change, the probe) come to the page as a pen change.
 """
 
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import itertools
 import json
 import re
@@ -32,6 +36,8 @@ from galileo_cnc.backends import Machine
 from galileo_cnc.config.machine import MachineConfig, pen_widths_from_text
 from galileo_cnc.config.userdirs import data_dir
 from galileo_cnc.errors import GalileoError
+from galileo_cnc.grbl.mill_plan import (MILL_JOBS, mill_program, profile_mill,
+                                        with_height_map)
 from galileo_cnc.machine.timing import duration_text
 from galileo_cnc.plan.board_plan import BoardChoice, plan_source
 from galileo_cnc.plan.feeds import machine_refusal
@@ -79,6 +85,30 @@ class Plan:
                 "options": self.options, "lines": self.lines, "commands": len(job),
                 "pen_changes": len(job.pen_changes),
                 "preview": f"/api/plans/{self.id}/preview.svg"}
+
+
+@dataclass
+class MillPlan:
+    """A mill job planned from an upload (grbl.mill_job.MillProgram), ready to start;
+    no preview: its G-code is its plan (`convert --mill` writes it)."""
+
+    id: str
+    upload: Upload
+    program: Any                    # grbl.mill_job.MillProgram
+    mill: Any                       # config.mill.MillConfig: the tool (its height_map)
+    options: dict
+    lines: list[str] = field(default_factory=list)
+    preview: Path | None = None
+
+    def public(self) -> dict:
+        text = self.program.text
+        return {"id": self.id, "upload": self.upload.id, "name": self.upload.name,
+                "options": self.options, "lines": self.lines, "mill": self.options["mill"],
+                "commands": sum(1 for line in text.splitlines()
+                                if line.split("(")[0].strip()),
+                "pen_changes": sum(1 for line in text.splitlines()
+                                   if line.split("(")[0].split()[:1] in (["M0"], ["M00"])),
+                "preview": None}
 
 
 def _now_text() -> str:
@@ -261,14 +291,19 @@ class MachineService:
 
     # ---- plans --------------------------------------------------------------------------
     def plan(self, upload_id: str, *, pens: str = "", mode: str = "auto", side: str = "top",
-             offset: str = "auto", allow_open: bool = False) -> Plan:
+             offset: str = "auto", allow_open: bool = False, mill: str = "",
+             mill_set: dict | None = None, accept_shorts: bool = False) -> Plan:
         """Plan an upload (in the caller's thread: seconds on a large board) and draw
-        its preview; GalileoError says why it cannot be plotted."""
+        its preview; GalileoError says why it cannot be plotted. `mill`: a mill job
+        instead (plan_mill)."""
         if not upload_id:
             raise NotFound("plan: which upload? send {\"upload\": ID}, the id POST "
                            "/api/uploads answered")
         upload = self.store.get(upload_id)
         path = self.store.path(upload)
+        if mill:
+            return self.plan_mill(upload, mill, side=side, mill_set=mill_set or {},
+                                  accept_shorts=accept_shorts)
         config = self.config
         if mode not in PLAN_MODES:
             raise GalileoError(f"mode: expected {', '.join(PLAN_MODES[:-1])} or "
@@ -311,10 +346,52 @@ class MachineService:
                    "side": side if board is not None else None, "offset": offset}
         plan = Plan(plan_id, upload, planned, config, options, preview,
                     [line.replace(str(path), upload.name) for line in lines])
+        return self._keep(plan)
+
+    def plan_mill(self, upload: Upload, job: str, *, side: str = "top",
+                  mill_set: dict | None = None, accept_shorts: bool = False) -> MillPlan:
+        """A mill job of an uploaded board (or one file: isolate), its tool the profile's
+        [mill] with `mill_set` ({"passes": 2}, the table's keys) over it; GalileoError
+        says why not: no GRBL, a key, islands closer than the cut (listed in mm)."""
+        from galileo_cnc.config.mill import MillConfig
+        if job not in MILL_JOBS:
+            raise GalileoError(f"mill: expected {', '.join(MILL_JOBS[:-1])} or "
+                               f"{MILL_JOBS[-1]}, got {job!r}")
+        if not self.machine.runs_mill:
+            raise GalileoError(f"mill: {self.machine.port_name} runs no G-code: a mill job "
+                               f"needs a GRBL board (galileo-cnc plot BOARD --mill {job} "
+                               f"--port sim:// does a dry run)")
+        if side not in ("top", "bottom"):
+            raise GalileoError(f"side: expected top or bottom, got {side!r}")
+        if not isinstance(mill_set, dict):
+            raise GalileoError("mill_set: expected an object of [mill] keys, e.g. "
+                               "{\"passes\": 2, \"tool\": \"endmill\"}")
+        path = self.store.path(upload)
+        choice = BoardChoice(side=side) if upload.kind == "board" else None
+        try:
+            mill = MillConfig.from_table(mill_set, "mill_set", base=profile_mill(
+                getattr(self.machine, "config_path", None)))
+            program, notes, summary = mill_program(str(path), job, mill, choice,
+                                                   accept_shorts=accept_shorts)
+        except GalileoError as error:        # the options as the API names them
+            text = str(error).replace(str(path), upload.name).replace(
+                "--accept-shorts", "accept_shorts: true").replace("--mill-set", "mill_set")
+            raise GalileoError(text) from None
+        # the job's name as the page knows the upload, not where the server keeps it
+        program = dataclasses.replace(program, name=f"{upload.name} (mill {job})")
+        lines = [f"{upload.name} (mill {job}): {summary}", *(f"note: {note}" for note in notes)]
+        options = {"mill": job, "side": side if choice is not None else None,
+                   "mill_set": mill_set, "accept_shorts": accept_shorts}
+        return self._keep(MillPlan(f"p{next(self._plan_ids)}", upload, program, mill, options,
+                                   [line.replace(str(path), upload.name) for line in lines]))
+
+    def _keep(self, plan):
         with self._lock:
-            self._plans[plan_id] = plan
+            self._plans[plan.id] = plan
             for old in list(self._plans)[:-KEPT_PLANS]:
-                self._plans.pop(old).preview.unlink(missing_ok=True)
+                preview = self._plans.pop(old).preview
+                if preview is not None:
+                    preview.unlink(missing_ok=True)
         return plan
 
     def get_plan(self, plan_id: str) -> Plan:
@@ -326,10 +403,12 @@ class MachineService:
     # ---- jobs -----------------------------------------------------------------------------
     def start(self, plan_id: str) -> Future:
         plan = self.get_plan(plan_id)
+        if isinstance(plan, MillPlan):
+            return self._submit("job", lambda: self._run_mill(plan))
         return self._submit("job", lambda: self._run_job(plan))
 
     def resume(self) -> Future:
-        if not self.lost:
+        if not self.lost and self._pending_mill() is None:
             self.machine.pending()      # GalileoError at once: none to resume, and why
         return self._submit("resume", self._resume)
 
@@ -364,13 +443,51 @@ class MachineService:
         return self._stream(plan.upload.name, job, lambda op: machine.run_job(job, op),
                             first=job.estimate_line())
 
+    def _run_mill(self, plan: MillPlan) -> dict:
+        """The mill job; with [mill] height_map the surface probed first, the page asked
+        to clip the probe on and take it off (confirm prompts)."""
+        machine = self.machine
+        operator = WebOperator(self.publish, self._set_prompt)
+        program = plan.program
+        if plan.mill.height_map:
+            self.operator = operator            # its prompts are answered through the API
+            try:
+                program = with_height_map(machine, program, plan.mill, operator.confirm,
+                                          operator.say)
+            finally:
+                self.operator = None
+        job = machine.prepare_mill(program)
+        return self._stream(program.name, job, lambda op: machine.run_job(job, op),
+                            first=job.estimate_line(), operator=operator)
+
+    def _pending_mill(self):
+        """The interrupted mill job (entry, MillProgram) of a machine that runs them,
+        else None; GalileoError when its G-code changed (it cannot be resumed)."""
+        from galileo_cnc.grbl.resume import GrblResumeError
+        if not self.machine.runs_mill:
+            return None
+        try:
+            return self.machine.pending_mill()
+        except GrblResumeError:
+            raise
+        except GalileoError:
+            return None
+
     def _resume(self) -> dict:
         if self.lost:
             self._reconnect()
         machine = self.machine
+        pending = self._pending_mill()
+        if pending is not None:                   # a mill job: its own journal
+            resumption = machine.plan_mill_resume(pending)
+            return self._went_on(pending[1].name, resumption)
         entry = machine.pending()                 # GalileoError: none, and why
         resumption = machine.plan_resume(entry)
-        name = self._shown_name(entry.source)
+        return self._went_on(self._shown_name(entry.source), resumption)
+
+    def _went_on(self, name: str, resumption) -> dict:
+        """A resumption said, and the rest run (its position found first)."""
+        machine = self.machine
         self.publish("message", {"text": f"{name}: {resumption.why}"})
         if resumption.job is None:
             self.publish("message", {"text": resumption.nothing_left})
@@ -378,8 +495,8 @@ class MachineService:
             return {"result": "nothing left"}
         return self._stream(name, resumption.job, lambda op: machine.resume(resumption, op))
 
-    def _stream(self, name: str, job, run, first: str = "") -> dict:
-        operator = WebOperator(self.publish, self._set_prompt)
+    def _stream(self, name: str, job, run, first: str = "", operator=None) -> dict:
+        operator = operator or WebOperator(self.publish, self._set_prompt)
         self._job = {"name": name, "total": job.total, "start": job.start, "unit": job.unit,
                      "began": time.monotonic()}
         self.operator = operator
@@ -484,6 +601,9 @@ class MachineService:
 
     def _pending_name(self) -> str | None:
         try:
+            mill = self._pending_mill()
+            if mill is not None:
+                return mill[1].name
             entry = self.machine.pending()
         except GalileoError:
             return None

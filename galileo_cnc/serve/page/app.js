@@ -127,11 +127,16 @@ $("plan").addEventListener("click", async () => {
   try {
     plan = await api("/api/plans", {upload: upload.id, pens: $("pens").value,
       mode: $("mode").value, side: $("side").value, offset: $("offset").value,
-      allow_open: $("allow-open").checked});
+      allow_open: $("allow-open").checked, mill: $("mill").value});
   } catch (e) { plan = null; $("plan-lines").textContent = ""; showActivity(activity); return; }
   $("plan-lines").textContent = "";
-  for (const line of [...plan.lines, `${plan.commands} commands, ${plan.pen_changes} pen changes`]) {
+  const counts = plan.mill ? `${plan.commands} G-code lines, ${plan.pen_changes} pauses (M0)`
+    : `${plan.commands} commands, ${plan.pen_changes} pen changes`;
+  for (const line of [...plan.lines, counts]) {
     const li = document.createElement("li"); li.textContent = line; $("plan-lines").append(li);
+  }
+  if (!plan.preview) {                // a mill job: its G-code is its plan, no preview
+    $("preview").textContent = ""; head = null; showActivity(activity); return;
   }
   const svg = await (await fetch(plan.preview)).text();
   const box = $("preview");

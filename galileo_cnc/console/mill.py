@@ -1,0 +1,88 @@
+"""`getg --mill isolate|drill|cutout|all [--mill-set K=V] [--accept-shorts]
+[--drill-order plated-first|unplated-first] BOARD`: a mill job (docs/mill.md) planned
+as `plot --mill` plans it (grbl/mill_plan.py), its notes and summary said, confirmed,
+then run on a GRBL board through the Machine under the progress bar; each M0 (a bit
+change, the probe clipped on) is asked like a pen change; with the [mill] key
+height_map = true the surface is probed first (mill_plan.with_height_map). A machine
+that runs no G-code (sim://, our firmware) is told apart: the console runs no dry run
+(`plot BOARD --mill JOB --port sim://` does). `resume` continues an interrupted mill
+job (jobs.resume: the mill journal's first)."""
+
+from __future__ import annotations
+
+import os
+
+from galileo_cnc.console import jobs
+from galileo_cnc.errors import GalileoError
+from galileo_cnc.grbl.mill_plan import (MILL_JOBS, MillRequest, profile_mill,
+                                        with_height_map)
+from galileo_cnc.plan.board_plan import BoardChoice
+from galileo_cnc.readers.board import is_board
+
+DRILL_ORDERS = ("plated-first", "unplated-first")
+USAGE = ("getg --mill isolate|drill|cutout|all [--mill-set KEY=VALUE] [--accept-shorts] "
+         "[--drill-order plated-first|unplated-first] [--side top|bottom] BOARD")
+
+
+def split_mill_options(arguments: list[str]) -> tuple[MillRequest | None, list[str]]:
+    """The mill options among the leading options (before the file name) taken out:
+    (the request, None without --mill; the other arguments in their order)."""
+    rest, kept = list(arguments), []
+    job, pairs, accept, order = None, [], False, "plated-first"
+    while rest and rest[0].startswith("--"):
+        flag = rest.pop(0)
+        if flag == "--accept-shorts":
+            accept = True
+        elif flag in ("--mill", "--mill-set", "--drill-order"):
+            value = rest.pop(0) if rest else ""
+            if flag == "--mill" and value in MILL_JOBS:
+                job = value
+            elif flag == "--mill-set" and "=" in value:
+                pairs.append(value)
+            elif flag == "--drill-order" and value in DRILL_ORDERS:
+                order = value
+            else:
+                raise GalileoError(f"getg: {flag} {value}".rstrip() + f": expected {USAGE}")
+        else:
+            kept.append(flag)
+            if flag not in VALUELESS and rest:
+                kept.append(rest.pop(0))
+    mill_only = pairs or accept or order != "plated-first"
+    if job is None and mill_only:
+        raise GalileoError(f"getg: --mill-set, --accept-shorts and --drill-order go with "
+                           f"--mill ({USAGE})")
+    request = MillRequest(job, tuple(pairs), accept, order) if job is not None else None
+    return request, kept + rest
+
+
+#: getg's options that take no value (getg.parse_options)
+VALUELESS = ("--optimize", "--fit", "--registration", "--outline", "--silk")
+
+
+def run(console, request: MillRequest, path: str, board: dict) -> None:
+    """The mill job on `path` (`board`: getg's board options, BoardChoice's keywords)."""
+    machine = console.machine
+    if not machine.runs_mill:
+        console.say(f"getg --mill: {machine.port_name} runs no G-code: the console's mill "
+                    f"job needs a GRBL board (connect PORT); galileo-cnc plot BOARD --mill "
+                    f"{request.job} --port sim:// does a dry run of it")
+        return
+    choice = BoardChoice(**board) if is_board(path) else None
+    if choice is None and board:
+        raise GalileoError(f"getg --mill: --side and the other board options are for a "
+                           f"board (a folder, .zip or .gbrjob); {path} is one file")
+    console.say(f"planning the mill job ({request.job}) ...")
+    # a refusal (islands closer than the cut, listed in mm) is a GalileoError: said as is
+    mill = request.mill(profile_mill(console.config_path))
+    program, notes, summary = request.program(path, mill, choice)
+    for note in notes:
+        console.say(f"note: {note}")
+    console.say(f"{program.name}: {summary}")
+    if mill.height_map:                     # probed now, before the job is confirmed
+        program = with_height_map(machine, program, mill, console.confirm, console.say)
+    job = machine.prepare_mill(program)
+    console.say(job.estimate_line())
+    if not console.confirm("run the mill job?"):
+        console.say(f"not run (getg --mill {request.job} {os.path.basename(path)} asks again)")
+        return
+    jobs.run_mill(console, job)

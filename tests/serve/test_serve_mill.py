@@ -1,0 +1,77 @@
+"""A mill job through `galileo-cnc serve`'s API (issue 35) on stock GRBL 1.1h in simavr
+with its probe pin: an uploaded board's drilling planned by the server ({"mill":
+"drill"}), started, each M0 (the bit change, the probe clipped on and off) answered as
+the page answers a pen change, and the job run to the last hole; a mill plan without
+the token is refused; islands closer than the tool's cut come back as the error."""
+
+from __future__ import annotations
+
+import shutil
+import sys
+from pathlib import Path
+
+import httpx
+
+from galileo_cnc.grbl.mill_plan import mill_table
+from galileo_cnc.simavr.grbl_firmware import ProbeSurface
+from galileo_cnc.transport.discovery import GRBL
+
+from serve_support import serving, wait_for
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "grbl"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "cli"))
+from grbl_support import CONFIG, QUICK_ACCEL, SETTINGS, grbl_machine  # noqa: E402
+from mill_support import square_pad_board  # noqa: E402
+from test_plot_mill import MILL_SET  # noqa: E402
+
+
+def test_serve_drills_a_board_on_grbl_answering_the_bit_change(fresh_sim, tmp_path):
+    folder = square_pad_board(tmp_path / "board")
+    board_zip = Path(shutil.make_archive(str(folder), "zip", folder)).read_bytes()
+    with grbl_machine({**SETTINGS, **QUICK_ACCEL}, probe=ProbeSurface(z0=0)) as (board, link):
+        link.port.close()                               # the server opens the board
+        with serving(board.port, CONFIG, GRBL) as (server, service, client):
+            upload = client.post("/api/uploads", content=board_zip,
+                                 headers={"x-filename": "pads.zip"}).json()["id"]
+            request = {"upload": upload, "mill": "drill", "mill_set": mill_table(list(MILL_SET))}
+            # ---- no token, no plan
+            bare = httpx.post(f"http://127.0.0.1:{server.port}/api/plans", json=request)
+            assert bare.status_code == 401, bare.text
+            # ---- a tool wider than the gap between the pads: refused, the places listed
+            refused = client.post("/api/plans", json={
+                "upload": upload, "mill": "isolate",
+                "mill_set": {"tool": "endmill", "diameter_mm": 3}})
+            assert refused.status_code == 422, refused.text
+            error = refused.json()["error"]
+            assert "closer than the 3 mm cut" in error, error
+            assert "islands 0 and 1: 2.4 mm apart at X5.000 Y3.800 mm (work)" in error
+            assert "accept_shorts: true mills the board with them joined" in error
+            assert str(service.store.folder) not in error, error  # named as the page knows it
+            # ---- the drilling: planned by the server, started, its pauses answered
+            answer = client.post("/api/plans", json=request)
+            assert answer.status_code == 201, answer.text
+            plan = answer.json()
+            assert plan["mill"] == "drill" and plan["preview"] is None
+            assert plan["lines"][0] == ("pads.zip (mill drill): 3 holes and slots with 0.8, "
+                                        "1 mm bits, 1 bit change")
+            assert plan["pen_changes"] == 3             # the bit, the probe on, the probe off
+            assert client.post("/api/jobs", json={"plan": plan["id"]}).status_code == 202
+            prompts = []
+            while True:
+                state = wait_for(client, lambda s: s["prompt"] or s["activity"] is None)
+                if state["prompt"] is None:
+                    break
+                prompt = state["prompt"]
+                assert prompt["kind"] == "pen"
+                prompts.append(prompt["text"])
+                assert client.post("/api/prompt", json={"id": prompt["id"],
+                                                        "answer": True}).status_code == 200
+                wait_for(client, lambda s, i=prompt["id"]: (s["prompt"] or {}).get("id") != i)
+            record = state["history"][-1]
+            assert record["file"] == "pads.zip (mill drill)"
+            assert record["result"] == "finished", record
+            # the last hole (1.0 mm, at 3, 7) drilled, the tool up at the safe height
+            assert state["position"] == [3.0, 7.0, 1.0]
+    assert prompts[0] == "paused for a bit change: put in the 1.000 mm bit"
+    assert prompts[1].startswith("paused (M0): PROBE: clip the probe to the 1.000 mm bit")
+    assert len(prompts) == 3
