@@ -158,7 +158,8 @@ def _layers(args: argparse.Namespace) -> tuple[str, ...]:
 
 
 def _run_plot(args: argparse.Namespace) -> int:
-    from galileo_cnc.cli.mill import MillRequest, run_mill_plot
+    from galileo_cnc.cli.mill import run_mill_plot
+    from galileo_cnc.grbl.mill_plan import MillRequest
     from galileo_cnc.cli.plot import PlotOptions, run_plot
     from galileo_cnc.stream.homing import check_homeable
     from galileo_cnc.transport.discovery import GRBL, open_board

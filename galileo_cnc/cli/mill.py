@@ -21,8 +21,8 @@ import sys
 from galileo_cnc.config.mill import MillConfig
 from galileo_cnc.errors import GalileoError
 # the job's setup is shared with the console and the web page (grbl/mill_plan.py)
-from galileo_cnc.grbl.mill_plan import (MILL_JOBS, MillRequest, mill_program,  # noqa: F401
-                                        mill_table, mill_text, with_height_map)
+from galileo_cnc.grbl.mill_plan import (MILL_JOBS, MillRequest, mill_table, mill_text,
+                                        with_height_map)
 
 
 def add_mill_options(parser: argparse.ArgumentParser) -> None:

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from galileo_cnc.backends.grbl import GrblMachine
-from galileo_cnc.cli.mill import mill_program
+from galileo_cnc.grbl.mill_plan import mill_program
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.config.mill import MillConfig
 from galileo_cnc.grbl import firmware

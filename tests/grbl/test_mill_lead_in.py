@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import pytest
 
-from galileo_cnc.cli.mill import mill_program
+from galileo_cnc.grbl.mill_plan import mill_program
 from galileo_cnc.config.mill import MillConfig
 from galileo_cnc.grbl.mill_job import (MillPause, mill_lead_in, mill_lines, mill_rewind,
                                        mill_state, restart_at, touch_zero)
