@@ -21,6 +21,7 @@ from __future__ import annotations
 import threading
 import time
 from pathlib import Path
+from typing import Callable
 
 import serial
 
@@ -252,9 +253,7 @@ class GrblJob:
         new session from line `start`."""
         self.journal = journal
         if entry is not None:
-            entry.state, entry.reason = RUNNING, ""
-            entry.first_index, entry.confirmed = self.start, self.start - 1
-            journal.begin(entry)
+            go_on_in(journal, entry, self.start)
             return
         job = self.planned.job
         source = str(Path(job.source).resolve())
@@ -284,30 +283,8 @@ class GrblJob:
         StreamAborted from `on_pen_change`) holds and resets GRBL and returns; Ctrl-C
         does the same; a lost port raises GrblPortLost."""
         job, lines, total = self.planned.job, self.lines, len(self.lines)
-        began = time.monotonic()
-        done = self.start
-
-        position: tuple[int, int, int] | None = None
-
-        def report() -> None:
-            if on_progress is not None:
-                elapsed = time.monotonic() - began
-                line = source_line(self.planned, lines[done - 1].command) if done else 0
-                on_progress(Progress(done, total, elapsed,
-                                     max(0.0, self.estimate_s - elapsed), line, position))
-
-        def show(count: int) -> None:
-            nonlocal done
-            done = count
-            report()
-
-        def seen(status) -> None:
-            # GRBL answers `?` a few times a second while it streams: the ETA counts
-            # down and the position follows the head through a long move, whose line
-            # GRBL confirmed long before it ends
-            nonlocal position
-            position = status.wpos_nm
-            report()
+        progress = JobProgress(total, self.start, self.estimate_s, on_progress,
+                               lambda index: source_line(self.planned, lines[index].command))
 
         def ask_pen(first: int, aperture: int, resuming: bool) -> None:
             label = job.pen_labels.get(aperture) or \
@@ -319,10 +296,10 @@ class GrblJob:
         journal = self.journal
         on_reply = journal_replies(journal) if journal is not None else None
         return run_journalled(
-            self, lambda: stream_job(self.link, lines, job.pen_changes, self.where, show,
-                                     ask_pen, start=self.start, lead=self.lead,
-                                     on_reply=on_reply, on_status=seen),
-            lambda: done, total, began)
+            self, lambda: stream_job(self.link, lines, job.pen_changes, self.where,
+                                     progress.show, ask_pen, start=self.start,
+                                     lead=self.lead, on_reply=on_reply, on_status=progress.seen),
+            progress)
 
     def explain(self, stopped: GrblStreamError) -> GrblStreamError:
         """The error a refusal or an alarm is raised as (a mill job names a probe's)."""
@@ -341,13 +318,52 @@ class GrblJob:
             self.port.disarm()
 
 
-def run_journalled(job, body, done, total: int, began: float) -> StreamResult:
+def go_on_in(journal: Journal, entry: JournalEntry, start: int) -> None:
+    """The interrupted `entry` going on in `journal` as a new session from line `start`."""
+    entry.state, entry.reason = RUNNING, ""
+    entry.first_index, entry.confirmed = start, start - 1
+    journal.begin(entry)
+
+
+class JobProgress:
+    """A streamed job's progress: lines done (`show`, as GRBL confirms them) and where
+    the head is (`seen`, from the `?` reports: GRBL answers a few times a second, so the
+    ETA counts down and the position follows the head through a long move whose line
+    GRBL confirmed long before it ends), each passed on as a Progress."""
+
+    def __init__(self, total: int, done: int, estimate_s: float, on_progress,
+                 file_line: Callable[[int], int]):
+        self.total, self.done, self.estimate_s = total, done, estimate_s
+        self.on_progress = on_progress
+        self.file_line = file_line          # a line's index -> its line in the file
+        self.began = time.monotonic()
+        self.position: tuple[int, int, int] | None = None
+
+    def show(self, count: int) -> None:
+        self.done = count
+        self._report()
+
+    def seen(self, status) -> None:
+        self.position = status.wpos_nm
+        self._report()
+
+    def _report(self) -> None:
+        if self.on_progress is not None:
+            elapsed = time.monotonic() - self.began
+            line = self.file_line(self.done - 1) if self.done else 0
+            self.on_progress(Progress(self.done, self.total, elapsed,
+                                      max(0.0, self.estimate_s - elapsed), line,
+                                      self.position))
+
+
+def run_journalled(job, body, progress: JobProgress) -> StreamResult:
     """`body()` streams `job` (a GrblJob or a grbl.mill_job.GrblMillJob); its journal
     ended with how it went: a stop (JobInterrupted, or StreamAborted from a pen change
     or a pause) and Ctrl-C hold and reset GRBL, lift the tool and return; a refusal or
-    an alarm is raised as `job.explain` says; a lost port raises GrblPortLost. `done()`:
-    the lines done so far."""
+    an alarm is raised as `job.explain` says; a lost port raises GrblPortLost.
+    `progress`: the lines done so far, and when it began."""
     journal = job.journal
+    total, began = progress.total, progress.began
     end = journal.end if journal is not None else (lambda *args: None)
     if job.port is not None:
         job.port.arm()
@@ -358,14 +374,14 @@ def run_journalled(job, body, done, total: int, began: float) -> StreamResult:
         job._stop_and_lift()
         reason = "stopped with Ctrl-C" if isinstance(stop, KeyboardInterrupt) else STOPPED
         end(ABORTED, reason)
-        return StreamResult(False, done(), total, time.monotonic() - began, reason)
+        return StreamResult(False, progress.done, total, time.monotonic() - began, reason)
     except GrblStreamError as stopped:
         stopped = job.explain(stopped)
         end(FAILED, str(stopped))
         raise stopped from None
     except (serial.SerialException, OSError) as lost:
         end(INTERRUPTED, port_error_text(lost))
-        acknowledged = journal.entry.confirmed + 1 if journal is not None else done()
+        acknowledged = journal.entry.confirmed + 1 if journal is not None else progress.done
         name = f"{job.port_name}: " if job.port_name else ""
         raise GrblPortLost(f"{name}{port_error_text(lost)}", acknowledged, total) from None
     except GrblError as problem:

@@ -39,7 +39,7 @@ from galileo_cnc.config.userdirs import data_dir
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.grbl.estimate import PLANNER_BLOCKS, Machine, estimate
 from galileo_cnc.grbl.gcode import GcodeLine
-from galileo_cnc.grbl.job import link_scale, run_journalled
+from galileo_cnc.grbl.job import JobProgress, go_on_in, link_scale, run_journalled
 from galileo_cnc.grbl.link import CYCLE_START
 from galileo_cnc.grbl.reports import GrblError
 from galileo_cnc.grbl.resume import PREAMBLE_TEXT, STEPPER_BLOCKS, GrblResumeError
@@ -48,8 +48,8 @@ from galileo_cnc.grbl.stream import GrblStreamError
 from galileo_cnc.plan.mill.drill import SPIN_UP, TOOL_CHANGE
 from galileo_cnc.plan.mill.heightmap import HeightCorrector, HeightMap
 from galileo_cnc.program.ops import NM_PER_MM
-from galileo_cnc.stream.journal import RUNNING, Journal, JournalEntry, file_digest
-from galileo_cnc.stream.streamer import PenChange, Progress, StreamResult
+from galileo_cnc.stream.journal import Journal, JournalEntry, file_digest
+from galileo_cnc.stream.streamer import PenChange, StreamResult
 
 MILL_JOURNAL_NAME = "journal-mill.json"
 #: The running mill job's G-code, kept beside its journal for a resume.
@@ -366,9 +366,7 @@ class GrblMillJob:
         `entry` going on as a new session from line `start`."""
         self.journal = journal
         if entry is not None:
-            entry.state, entry.reason = RUNNING, ""
-            entry.first_index, entry.confirmed = self.start, self.start - 1
-            journal.begin(entry)
+            go_on_in(journal, entry, self.start)
             return
         kept = journal.path.parent / MILL_GCODE_NAME
         kept.parent.mkdir(parents=True, exist_ok=True)
@@ -392,36 +390,16 @@ class GrblMillJob:
         """The job streamed, the journal ended with how it went (as GrblJob.run): a
         stop holds and resets GRBL, lifts the tool and returns; a probe alarm is
         cleared and raised as GrblStreamError naming the place in mm."""
-        total = len(self.lines)
-        began = time.monotonic()
-        done = self.start
-        position = None
-
-        def report() -> None:
-            if on_progress is not None:
-                elapsed = time.monotonic() - began
-                line = self.lines[done - 1].command + 1 if done else 0
-                on_progress(Progress(done, total, elapsed,
-                                     max(0.0, self.estimate_s - elapsed), line, position))
-
-        def show(count: int) -> None:
-            nonlocal done
-            done = count
-            report()
-
-        def seen(status) -> None:
-            nonlocal position
-            position = status.wpos_nm
-            report()
-
+        progress = JobProgress(len(self.lines), self.start, self.estimate_s, on_progress,
+                               lambda index: self.lines[index].command + 1)
         confirm = self.journal.confirm if self.journal is not None else None
 
         def replied(number: int, reply) -> None:
             if reply.ok and confirm is not None:
                 confirm(number)
 
-        return run_journalled(self, lambda: self._stream(show, replied, seen, on_pause),
-                              lambda: done, total, began)
+        return run_journalled(self, lambda: self._stream(progress.show, replied,
+                                                         progress.seen, on_pause), progress)
 
     def explain(self, stopped: GrblStreamError) -> GrblStreamError:
         """A probe alarm cleared and named in mm (`_probe_failed`); other errors as
