@@ -10,7 +10,7 @@ import pytest
 
 from galileo_cnc.cli.main import main
 from galileo_cnc.config.machine import MachineConfig
-from galileo_cnc.console.getg import _options
+from galileo_cnc.console.getg import parse_options
 from galileo_cnc.job import ArcTo, LineTo, PenDown, PenUp, Rapid
 from galileo_cnc.plan.measure import job_lengths
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
@@ -145,5 +145,5 @@ def test_the_command_line_and_getg_take_optimize(bad, tmp_path, capsys, monkeypa
     assert main(["plot", str(bad), "--optimize", "--port", "sim://?speed=0", "--yes"]) == 0
     assert "process has finished" in capsys.readouterr().out
     console = types.SimpleNamespace(config=MachineConfig())
-    options, _config, _board, rest = _options(console, ["--optimize", "--mode", "centre", "a.nc"])
+    options, _config, _board, rest = parse_options(console, ["--optimize", "--mode", "centre", "a.nc"])
     assert options.optimize and options.mode == "centre" and rest == ["a.nc"]
