@@ -89,7 +89,7 @@ def test_resume_after_a_lost_port_homes_and_finishes_the_job(profile, capsys):
                          "--profile", profile])
         out, err = capsys.readouterr()
         # the job is done: nothing left to resume
-        assert grbl_journal().pending() is None
+        assert grbl_journal().pending() is None, (code, err, out[-1500:])
         assert cli.main(["plot", SAMPLE, "--resume", "--yes", "--port", board.port,
                          "--profile", profile]) == 1
         assert "no interrupted GRBL job of" in capsys.readouterr().err
