@@ -37,10 +37,9 @@ from galileo_cnc.transport import discovery
 from test_console import WAIT_S, ConsoleUser, Screen, console_in_thread, home  # noqa: F401
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "grbl"))
-from grbl_support import (CONFIG, LIMITS, QUICK_ACCEL, QUICK_HOMING, SCALE,  # noqa: E402
+from grbl_support import (CONFIG, LIMITS, QUICK_HOMED, QUICK_HOMING, SCALE,  # noqa: E402
                           SETTINGS, check_resumed, grbl_machine, motion_lines, positions,
                           set_work_zero, settled_trace, wait_until_still)
-from grbl_support import HOMING as STORED_HOMING  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 BOARD = ROOT / "samples" / "led-blinker.gbr"
@@ -51,8 +50,6 @@ SWITCHES = (("X", 320), ("Y", 480), ("Z", 160))
 #: between two status reports, and the jog line never shows "Jog"
 HOMING = {**SETTINGS, 22: "1", 20: "0", 130: "50", 131: "50", 132: "10",
           25: "1000", **QUICK_HOMING}
-#: grbl_support's homing machine, quick as test_grbl_resume.py's RESUME_HOMING
-RESUME_HOMING = {**STORED_HOMING, **QUICK_ACCEL, 24: "1000"}
 #: what comes once GRBL has drawn a pen's lines or the rest of a job: machine time,
 #: which a loaded host stretches several times over (WAIT_S is for the console's replies)
 JOB_WAIT_S = 120.0
@@ -336,7 +333,7 @@ def test_a_job_stopped_with_q_resumes_in_the_same_session(home):  # noqa: F811
     pen = pen_from_config(CONFIG)
     pieces = pen_pieces(lines, job.pen_changes)
     end_work = expected_end_steps(lines, SCALE)[-1]
-    with grbl_machine(RESUME_HOMING, limits=LIMITS, realtime=True) as (board, setup_link):
+    with grbl_machine(QUICK_HOMED, limits=LIMITS, realtime=True) as (board, setup_link):
         set_work_zero(setup_link)               # homed, G54 set, the set-up's port closed
         setup_end = settled_trace(board)
         with console_object(home, board.port, CONFIG) as (user, console):
@@ -461,7 +458,7 @@ def test_a_job_whose_port_is_lost_resumes_after_connect(home, monkeypatch):  # n
 
     real_open = discovery.open_port
     monkeypatch.setattr(discovery, "open_port", open_dying)
-    with grbl_machine(RESUME_HOMING, limits=LIMITS) as (board, setup_link):
+    with grbl_machine(QUICK_HOMED, limits=LIMITS) as (board, setup_link):
         set_work_zero(setup_link)
         setup_end = settled_trace(board)
         with console_object(home, board.port, CONFIG) as (user, console):
