@@ -171,9 +171,12 @@ def test_an_evening_on_grbl(home):  # noqa: F811  (the fixture)
             user.expect(r"no interrupted GRBL job to resume \(journal .*journal-grbl\.json\)")
 
             # ---- setup: keypad jogs land exactly; 2.5 mm = 400 steps (all below
-            # the switches, which close at +2/+3/+1 mm)
+            # the switches, which close at +2/+3/+1 mm), at 10 mm/s: a quarter second
+            # each, so the jog line's status, asked as the jog is sent, shows it
+            # jogging (at 100 mm/s it lasts 70 ms, and a late answer saw it at rest)
             user.line("setup")
             user.expect(r"choice:")
+            set_feed(user, "10")
             jog_screen(user, 250)
             jog_to_rest(user, "2")
             jog_to_rest(user, "4")
