@@ -20,6 +20,19 @@ def users_home_of_the_run(tmp_path_factory):
         yield
 
 
+@pytest.fixture(scope="session", autouse=True)
+def grbl_boards_asked_soon():
+    """GRBL in simavr never resets when its port opens, so the link need not give it
+    the second of silence a real board's boot loader takes before asking it (`?`,
+    then a soft reset): a quarter of one, some 0.8 s less of a running simulator at
+    each of the suite's three dozen re-opens. The asking itself is what is tested."""
+    from galileo_cnc.grbl import link
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(link, "QUIET_BEFORE_ASKING_S", 0.25)
+        yield
+
+
 @pytest.fixture
 def fresh_sim(tmp_path, monkeypatch):
     """A user's folders of the test's own, no port probed, and no sim:// machine

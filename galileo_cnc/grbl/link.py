@@ -27,6 +27,10 @@ SOFT_RESET = b"\x18"
 #: silence after our own soft reset before it is sent again (a byte lost on the line):
 #: GRBL prints its banner in milliseconds, a loaded host may read it a second or more later
 RESET_AGAIN_S = 3.0
+#: silence after opening before the board is taken as one that did not reset on
+#: opening (no auto-reset, a re-opened simulated board) and asked: `?`, then a soft
+#: reset. A board that did reset prints its banner once its boot loader is done.
+QUIET_BEFORE_ASKING_S = 1.0
 JOG_CANCEL = b"\x85"
 #: A command's answer: how long GRBL may stay silent after a line sent while its
 #: planner has room (answered in ms; `$H`'s only once homed, and GRBL answers no `?`
@@ -124,16 +128,16 @@ class GrblLink:
 
     def wait_banner(self, timeout_s: float = 10.0, reset_sent: bool = False) -> str:
         """Reads up to GRBL's banner; a board that does not reset on open (a
-        re-opened simulated board) is asked with a soft reset after a second of
-        silence. After a reset of ours (`reset_sent`) a slow answer is not a silent
-        board: the reset is sent again only after RESET_AGAIN_S (a byte lost on the
-        line), and the board is not asked what it stands in."""
+        re-opened simulated board) is asked with a soft reset after
+        QUIET_BEFORE_ASKING_S of silence. After a reset of ours (`reset_sent`) a slow
+        answer is not a silent board: the reset is sent again only after RESET_AGAIN_S
+        (a byte lost on the line), and the board is not asked what it stands in."""
         deadline = time.monotonic() + timeout_s
-        patience = RESET_AGAIN_S if reset_sent else 1.0
+        patience = RESET_AGAIN_S if reset_sent else QUIET_BEFORE_ASKING_S
         quiet_since = time.monotonic()
         asked = False
         while time.monotonic() < deadline:
-            line = self.read_line(min(1.0, max(0.05, deadline - time.monotonic())))
+            line = self.read_line(min(1.0, patience, max(0.05, deadline - time.monotonic())))
             if line is None:
                 if not asked and time.monotonic() - quiet_since >= patience:
                     if not reset_sent:

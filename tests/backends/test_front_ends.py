@@ -41,7 +41,7 @@ TESTS = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(TESTS / "console"), str(TESTS / "grbl")]
 from test_console import console_in_thread  # noqa: E402
 from firmware_support import ELF, build_firmware, build_harness  # noqa: E402
-from grbl_support import (HOMING, LIMITS, PROFILE, SCALE, grbl_machine,  # noqa: E402
+from grbl_support import (LIMITS, PROFILE, QUICK_HOMED, SCALE, grbl_machine,  # noqa: E402
                           set_work_zero)
 
 CENTRE = PlanOptions(mode="centre")
@@ -184,7 +184,7 @@ def test_both_front_ends_on_grbl_in_simavr(engines, board_file, capsys, monkeypa
                          feed_steps_per_s=config.feed_steps_per_s,
                          flash_dwell_ms=config.flash_dwell_ms)
     end = expected_end_steps(lines, SCALE)[-1]      # work steps, the pen up
-    with grbl_machine(HOMING, limits=LIMITS) as (board, link):
+    with grbl_machine(QUICK_HOMED, limits=LIMITS) as (board, link):
         set_work_zero(link)                         # homed, G54 where the paper is
         shell_session(board_file, board.port, capsys, monkeypatch, "--profile", str(profile))
         finished(grbl_journal())

@@ -37,10 +37,9 @@ from galileo_cnc.transport import discovery
 from test_console import WAIT_S, ConsoleUser, Screen, console_in_thread, home  # noqa: F401
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "grbl"))
-from grbl_support import (CONFIG, LIMITS, QUICK_ACCEL, QUICK_HOMING, SCALE,  # noqa: E402
+from grbl_support import (CONFIG, LIMITS, QUICK_HOMED, QUICK_HOMING, SCALE,  # noqa: E402
                           SETTINGS, check_resumed, grbl_machine, motion_lines, positions,
                           set_work_zero, settled_trace, wait_until_still)
-from grbl_support import HOMING as STORED_HOMING  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 BOARD = ROOT / "samples" / "led-blinker.gbr"
@@ -51,8 +50,9 @@ SWITCHES = (("X", 320), ("Y", 480), ("Z", 160))
 #: between two status reports, and the jog line never shows "Jog"
 HOMING = {**SETTINGS, 22: "1", 20: "0", 130: "50", 131: "50", 132: "10",
           25: "1000", **QUICK_HOMING}
-#: grbl_support's homing machine, quick as test_grbl_resume.py's RESUME_HOMING
-RESUME_HOMING = {**STORED_HOMING, **QUICK_ACCEL, 24: "1000"}
+#: what comes once GRBL has drawn a pen's lines or the rest of a job: machine time,
+#: which a loaded host stretches several times over (WAIT_S is for the console's replies)
+JOB_WAIT_S = 120.0
 _STATUS = re.compile(r"state (\w+(?::\d)?), X (\S+)  Y (\S+)  Z (\S+) mm work "
                      r"\(steps X (-?\d+) Y (-?\d+) Z (-?\d+)\), machine X (\S+)  Y (\S+)  "
                      r"Z (\S+) mm")
@@ -171,9 +171,12 @@ def test_an_evening_on_grbl(home):  # noqa: F811  (the fixture)
             user.expect(r"no interrupted GRBL job to resume \(journal .*journal-grbl\.json\)")
 
             # ---- setup: keypad jogs land exactly; 2.5 mm = 400 steps (all below
-            # the switches, which close at +2/+3/+1 mm)
+            # the switches, which close at +2/+3/+1 mm), at 10 mm/s: a quarter second
+            # each, so the jog line's status, asked as the jog is sent, shows it
+            # jogging (at 100 mm/s it lasts 70 ms, and a late answer saw it at rest)
             user.line("setup")
             user.expect(r"choice:")
+            set_feed(user, "10")
             jog_screen(user, 250)
             jog_to_rest(user, "2")
             jog_to_rest(user, "4")
@@ -295,10 +298,11 @@ def test_an_evening_on_grbl(home):  # noqa: F811  (the fixture)
             user.expect(r"use these offsets\? \[Y/n\]")
             user.line("")
             for aperture in job.pen_changes.values():
-                user.expect(rf"\ainsert pen for aperture D{aperture} \(")
+                user.expect(rf"\ainsert pen for aperture D{aperture} \(", JOB_WAIT_S)
                 user.type("\r")
             finished = user.expect(r"\aprocess has finished in \d+:\d\d \(\d+ G-code lines\); "
-                                   r"GRBL stands at X (\S+) Y (\S+) Z (\S+) mm \(work\)")
+                                   r"GRBL stands at X (\S+) Y (\S+) Z (\S+) mm \(work\)",
+                                   JOB_WAIT_S)
             stands = tuple(round(float(v) * STEPS_PER_MM) for v in finished.groups())
             assert stands == end_work
             state, work, machine = status(user)           # and the console goes on
@@ -332,7 +336,7 @@ def test_a_job_stopped_with_q_resumes_in_the_same_session(home):  # noqa: F811
     pen = pen_from_config(CONFIG)
     pieces = pen_pieces(lines, job.pen_changes)
     end_work = expected_end_steps(lines, SCALE)[-1]
-    with grbl_machine(RESUME_HOMING, limits=LIMITS, realtime=True) as (board, setup_link):
+    with grbl_machine(QUICK_HOMED, limits=LIMITS, realtime=True) as (board, setup_link):
         set_work_zero(setup_link)               # homed, G54 set, the set-up's port closed
         setup_end = settled_trace(board)
         with console_object(home, board.port, CONFIG) as (user, console):
@@ -362,7 +366,8 @@ def test_a_job_stopped_with_q_resumes_in_the_same_session(home):  # noqa: F811
                         r"X \S+ Y \S+ Z 1\.875 mm \(work\); the job goes on from there")
             answer_pens_of_the_rest(user, pieces, start)
             finished = user.expect(r"\aprocess has finished in \d+:\d\d \(\d+ G-code "
-                                   r"lines\); GRBL stands at X (\S+) Y (\S+) Z (\S+) mm")
+                                   r"lines\); GRBL stands at X (\S+) Y (\S+) Z (\S+) mm",
+                                   JOB_WAIT_S)
             stands = tuple(round(float(v) * STEPS_PER_MM) for v in finished.groups())
             assert stands == end_work
             state, work, machine = status(user)           # and the console goes on
@@ -388,7 +393,7 @@ def getg_through_pens(user, pieces, count: int) -> None:
     user.expect(r"use these offsets\? \[Y/n\]")
     user.line("")
     for _, aperture in pieces[:count]:
-        user.expect(rf"\ainsert pen for aperture D{aperture} \(")
+        user.expect(rf"\ainsert pen for aperture D{aperture} \(", JOB_WAIT_S)
         user.type("\r")
 
 
@@ -401,7 +406,7 @@ def answer_pens_of_the_rest(user, pieces, start: int) -> None:
     asked += [(a, False) for first, a in pieces if first >= start]
     for aperture, resuming in asked:
         goes_on = r".*\(the pen the job goes on with\)" if resuming else ""
-        user.expect(rf"\ainsert pen for aperture D{aperture} \({goes_on}")
+        user.expect(rf"\ainsert pen for aperture D{aperture} \({goes_on}", JOB_WAIT_S)
         user.type("\r")
 
 
@@ -456,7 +461,7 @@ def test_a_job_whose_port_is_lost_resumes_after_connect(home, monkeypatch):  # n
 
     real_open = discovery.open_port
     monkeypatch.setattr(discovery, "open_port", open_dying)
-    with grbl_machine(RESUME_HOMING, limits=LIMITS) as (board, setup_link):
+    with grbl_machine(QUICK_HOMED, limits=LIMITS) as (board, setup_link):
         set_work_zero(setup_link)
         setup_end = settled_trace(board)
         with console_object(home, board.port, CONFIG) as (user, console):
@@ -480,7 +485,8 @@ def test_a_job_whose_port_is_lost_resumes_after_connect(home, monkeypatch):  # n
             user.expect(r"homed; work offset")
             answer_pens_of_the_rest(user, pieces, entry.confirmed + 1)
             finished = user.expect(r"\aprocess has finished in \d+:\d\d \(\d+ G-code "
-                                   r"lines\); GRBL stands at X (\S+) Y (\S+) Z (\S+) mm")
+                                   r"lines\); GRBL stands at X (\S+) Y (\S+) Z (\S+) mm",
+                                   JOB_WAIT_S)
             assert tuple(round(float(v) * STEPS_PER_MM) for v in finished.groups()) == end_work
             assert status(user)[:2] == ("Idle", end_work)
             assert grbl_journal().load().state == FINISHED

@@ -283,6 +283,9 @@ MM = 160                # steps
 # $10=3 adds the buffer state to status reports (Bf:15,128: planner and RX buffer empty)
 HOMING = {**SETTINGS, 10: "3", 22: "1", 130: "100", 131: "100", 132: "20",
           25: "6000", 24: "200", 26: "20"}
+#: HOMING at QUICK_ACCEL, locating at 1000 mm/min: where the homing and the jobs are
+#: steps on the way (a homing from the work zero 1.2 s, not 1.8)
+QUICK_HOMED = {**HOMING, **QUICK_ACCEL, 24: "1000"}
 LIMITS = (("X", 2 * MM), ("Y", 3 * MM), ("Z", 1 * MM))
 WORK_ZERO_MM = (-60, -60, -10)          # machine position of the job's work zero
 HOMED = (-MM, -MM, -MM)                 # machine position after $H

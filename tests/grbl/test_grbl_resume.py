@@ -28,18 +28,17 @@ from galileo_cnc.plan.offsets import DEFAULT_MARGIN_NM
 from galileo_cnc.stream.journal import ABORTED, FINISHED, INTERRUPTED
 
 from grbl_support import profile  # noqa: F401  (the fixture)
-from grbl_support import (HOMING, LIMITS, QUICK_ACCEL, SAMPLE, SCALE, SETTINGS,
+from grbl_support import (LIMITS, QUICK_ACCEL, QUICK_HOMED, SAMPLE, SCALE, SETTINGS,
                           RecordingPort, check_resumed, grbl_machine, motion_lines, motions,
                           planned_gcode,
                           positions_and_ticks, sent_job_lines, set_work_zero, settled_trace,
                           wait_until_still)
 
 
-# GRBL as HOMING and SETTINGS set it, but with QUICK_ACCEL and locating its switches at
-# 1000 mm/min (not 200): each test's two sessions and two homings take 10.4 s of machine
-# time, not 14.2. What is checked holds at any rate: the pins against the G-code, the
-# switches closing on their trip step, the queue's 20 blocks.
-RESUME_HOMING = {**HOMING, **QUICK_ACCEL, 24: "1000"}
+# GRBL as HOMING and SETTINGS set it, but at QUICK_ACCEL and locating its switches at
+# 1000 mm/min (QUICK_HOMED): each test's two sessions and two homings take 10.4 s of
+# machine time, not 14.2. What is checked holds at any rate: the pins against the G-code,
+# the switches closing on their trip step, the queue's 20 blocks.
 RESUME_NO_SWITCHES = {**SETTINGS, **QUICK_ACCEL, 10: "3"}
 
 
@@ -48,7 +47,7 @@ RESUME_NO_SWITCHES = {**SETTINGS, **QUICK_ACCEL, 10: "3"}
 def homed_at_work_zero():
     """GRBL in simavr with its switches and G54's zero set: (board, the pins' trace of
     that setting up, which the job's drawing follows)."""
-    with grbl_machine(RESUME_HOMING, limits=LIMITS) as (board, link):
+    with grbl_machine(QUICK_HOMED, limits=LIMITS) as (board, link):
         set_work_zero(link)
         yield board, settled_trace(board)
 
@@ -89,7 +88,7 @@ def test_resume_after_a_lost_port_homes_and_finishes_the_job(profile, capsys):
                          "--profile", profile])
         out, err = capsys.readouterr()
         # the job is done: nothing left to resume
-        assert grbl_journal().pending() is None
+        assert grbl_journal().pending() is None, (code, err, out[-1500:])
         assert cli.main(["plot", SAMPLE, "--resume", "--yes", "--port", board.port,
                          "--profile", profile]) == 1
         assert "no interrupted GRBL job of" in capsys.readouterr().err
