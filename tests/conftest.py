@@ -53,17 +53,20 @@ def fresh_sim(tmp_path, monkeypatch):
 #: (xdist's own order, most tests first, left the GRBL files with few long tests to the
 #: end). Stale numbers only cost balance, never a test.
 SLOW_FILES_S = {
-    "grbl/test_grbl_resume.py": 76, "console/test_console_grbl.py": 49,
-    "grbl/test_grbl_simavr.py": 47, "readers/test_peers.py": 36, "cli/test_grbl_cli.py": 35,
-    "grbl/test_grbl_long_moves.py": 31, "firmware/test_stream_firmware.py": 29,
-    "stream/test_stream.py": 29, "readers/test_gerber_corpus.py": 26, "serve": 25,
-    "firmware/test_firmware_fitl.py": 25, "backends/test_front_ends.py": 21,
-    "cli/test_cli.py": 20, "firmware/test_plot_reset_firmware.py": 20,
-    "readers/test_gcode_props.py": 18, "console/test_console.py": 16,
-    "readers/test_dxf.py": 14, "console/test_console_board.py": 11,
-    "plan/test_tour_native.py": 11, "console/test_console_stop.py": 11,
-    "firmware/test_firmware_build.py": 10, "stream/test_link_faults.py": 10,
-    "cli/test_plot_reset.py": 9, "plan/test_ink_geometry.py": 7,
+    "grbl/test_grbl_resume.py": 61, "console/test_console_grbl.py": 46,
+    "readers/test_peers.py": 40, "console/test_console.py": 38,
+    "grbl/test_grbl_simavr.py": 38, "cli/test_grbl_cli.py": 35,
+    "grbl/test_grbl_long_moves.py": 32, "serve": 28, "readers/test_gerber_corpus.py": 27,
+    "firmware/test_stream_firmware.py": 27, "stream/test_link_faults.py": 24,
+    "firmware/test_firmware_fitl.py": 23, "backends/test_front_ends.py": 22,
+    "stream/test_stream.py": 19, "plan/test_ink_geometry.py": 19,
+    "console/test_console_stop.py": 18, "readers/test_dxf.py": 15,
+    "firmware/test_plot_reset_firmware.py": 14, "cli/test_cli.py": 14,
+    "cli/test_plot_reset.py": 12, "grbl/test_mill_grbl.py": 11,
+    "cli/test_plot_mill.py": 11, "console/test_console_board.py": 9,
+    "readers/test_gcode_props.py": 8, "firmware/test_firmware_build.py": 8,
+    "preview/test_render.py": 8, "firmware/test_plot_trace_firmware.py": 8,
+    "cli/test_bad_options.py": 7, "console/test_console_mill.py": 7,
 }
 TESTS = os.path.dirname(os.path.abspath(__file__))
 

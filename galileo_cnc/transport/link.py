@@ -453,13 +453,14 @@ class MachineLink:
         return (f"the machine refused {command_text(command, self.config.steps_per_mm)} "
                 f"[{P.command_text(command)}]: error:{reply.code} {detail}")
 
-    def status(self, timeout_s: float = SILENT_S) -> P.Status:
+    def status(self, timeout_s: float | None = None) -> P.Status:
         """A fresh status (real-time status byte, asked again after `status_retry_s`,
         then twice as long each time up to STATUS_RETRY_S, or as soon as a garbled
         line arrives: a garbled or lost status line ends nothing); PortGone when none
-        comes in `timeout_s`."""
+        comes in `timeout_s` (SILENT_S, read when called)."""
         with self._status_cond:
             count = self._status_count
+        timeout_s = SILENT_S if timeout_s is None else timeout_s
         deadline = time.monotonic() + timeout_s
         retry_s = self.status_retry_s
         while True:
