@@ -28,7 +28,7 @@ from galileo_cnc.program.ops import NM_PER_MM
 
 
 def run(console, arguments: list[str]) -> None:
-    request, arguments = mill.split_mill_options(arguments)
+    request, arguments = mill.split_mill_options(arguments, PLAN_SWITCHES + BOARD_SWITCHES)
     options, config, board, arguments = parse_options(console, arguments)
     path = " ".join(arguments) if arguments else console.ask(
         "file to plot: ", completer=PathCompleter(expanduser=True))
@@ -156,10 +156,10 @@ def parse_options(console, arguments: list[str], command: str = "getg"):
     board: dict = {}
     while rest and rest[0].startswith("--"):
         flag = rest.pop(0)
-        if flag in ("--optimize", "--fit"):       # the options without a value
+        if flag in PLAN_SWITCHES:                 # the options without a value
             optimize, fit = optimize or flag == "--optimize", fit or flag == "--fit"
             continue
-        if flag in ("--registration", "--outline", "--silk"):
+        if flag in BOARD_SWITCHES:
             board[flag[2:]] = True
             continue
         value = rest.pop(0) if rest else ""
@@ -189,6 +189,9 @@ def parse_options(console, arguments: list[str], command: str = "getg"):
 
 
 BOARD_FLAGS = ("--side", "--drill-marks", "--mirror-axis", "--layer")
+#: getg's options that take no value: the plan's and a board's
+PLAN_SWITCHES = ("--optimize", "--fit")
+BOARD_SWITCHES = ("--registration", "--outline", "--silk")
 
 
 def _board_option(board: dict, flag: str, value: str, command: str) -> None:

@@ -24,9 +24,11 @@ USAGE = ("getg --mill isolate|drill|cutout|all [--mill-set KEY=VALUE] [--accept-
          "[--drill-order plated-first|unplated-first] [--side top|bottom] BOARD")
 
 
-def split_mill_options(arguments: list[str]) -> tuple[MillRequest | None, list[str]]:
+def split_mill_options(arguments: list[str], switches: tuple[str, ...]
+                       ) -> tuple[MillRequest | None, list[str]]:
     """The mill options among the leading options (before the file name) taken out:
-    (the request, None without --mill; the other arguments in their order)."""
+    (the request, None without --mill; the other arguments in their order).
+    `switches`: getg's other options that take no value."""
     rest, kept = list(arguments), []
     job, pairs, accept, order = None, [], False, "plated-first"
     while rest and rest[0].startswith("--"):
@@ -45,7 +47,7 @@ def split_mill_options(arguments: list[str]) -> tuple[MillRequest | None, list[s
                 raise GalileoError(f"getg: {flag} {value}".rstrip() + f": expected {USAGE}")
         else:
             kept.append(flag)
-            if flag not in VALUELESS and rest:
+            if flag not in switches and rest:
                 kept.append(rest.pop(0))
     mill_only = pairs or accept or order != "plated-first"
     if job is None and mill_only:
@@ -53,10 +55,6 @@ def split_mill_options(arguments: list[str]) -> tuple[MillRequest | None, list[s
                            f"--mill ({USAGE})")
     request = MillRequest(job, tuple(pairs), accept, order) if job is not None else None
     return request, kept + rest
-
-
-#: getg's options that take no value (getg.parse_options)
-VALUELESS = ("--optimize", "--fit", "--registration", "--outline", "--silk")
 
 
 def run(console, request: MillRequest, path: str, board: dict) -> None:
