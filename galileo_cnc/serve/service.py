@@ -36,6 +36,7 @@ from galileo_cnc.backends import Machine
 from galileo_cnc.config.machine import MachineConfig, pen_widths_from_text
 from galileo_cnc.config.userdirs import data_dir
 from galileo_cnc.errors import GalileoError
+from galileo_cnc.grbl.mill_job import mill_lines
 from galileo_cnc.grbl.mill_plan import (MILL_JOBS, mill_program, profile_mill,
                                         with_height_map)
 from galileo_cnc.machine.timing import duration_text
@@ -101,14 +102,10 @@ class MillPlan:
     preview: Path | None = None
 
     def public(self) -> dict:
-        text = self.program.text
+        sent, pauses = mill_lines(self.program.text)    # as GRBL is sent them
         return {"id": self.id, "upload": self.upload.id, "name": self.upload.name,
                 "options": self.options, "lines": self.lines, "mill": self.options["mill"],
-                "commands": sum(1 for line in text.splitlines()
-                                if line.split("(")[0].strip()),
-                "pen_changes": sum(1 for line in text.splitlines()
-                                   if line.split("(")[0].split()[:1] in (["M0"], ["M00"])),
-                "preview": None}
+                "commands": len(sent), "pen_changes": len(pauses), "preview": None}
 
 
 def _now_text() -> str:
