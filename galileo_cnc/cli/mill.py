@@ -58,7 +58,7 @@ def run_mill_plot(options, out=None) -> int:
     pen changes, G38.2, the journal, --resume); elsewhere (sim://, our firmware) a dry
     run, plotted as DRY_RUN_NOTE says."""
     from galileo_cnc.backends import open_machine
-    from galileo_cnc.cli.plot import PlotOperator, TextProgress, _run, run_plot
+    from galileo_cnc.cli.plot import PlotOperator, TextProgress, _run
     from galileo_cnc.transport.discovery import GRBL, open_board
     from galileo_cnc.transport.port import SIM_URL
     out = out if out is not None else sys.stdout
@@ -73,8 +73,7 @@ def run_mill_plot(options, out=None) -> int:
         port, kind, handle = open_board(profile.port, profile.baud)
     if kind != GRBL:
         out.write(f"note: {port} runs galileo-cnc firmware, not G-code: {DRY_RUN_NOTE}\n")
-        return _dry_run(dataclasses.replace(options, handle=handle, kind=kind), program, out,
-                        run_plot)
+        return _dry_run(dataclasses.replace(options, handle=handle, kind=kind), program, out)
     if options.trace or options.preview:
         if handle is not None:
             handle.close()
@@ -114,8 +113,9 @@ def run_mill_plot(options, out=None) -> int:
         machine.close()
 
 
-def _dry_run(options, program, out, run_plot) -> int:
+def _dry_run(options, program, out) -> int:
     """sim:// (or our firmware): the job's G-code plotted as DRY_RUN_NOTE says."""
+    from galileo_cnc.cli.plot import run_plot
     from galileo_cnc.config.userdirs import data_dir
     from galileo_cnc.grbl.mill_job import mill_lines
     path = data_dir() / DRY_RUN_NAME
