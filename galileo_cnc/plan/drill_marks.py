@@ -39,6 +39,7 @@ import pyclipper as pc
 from galileo_cnc.plan import curves
 from galileo_cnc.plan.ink import clip
 from galileo_cnc.plan.ink.edges import EdgeIndex
+from galileo_cnc.plan.order.nearby import near_pairs
 from galileo_cnc.plan.widths import aperture_width, mm_text
 from galileo_cnc.program.drills import Hole, Slot
 from galileo_cnc.program.ops import (COL, COLUMNS, I, J, KIND, LINE, NM_PER_MM, TOOL, X, Y,
@@ -184,21 +185,12 @@ def _crowded_marks_shrunk(marks: list[DrillMark], rings: list[np.ndarray], ring_
     if len(dots) < 2:
         return marks, []
     reach = 2 * max(marks[k].radius_nm for k in dots) + 2 * clearance_nm + ring_nm
-    cells: dict[tuple[int, int], list[int]] = {}
-    for k in dots:
-        x, y = marks[k].path[0]
-        cells.setdefault((x // reach, y // reach), []).append(k)
     pairs = []
-    for (cx, cy), members in cells.items():
-        near = [j for dx in (-1, 0, 1) for dy in (-1, 0, 1)
-                for j in cells.get((cx + dx, cy + dy), ())]
-        for k in members:
-            for j in near:
-                if j > k:
-                    distance = math.dist(marks[k].path[0], marks[j].path[0])
-                    if distance < (marks[k].radius_nm + marks[j].radius_nm
-                                   + 2 * clearance_nm + ring_nm):
-                        pairs.append((k, j, distance))
+    for _d2, a, b in near_pairs([marks[k].path[0] for k in dots], reach):
+        k, j = dots[a], dots[b]
+        distance = math.dist(marks[k].path[0], marks[j].path[0])
+        if distance < marks[k].radius_nm + marks[j].radius_nm + 2 * clearance_nm + ring_nm:
+            pairs.append((k, j, distance))
     if not pairs:
         return marks, []
     middles = np.array([[(marks[k].path[0][0] + marks[j].path[0][0]) // 2,

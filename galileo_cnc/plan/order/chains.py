@@ -18,8 +18,7 @@ piece in the file is drawn.
 
 from __future__ import annotations
 
-import numpy as np
-
+from galileo_cnc.plan.order.nearby import near_pairs
 from galileo_cnc.plan.order.pieces import CCW, CW, LINE, MOVE, Piece, Point, with_kind
 from galileo_cnc.plan.order.retrace import retrace_cost, retraced_edges
 from galileo_cnc.program.ops import KIND, X, Y
@@ -88,7 +87,7 @@ def _split_at_junctions(pieces: list[Piece], join_nm: int) -> list[Piece]:
     for o, u in enumerate(where):
         at.setdefault(u, []).append(o)
     close: dict[int, list[int]] = {u: [u] for u, there in at.items() if len(there) > 1}
-    for _d2, a, b in _near_pairs(unique, join_nm):
+    for _d2, a, b in near_pairs(unique, join_nm):
         close.setdefault(a, [a]).append(b)
         close.setdefault(b, [b]).append(a)
     limit = join_nm * join_nm
@@ -152,33 +151,6 @@ def _distinct(points: list[Point]) -> tuple[list[Point], list[int]]:
     return unique, where
 
 
-def _near_pairs(unique: list[Point], join_nm: int) -> list[tuple[int, int, int]]:
-    """(squared distance, a, b), a < b, of the distinct points within `join_nm`."""
-    limit = join_nm * join_nm
-    cell = max(join_nm, 1)
-    grid: dict[tuple[int, int], list[int]] = {}
-    for u in _crowded(unique, cell):
-        x, y = unique[u]
-        grid.setdefault((x // cell, y // cell), []).append(u)
-    pairs = []
-    for (cx, cy), members in grid.items():
-        for dx, dy in ((0, 0), (1, -1), (1, 0), (1, 1), (0, 1)):
-            others = members if dx == dy == 0 else grid.get((cx + dx, cy + dy))
-            if not others:
-                continue
-            for a in members:
-                ax, ay = unique[a]
-                for b in others:
-                    if dx == dy == 0 and b <= a:
-                        continue
-                    bx, by = unique[b]
-                    d2 = (ax - bx) ** 2 + (ay - by) ** 2
-                    if d2 <= limit:
-                        pairs.append((d2, min(a, b), max(a, b)))
-    pairs.sort()
-    return pairs
-
-
 def _cluster(points: list[Point], join_nm: int) -> list[int]:
     """Node of each point: points joined closest pair first into groups whose every
     two points are within `join_nm` (any two ends of a node may join)."""
@@ -187,7 +159,7 @@ def _cluster(points: list[Point], join_nm: int) -> list[int]:
     group = list(range(len(unique)))
     members: dict[int, list[int]] = {}
     apart: set[tuple[int, int]] = set()     # groups with two points too far apart
-    for _d2, a, b in _near_pairs(unique, join_nm):
+    for _d2, a, b in near_pairs(unique, join_nm):
         ga, gb = group[a], group[b]
         if ga == gb or (min(ga, gb), max(ga, gb)) in apart:
             continue
@@ -206,27 +178,6 @@ def _cluster(points: list[Point], join_nm: int) -> list[int]:
     for g in group:
         label.setdefault(g, len(label))
     return [label[group[u]] for u in where]
-
-
-def _crowded(points: list[Point], cell: int) -> list[int]:
-    """Indices of the points with another point in their grid cell or a cell next
-    to it (the others cannot be within a cell's width of any point)."""
-    if len(points) < 2:
-        return []
-    xy = np.array(points, dtype=np.int64) // cell
-    xy -= xy.min(axis=0)
-    height = int(xy[:, 1].max()) + 3
-    if (int(xy[:, 0].max()) + 3) * height >= 1 << 62:     # keys would overflow
-        return list(range(len(points)))
-    key = (xy[:, 0] + 1) * height + (xy[:, 1] + 1)
-    occupied, count = np.unique(key, return_counts=True)
-    near = np.zeros(len(points), dtype=np.int64)
-    for dx in (-1, 0, 1):
-        for dy in (-1, 0, 1):
-            probe = key + dx * height + dy
-            at = np.minimum(np.searchsorted(occupied, probe), len(occupied) - 1)
-            near += np.where(occupied[at] == probe, count[at], 0)
-    return np.nonzero(near > 1)[0].tolist()
 
 
 def _euler_trails(edges: list[tuple[int, int]], nodes: int) -> list[list[tuple[int, bool]]]:

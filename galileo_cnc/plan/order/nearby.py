@@ -1,4 +1,5 @@
-"""Spatial queries for path order: each end's nearest ends, and the nearest free end.
+"""Spatial queries for path order: each end's nearest ends, the nearest free end, and
+the pairs of points within a distance (near_pairs).
 
 Exact for a few thousand points (numpy over blocks of rows); above, candidates from
 windows along three shifted Z-order curves, near enough for the local search's moves.
@@ -9,6 +10,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from galileo_cnc.plan.order.pieces import Point
 
 #: nodes up to which neighbours are found exactly (above: along Z-order curves)
 BRUTE_FORCE = 2000
@@ -172,3 +175,52 @@ def distances_to(xs: list[float], ys: list[float], goals: list[tuple[int, int]])
             ring += 1
         out.append(best)
     return out
+
+
+def near_pairs(unique: list[Point], join_nm: int) -> list[tuple[int, int, int]]:
+    """(squared distance, a, b), a < b, of the distinct points within `join_nm`,
+    nearest first: a grid of `join_nm` cells, only the crowded points looked at."""
+    limit = join_nm * join_nm
+    cell = max(join_nm, 1)
+    grid: dict[tuple[int, int], list[int]] = {}
+    for u in _crowded(unique, cell):
+        x, y = unique[u]
+        grid.setdefault((x // cell, y // cell), []).append(u)
+    pairs = []
+    for (cx, cy), members in grid.items():
+        for dx, dy in ((0, 0), (1, -1), (1, 0), (1, 1), (0, 1)):
+            others = members if dx == dy == 0 else grid.get((cx + dx, cy + dy))
+            if not others:
+                continue
+            for a in members:
+                ax, ay = unique[a]
+                for b in others:
+                    if dx == dy == 0 and b <= a:
+                        continue
+                    bx, by = unique[b]
+                    d2 = (ax - bx) ** 2 + (ay - by) ** 2
+                    if d2 <= limit:
+                        pairs.append((d2, min(a, b), max(a, b)))
+    pairs.sort()
+    return pairs
+
+
+def _crowded(points: list[Point], cell: int) -> list[int]:
+    """Indices of the points with another point in their grid cell or a cell next
+    to it (the others cannot be within a cell's width of any point)."""
+    if len(points) < 2:
+        return []
+    xy = np.array(points, dtype=np.int64) // cell
+    xy -= xy.min(axis=0)
+    height = int(xy[:, 1].max()) + 3
+    if (int(xy[:, 0].max()) + 3) * height >= 1 << 62:     # keys would overflow
+        return list(range(len(points)))
+    key = (xy[:, 0] + 1) * height + (xy[:, 1] + 1)
+    occupied, count = np.unique(key, return_counts=True)
+    near = np.zeros(len(points), dtype=np.int64)
+    for dx in (-1, 0, 1):
+        for dy in (-1, 0, 1):
+            probe = key + dx * height + dy
+            at = np.minimum(np.searchsorted(occupied, probe), len(occupied) - 1)
+            near += np.where(occupied[at] == probe, count[at], 0)
+    return np.nonzero(near > 1)[0].tolist()
