@@ -18,11 +18,9 @@ import dataclasses
 import os
 import sys
 
-from galileo_cnc.config.mill import MillConfig
 from galileo_cnc.errors import GalileoError
 # the job's setup is shared with the console and the web page (grbl/mill_plan.py)
-from galileo_cnc.grbl.mill_plan import (MILL_JOBS, MillRequest, mill_table, mill_text,
-                                        with_height_map)
+from galileo_cnc.grbl.mill_plan import MILL_JOBS, MillRequest, mill_text, with_height_map
 
 
 def add_mill_options(parser: argparse.ArgumentParser) -> None:
@@ -154,8 +152,8 @@ def dry_run_gcode(text: str) -> str:
 
 def run_mill_convert(args: argparse.Namespace, profile, choice=None) -> int:
     """convert --mill: the G-code written to --output (checked writable by the caller)."""
-    mill = MillConfig.from_table(mill_table(args.mill_set), "--mill-set", base=profile.mill)
-    text, notes, summary = mill_text(args, mill, choice)
+    request = MillRequest.from_args(args)
+    text, notes, summary = mill_text(args.file, request, request.mill(profile.mill), choice)
     for note in notes:
         print(f"note: {note}", file=sys.stderr)
     try:

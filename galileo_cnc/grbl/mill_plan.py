@@ -7,10 +7,8 @@ the job's G-code as a MillProgram (grbl/mill_job.py) with the notes and a summar
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import os
-
 from dataclasses import dataclass
 
 from galileo_cnc.config.machine import ConfigError
@@ -50,15 +48,15 @@ def _value(text: str):
 class _MillSource:
     """What the mill works from: one file, or a board's side (the bottom mirrored)."""
 
-    def __init__(self, args: argparse.Namespace, choice):
+    def __init__(self, file, choice):
         from galileo_cnc.readers.board import is_board
-        self.path = args.file
+        self.path = file
         self.board = None
-        if is_board(args.file):
+        if is_board(file):
             from galileo_cnc.plan.board_plan import BoardChoice
             from galileo_cnc.readers.board import open_board
             self.choice = choice or BoardChoice()
-            self.board = open_board(args.file, self.choice.layers)
+            self.board = open_board(file, self.choice.layers)
 
     def close(self) -> None:
         if self.board is not None:
@@ -116,26 +114,27 @@ class _MillSource:
         return outline if axis is None else sides.side_program(outline, "bottom", axis)
 
 
-def mill_text(args: argparse.Namespace, mill: MillConfig,
+def mill_text(file, request: "MillRequest", mill: MillConfig,
               choice=None) -> tuple[str, list[str], str]:
-    """The G-code of the `--mill` job, the notes the user should read and what it does
-    in a few words; `choice`: the board options given (a BoardChoice, None: none)."""
+    """The G-code of the `--mill` job `request` asks of `file` (a file or a board), the
+    notes the user should read and what it does in a few words; `choice`: the board
+    options given (a BoardChoice, None: none)."""
     from galileo_cnc.plan.mill.cutout import cuts_gcode, plan_cutout
     from galileo_cnc.plan.mill.drill import plan_drilling, plan_gcode
     from galileo_cnc.plan.mill.gcode import mill_gcode
     from galileo_cnc.plan.widths import mm_text
-    source = _MillSource(args, choice)
+    source = _MillSource(file, choice)
     try:
-        if args.mill == "all":
-            return _whole_board(args, mill, source)
-        if args.mill == "isolate":
-            text = mill_gcode(source.copper(), mill, accept_shorts=args.accept_shorts)
+        if request.job == "all":
+            return _whole_board(request, mill, source)
+        if request.job == "isolate":
+            text = mill_gcode(source.copper(), mill, accept_shorts=request.accept_shorts)
             rings = sum(1 for line in text.splitlines() if line.startswith("G1 Z"))
             return text, [], f"{_count(rings, 'ring')} round the copper, {mill.describe()}"
-        if args.mill == "drill":
-            plan = plan_drilling(source.holes(), mill, args.drill_order)
+        if request.job == "drill":
+            plan = plan_drilling(source.holes(), mill, request.drill_order)
             items = sum(len(group.items) for group in plan.groups)
-            return plan_gcode(plan, mill, os.fsdecode(args.file)), plan.notes, (
+            return plan_gcode(plan, mill, os.fsdecode(file)), plan.notes, (
                 f"{_count(items, 'hole')} and slots with "
                 f"{', '.join(mm_text(bit) for bit in sorted(mill.drills_nm))} mm bits, "
                 f"{_count(plan.tool_changes, 'bit change')}")
@@ -151,7 +150,7 @@ def mill_text(args: argparse.Namespace, mill: MillConfig,
         source.close()
 
 
-def _whole_board(args: argparse.Namespace, mill: MillConfig,
+def _whole_board(request: "MillRequest", mill: MillConfig,
                  source: "_MillSource") -> tuple[str, list[str], str]:
     """--mill all: isolation, drilling and cut-out as one job, a tool change (M0 naming
     the tool, Z re-zeroed) before the drilling's first bit and before the end mill."""
@@ -159,14 +158,14 @@ def _whole_board(args: argparse.Namespace, mill: MillConfig,
     from galileo_cnc.plan.mill.drill import mm_text, plan_drilling, plan_gcode
     from galileo_cnc.plan.mill.gcode import mill_gcode
     source.needs_board("all")
-    isolation = mill_gcode(source.copper(), mill, accept_shorts=args.accept_shorts)
-    drilling = plan_drilling(source.holes(), mill, args.drill_order)
+    isolation = mill_gcode(source.copper(), mill, accept_shorts=request.accept_shorts)
+    drilling = plan_drilling(source.holes(), mill, request.drill_order)
     outline = source.outline()
     cutout = plan_cutout(outline, mill)
     first_bit = f"{mm_text(drilling.groups[0].bit_nm)} mm bit"
     end_mill = f"{mm_text(mill.diameter_nm)} mm end mill"
     text = joined_jobs([(isolation, None),
-                        (plan_gcode(drilling, mill, os.fsdecode(args.file)), first_bit),
+                        (plan_gcode(drilling, mill, os.fsdecode(source.path)), first_bit),
                         (cuts_gcode(cutout.cuts, mill, outline.source, cutout.notes),
                          end_mill)], mill)
     notes = drilling.notes + cutout.notes
@@ -205,9 +204,8 @@ def mill_program(file, job: str, mill: MillConfig, choice=None, *, accept_shorts
     from galileo_cnc.readers.gcode.writer import mm
     if job not in MILL_JOBS:
         raise GalileoError(f"--mill {job!r}: must be one of {', '.join(MILL_JOBS)}")
-    args = argparse.Namespace(file=file, mill=job, accept_shorts=accept_shorts,
-                              drill_order=drill_order)
-    text, notes, summary = mill_text(args, mill, choice)
+    text, notes, summary = mill_text(file, MillRequest(job, (), accept_shorts, drill_order),
+                                     mill, choice)
     name = f"{os.path.basename(os.fsdecode(file).rstrip('/'))} (--mill {job})"
     program = MillProgram(text, os.fsdecode(file), name, mm(mill.safe_height_nm),
                           mm(mill.plunge_feed_um_min * 1000))
@@ -224,7 +222,7 @@ class MillRequest:
     drill_order: str = "plated-first"
 
     @classmethod
-    def from_args(cls, args: argparse.Namespace) -> "MillRequest | None":
+    def from_args(cls, args) -> "MillRequest | None":
         """The request add_mill_options' options make, None without --mill."""
         if not getattr(args, "mill", None):
             return None
