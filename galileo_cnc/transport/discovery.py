@@ -24,7 +24,7 @@ from serial.tools import list_ports as pyserial_list_ports
 
 from galileo_cnc import protocol as P
 from galileo_cnc.config.hardware import BANNER_WAIT_S, DEFAULT_BAUD
-from galileo_cnc.transport.port import SIM_URL, SIMAVR_URL, open_port
+from galileo_cnc.transport.port import SIM_URL, SIMAVR_URL, is_pseudo_terminal, open_port
 
 #: USB bridges found on Arduino-class boards (VID, PID) -> what they usually are.
 KNOWN_BOARDS = {
@@ -95,14 +95,17 @@ def open_identified(device: str, baud: int, wait_s: float = BANNER_WAIT_S
     Opening errors propagate."""
     port = open_port(device, baud, timeout=0.2)
     try:
-        return port, _identify(port, wait_s)
+        return port, _identify(port, wait_s, booting=not is_pseudo_terminal(device))
     except BaseException:
         port.close()
         raise
 
 
-def _identify(port, wait_s: float) -> str | None:
+def _identify(port, wait_s: float, booting: bool = True) -> str | None:
+    """Who answers: a banner, else our `V` (asked once a board reset by the opening
+    has had half the wait to boot; at once where nothing booted), else GRBL's `?`."""
     deadline = time.monotonic() + wait_s
+    ask_at = deadline - wait_s / 2 if booting else time.monotonic()
     asked = status_asked = False
     while time.monotonic() < deadline:
         line = port.readline()
@@ -117,7 +120,7 @@ def _identify(port, wait_s: float) -> str | None:
                 port.write(b"$I\n")
             if text.startswith("[VER:1.1") or _is_grbl_status(text):
                 return GRBL
-        elif not line and not asked and time.monotonic() > deadline - wait_s / 2:
+        elif not line and not asked and time.monotonic() >= ask_at:
             port.write(P.frame_line(0, "V"))
             asked = True
         elif not line and asked and not status_asked and time.monotonic() > deadline - wait_s / 4:

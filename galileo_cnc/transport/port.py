@@ -9,6 +9,7 @@ simavr (galileo_cnc.simavr.protocol_simavr), which importing this module registe
 from __future__ import annotations
 
 import errno
+import os
 import re
 
 import serial
@@ -33,6 +34,15 @@ register_url_schemes()
 
 def is_simulated(url_or_name: str) -> bool:
     return url_or_name.lower().startswith(SIM_URL)
+
+
+def is_pseudo_terminal(device: str) -> bool:
+    """A pty (socat, a simulator, a serial-over-network bridge): it has no DTR line, so
+    opening it resets nothing and there is no boot loader to wait out."""
+    try:
+        return os.path.realpath(device).startswith("/dev/pts/")
+    except (OSError, ValueError):
+        return False
 
 
 def with_sim_config(url_or_name: str, config_path) -> str:
