@@ -51,6 +51,13 @@ def wait_drawing(position, far: int) -> None:
         time.sleep(0.02)
 
 
+#: A board in simavr paced to the wall clock counts the host's round trips between the
+#: stop and the lift (GRBL: hold, reset, banner, $I, $$) as machine time: 0.10 s on an
+#: idle host, 1.28 s once on a loaded CI machine. The bound still catches a lift that
+#: waited for one of the link's 3 s timeouts.
+PACED_LIFT_TICKS = int(2.5 * TICKS_PER_S)
+
+
 def the_lift(trace: Trace) -> tuple[int, int]:
     """The stop's lift: the run of Z steps up that first follows a drawn X step. (machine
     ticks from the last X/Y step before it, the stop's ramp-down, to its last step; the
@@ -121,7 +128,7 @@ def test_q_on_the_firmware_in_simavr_lifts_the_pen_and_resume_lowers_it(home, dr
     assert stopped[0] == "idle" and stopped[3] == CONFIG.pen_up_z_steps
     assert finished == ("idle", *whole.final_position)
     ticks, z = the_lift(trace)
-    assert z == CONFIG.pen_up_z_steps and ticks < TICKS_PER_S
+    assert z == CONFIG.pen_up_z_steps and ticks < PACED_LIFT_TICKS
     assert inked_points(trace) == inked_points(whole)
 
 
@@ -166,10 +173,10 @@ def test_q_on_grbl_lifts_the_pen_and_resume_goes_on_where_grbl_kept_its_position
     assert "work zero" not in text and "homing" not in text and "Traceback" not in text
     assert stopped.groups() == ("Idle", "1.875")          # 300 steps: the pen up
     assert tuple(pos[-1]) == whole.final_position
-    # the lift: Z steps up straight after the ramp-down, within a second of machine time
+    # the lift: Z steps up straight after the ramp-down
     trace = Trace(tick[1:], np.argmax(np.diff(pos, axis=0) != 0, axis=1),
                   np.diff(pos, axis=0).sum(axis=1), whole.final_position, 0)
     ticks, z = the_lift(trace)
-    assert z == GRBL_CONFIG.pen_up_z_steps and ticks < TICKS_PER_S
+    assert z == GRBL_CONFIG.pen_up_z_steps and ticks < PACED_LIFT_TICKS
     down = {tuple(p[:2]) for p in pos if p[2] == GRBL_CONFIG.pen_down_z_steps}
     assert down >= inked_points(whole)          # every point of the line inked
