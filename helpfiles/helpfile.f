@@ -67,8 +67,8 @@ getg [--mode ink|centre] [--pens MM,MM] [--layers A,B] [--units mm|in]
     are listed in mm and the job is refused unless --accept-shorts. Each
     pause of the job asks like a pen change ("paused for a bit change: put in
     the 1.000 mm bit"): do it, press Enter. On a machine that runs no G-code
-    (sim://, this plotter) it says so: galileo-cnc plot BOARD --mill JOB
-    --port sim:// does a dry run.
+    (sim://, this plotter) it is a dry run: the job's paths are plotted with
+    the pen (below Z 0 the pen is down), the pauses listed, not waited for.
 
 [preview]
 preview [getg's options] [FILE] [-o OUT.png|OUT.svg]

@@ -20,7 +20,8 @@ import sys
 
 from galileo_cnc.errors import GalileoError
 # the job's setup is shared with the console and the web page (grbl/mill_plan.py)
-from galileo_cnc.grbl.mill_plan import MILL_JOBS, MillRequest, mill_text, with_height_map
+from galileo_cnc.grbl.mill_plan import (DRY_RUN_NOTE, MILL_JOBS, MillRequest, dry_run_path,
+                                        mill_text, with_height_map, write_dry_run)
 
 
 def add_mill_options(parser: argparse.ArgumentParser) -> None:
@@ -40,14 +41,6 @@ def add_mill_options(parser: argparse.ArgumentParser) -> None:
                         default="plated-first", help="--mill drill: which holes first")
 
 
-#: What sim:// (or a galileo-cnc plotter: it runs no G-code) does with a mill job.
-DRY_RUN_NOTE = ("a dry run: the mill job's XY paths are plotted from its G-code (Z at or "
-                "below 0 cuts, drawn with the pen down; M3/M5 lower and lift the pen, no "
-                "spindle turns); every G38.2 touches at once at the touch plate's top (work "
-                "Z = the plate's thickness: the Z zero stays) and the M0 pauses are listed, "
-                "not waited for")
-#: The dry run's G-code, kept for plot --resume on sim://.
-DRY_RUN_NAME = "mill-dry-run.nc"
 
 
 def run_mill_plot(options, out=None) -> int:
@@ -114,40 +107,11 @@ def run_mill_plot(options, out=None) -> int:
 def _dry_run(options, program, out) -> int:
     """sim:// (or our firmware): the job's G-code plotted as DRY_RUN_NOTE says."""
     from galileo_cnc.cli.plot import run_plot
-    from galileo_cnc.config.userdirs import data_dir
-    from galileo_cnc.grbl.mill_job import mill_lines
-    path = data_dir() / DRY_RUN_NAME
+    path = dry_run_path()
     if program is not None:
-        lines, pauses = mill_lines(program.text)
-        for index, message in pauses.items():
-            out.write(f"M0 at {program.name}:{lines[index].command + 1}: {message}\n")
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(dry_run_gcode(program.text), encoding="ascii")
+        for line in write_dry_run(program, path):
+            out.write(line + "\n")
     return run_plot(dataclasses.replace(options, file=str(path), mill=None, board=None), out)
-
-
-def dry_run_gcode(text: str) -> str:
-    """The mill job's G-code as the G-code reader plots it: each G38.2 a move down to
-    the plate's top (the G92 after it names it) and that G92 left out, M0 kept as a
-    comment."""
-    lines = text.splitlines()
-    out = []
-    for k, line in enumerate(lines):
-        code = line.split("(")[0].strip()
-        if code.startswith("G38.2"):
-            after = lines[k + 1].split() if k + 1 < len(lines) else []
-            plate = next((w[1:] for w in after if w.startswith("Z")), "0") \
-                if after[:1] == ["G92"] else "0"
-            feed = next((f" {w}" for w in code.split() if w.startswith("F")), "")
-            out.append(f"G1 Z{plate}{feed} (G38.2: the probe touches the plate's top)")
-        elif code.startswith("G92") and k and lines[k - 1].startswith("G38.2"):
-            out.append(f"({code}: the zero stays)")
-        elif code.split()[:1] in (["M0"], ["M00"]):
-            said = "; ".join(part.split(")")[0] for part in line.split("(")[1:])
-            out.append(f"(M0: {said})")
-        else:
-            out.append(line)
-    return "\n".join(out) + "\n"
 
 
 def run_mill_convert(args: argparse.Namespace, profile, choice=None) -> int:

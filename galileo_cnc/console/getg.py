@@ -35,7 +35,8 @@ def run(console, arguments: list[str]) -> None:
     if not path:
         return
     if request is not None:                 # getg --mill JOB: the mill job (console/mill.py)
-        mill.run(console, request, os.path.expanduser(path), board)
+        mill.run(console, request, os.path.expanduser(path), board,
+                 plot_gcode=lambda gcode: run(console, [gcode]))
         return
     console.machine.check_profile()         # e.g. a board built for another machine
     if is_board(os.path.expanduser(path)):

@@ -3,10 +3,10 @@
 as `plot --mill` plans it (grbl/mill_plan.py), its notes and summary said, confirmed,
 then run on a GRBL board through the Machine under the progress bar; each M0 (a bit
 change, the probe clipped on) is asked like a pen change; with the [mill] key
-height_map = true the surface is probed first (mill_plan.with_height_map). A machine
-that runs no G-code (sim://, our firmware) is told apart: the console runs no dry run
-(`plot BOARD --mill JOB --port sim://` does). `resume` continues an interrupted mill
-job (jobs.resume: the mill journal's first)."""
+height_map = true the surface is probed first (mill_plan.with_height_map). On a
+machine that runs no G-code (sim://, our firmware) it is a dry run, as `plot --mill`
+makes it (mill_plan.DRY_RUN_NOTE): the job's G-code plotted by getg's own flow.
+`resume` continues an interrupted mill job (jobs.resume: the mill journal's first)."""
 
 from __future__ import annotations
 
@@ -14,8 +14,9 @@ import os
 
 from galileo_cnc.console import jobs
 from galileo_cnc.errors import GalileoError
-from galileo_cnc.grbl.mill_plan import (MILL_JOBS, MillRequest, profile_mill,
-                                        with_height_map)
+from galileo_cnc.grbl.mill_plan import (DRY_RUN_NOTE, MILL_JOBS, MillRequest,
+                                        dry_run_path, profile_mill, with_height_map,
+                                        write_dry_run)
 from galileo_cnc.plan.board_plan import BoardChoice
 from galileo_cnc.readers.board import is_board
 
@@ -57,14 +58,10 @@ def split_mill_options(arguments: list[str], switches: tuple[str, ...]
     return request, kept + rest
 
 
-def run(console, request: MillRequest, path: str, board: dict) -> None:
-    """The mill job on `path` (`board`: getg's board options, BoardChoice's keywords)."""
+def run(console, request: MillRequest, path: str, board: dict, plot_gcode) -> None:
+    """The mill job on `path` (`board`: getg's board options, BoardChoice's keywords);
+    `plot_gcode(path)`: getg on a G-code file, for the dry run."""
     machine = console.machine
-    if not machine.runs_mill:
-        console.say(f"getg --mill: {machine.port_name} runs no G-code: the console's mill "
-                    f"job needs a GRBL board (connect PORT); galileo-cnc plot BOARD --mill "
-                    f"{request.job} --port sim:// does a dry run of it")
-        return
     choice = BoardChoice(**board) if is_board(path) else None
     if choice is None and board:
         raise GalileoError(f"getg --mill: --side and the other board options are for a "
@@ -76,6 +73,14 @@ def run(console, request: MillRequest, path: str, board: dict) -> None:
     for note in notes:
         console.say(f"note: {note}")
     console.say(f"{program.name}: {summary}")
+    if not machine.runs_mill:
+        console.say(f"note: {machine.port_name} runs galileo-cnc firmware, not G-code: "
+                    f"{DRY_RUN_NOTE}")
+        gcode = dry_run_path()
+        for line in write_dry_run(program, gcode):
+            console.say(line)
+        plot_gcode(str(gcode))
+        return
     if mill.height_map:                     # probed now, before the job is confirmed
         program = with_height_map(machine, program, mill, console.confirm, console.say)
     job = machine.prepare_mill(program)

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 from galileo_cnc.config.machine import ConfigError
 from galileo_cnc.config.mill import MillConfig
+from galileo_cnc.config.userdirs import data_dir
 from galileo_cnc.errors import GalileoError
 
 MILL_JOBS = ("isolate", "drill", "cutout", "all")
@@ -261,3 +262,55 @@ def with_height_map(machine, program, mill: MillConfig, confirm, say):
     if not confirm("height map probed: take the probe clip off the tool"):
         raise GalileoError("the probe clip stays on: nothing was cut")
     return dataclasses.replace(program, height_map=height_map)
+
+
+# ---- the dry run (a machine that runs no G-code) ---------------------------------
+
+#: What sim:// (or a galileo-cnc plotter: it runs no G-code) does with a mill job.
+DRY_RUN_NOTE = ("a dry run: the mill job's XY paths are plotted from its G-code (Z at or "
+                "below 0 cuts, drawn with the pen down; M3/M5 lower and lift the pen, no "
+                "spindle turns); every G38.2 touches at once at the touch plate's top (work "
+                "Z = the plate's thickness: the Z zero stays) and the M0 pauses are listed, "
+                "not waited for")
+#: The dry run's G-code, kept for plot --resume on sim://.
+DRY_RUN_NAME = "mill-dry-run.nc"
+
+
+def dry_run_path():
+    """Where the dry run's G-code is kept (plot --resume on sim:// reads it again)."""
+    return data_dir() / DRY_RUN_NAME
+
+
+def write_dry_run(program, path) -> list[str]:
+    """The program's G-code written to `path` as dry_run_gcode makes it; the lines that
+    name each M0 it will not wait for (`M0 at NAME:LINE: message`)."""
+    from galileo_cnc.grbl.mill_job import mill_lines
+    lines, pauses = mill_lines(program.text)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(dry_run_gcode(program.text), encoding="ascii")
+    return [f"M0 at {program.name}:{lines[index].command + 1}: {message}"
+            for index, message in pauses.items()]
+
+
+def dry_run_gcode(text: str) -> str:
+    """The mill job's G-code as the G-code reader plots it: each G38.2 a move down to
+    the plate's top (the G92 after it names it) and that G92 left out, M0 kept as a
+    comment."""
+    lines = text.splitlines()
+    out = []
+    for k, line in enumerate(lines):
+        code = line.split("(")[0].strip()
+        if code.startswith("G38.2"):
+            after = lines[k + 1].split() if k + 1 < len(lines) else []
+            plate = next((w[1:] for w in after if w.startswith("Z")), "0") \
+                if after[:1] == ["G92"] else "0"
+            feed = next((f" {w}" for w in code.split() if w.startswith("F")), "")
+            out.append(f"G1 Z{plate}{feed} (G38.2: the probe touches the plate's top)")
+        elif code.startswith("G92") and k and lines[k - 1].startswith("G38.2"):
+            out.append(f"({code}: the zero stays)")
+        elif code.split()[:1] in (["M0"], ["M00"]):
+            said = "; ".join(part.split(")")[0] for part in line.split("(")[1:])
+            out.append(f"(M0: {said})")
+        else:
+            out.append(line)
+    return "\n".join(out) + "\n"

@@ -12,7 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from galileo_cnc.cli.mill import DRY_RUN_NOTE, dry_run_gcode, run_mill_plot
+from galileo_cnc.cli.mill import run_mill_plot
+from galileo_cnc.grbl.mill_plan import DRY_RUN_NOTE, dry_run_gcode
 from galileo_cnc.cli.plot import PlotOptions
 from galileo_cnc.config.profile import load_profile
 from galileo_cnc.grbl.mill_plan import MillRequest

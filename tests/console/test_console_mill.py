@@ -12,7 +12,8 @@ from pathlib import Path
 
 from galileo_cnc.config.mill import MillConfig
 from galileo_cnc.grbl.mill_job import mill_journal
-from galileo_cnc.grbl.mill_plan import mill_program, mill_table
+from galileo_cnc.grbl.mill_plan import DRY_RUN_NAME, mill_program, mill_table
+from galileo_cnc.stream.journal import FINISHED, Journal
 
 from test_console import WAIT_S, console_in_thread, home  # noqa: F401  (the fixture)
 
@@ -106,15 +107,27 @@ def test_getg_mill_drills_asks_for_the_bit_and_resumes_a_stopped_cutout(home, tm
     assert "Traceback" not in user.screen.text
 
 
-def test_getg_mill_on_a_machine_without_gcode_says_it_needs_grbl(home, tmp_path):  # noqa: F811
+def test_getg_mill_on_sim_is_a_dry_run_plotted_as_getg_plots(home, tmp_path):  # noqa: F811
+    """On sim:// (no G-code) `getg --mill all` plans the job, says it is a dry run,
+    lists the M0 pauses it will not wait for, then plots the dry run's G-code through
+    getg's own questions; the journal keeps it for `resume`."""
     board = square_pad_board(tmp_path / "board")
+    mill = MillConfig.from_table(mill_table(list(MILL_SET)), "--mill-set")
+    program, _, _ = mill_program(str(board), "all", mill)
+    changes = program.text.count("(TOOL CHANGE: put in the ")
     with console_in_thread(home) as user:                       # sim://: no G-code
-        user.line(f"getg --mill drill {board}")
-        user.expect(r"getg --mill: sim://\S* runs no G-code: the console's mill job needs a "
-                    r"GRBL board \(connect PORT\); galileo-cnc plot BOARD --mill drill --port "
-                    r"sim:// does a dry run of it")
+        user.line(mill_line("all", MILL_SET, board))
+        user.expect(r"note: sim://\S* runs galileo-cnc firmware, not G-code: a dry run")
+        user.expect(r"use these offsets\? \[Y/n\]")
+        listed = re.findall(r"M0 at [^\n]+?:\d+: TOOL CHANGE: put in the [\d.]+ mm (?:bit|end mill|V-bit)",
+                            user.screen.text)
+        user.line("")
+        user.expect(r"process has finished")
         user.expect(r">>")
         user.line(f"getg --accept-shorts {board}")              # a mill option alone
         user.expect(r"getg: --mill-set, --accept-shorts and --drill-order go with --mill")
         user.expect(r">>")
+    assert changes >= 2 and len(listed) == changes
+    entry = Journal.default().load()
+    assert entry.state == FINISHED and entry.source.endswith(DRY_RUN_NAME)
     assert "Traceback" not in user.screen.text
