@@ -37,8 +37,8 @@ from galileo_cnc.config.machine import MachineConfig, pen_widths_from_text
 from galileo_cnc.config.userdirs import data_dir
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.grbl.mill_job import mill_lines
-from galileo_cnc.grbl.mill_plan import (MILL_JOBS, mill_program, profile_mill,
-                                        with_height_map)
+from galileo_cnc.grbl.mill_plan import (DRY_RUN_NOTE, MILL_JOBS, mill_program, profile_mill,
+                                        with_height_map, write_dry_run)
 from galileo_cnc.machine.timing import duration_text
 from galileo_cnc.plan.board_plan import BoardChoice, plan_source
 from galileo_cnc.plan.feeds import machine_refusal
@@ -326,6 +326,14 @@ class MachineService:
         except GalileoError as error:
             raise GalileoError(_as_field(str(error).replace(str(path), upload.name))) \
                 from None
+        options = {"pens": pens, "mode": planned.mode,
+                   "side": side if board is not None else None, "offset": offset}
+        return self._plan_made(upload, planned, config, options, path)
+
+    def _plan_made(self, upload: Upload, planned, config: MachineConfig, options: dict,
+                   path: Path, notes: tuple[str, ...] = ()) -> Plan:
+        """The Plan of `planned` (from `path`, the upload or a dry run's G-code), its
+        preview drawn and its lines named as the page knows the upload."""
         plan_id = f"p{next(self._plan_ids)}"
         preview = self.folder / "previews" / f"{plan_id}.svg"
         preview.parent.mkdir(parents=True, exist_ok=True)
@@ -334,30 +342,26 @@ class MachineService:
         svg = re.sub(r"<title>.*?</title>", f"<title>{escape(upload.name)}: galileo-cnc "
                      f"preview (work mm)</title>", preview.read_text(encoding="utf-8"), 1)
         preview.write_text(svg, encoding="utf-8")
-        lines = [line for line in (getattr(planned, "side_line", ""),
+        lines = [line for line in (*notes, getattr(planned, "side_line", ""),
                                    *getattr(planned, "feed_warnings", ()),
                                    f"offset {planned.offset_nm[0] / NM_PER_MM:.3f}, "
                                    f"{planned.offset_nm[1] / NM_PER_MM:.3f} mm",
                                    info.summary().split(" (open it")[0]) if line]
-        options = {"pens": pens, "mode": planned.mode,
-                   "side": side if board is not None else None, "offset": offset}
         plan = Plan(plan_id, upload, planned, config, options, preview,
                     [line.replace(str(path), upload.name) for line in lines])
         return self._keep(plan)
 
     def plan_mill(self, upload: Upload, job: str, *, side: str = "top",
-                  mill_set: dict | None = None, accept_shorts: bool = False) -> MillPlan:
+                  mill_set: dict | None = None, accept_shorts: bool = False
+                  ) -> MillPlan | Plan:
         """A mill job of an uploaded board (or one file: isolate), its tool the profile's
-        [mill] with `mill_set` ({"passes": 2}, the table's keys) over it; GalileoError
-        says why not: no GRBL, a key, islands closer than the cut (listed in mm)."""
+        [mill] with `mill_set` ({"passes": 2}, the table's keys) over it (on a machine
+        that runs no G-code, its dry run: a Plan); GalileoError says why not: a key,
+        islands closer than the cut (listed in mm)."""
         from galileo_cnc.config.mill import MillConfig
         if job not in MILL_JOBS:
             raise GalileoError(f"mill: expected {', '.join(MILL_JOBS[:-1])} or "
                                f"{MILL_JOBS[-1]}, got {job!r}")
-        if not self.machine.runs_mill:
-            raise GalileoError(f"mill: {self.machine.port_name} runs no G-code: a mill job "
-                               f"needs a GRBL board (galileo-cnc plot BOARD --mill {job} "
-                               f"--port sim:// does a dry run)")
         if side not in ("top", "bottom"):
             raise GalileoError(f"side: expected top or bottom, got {side!r}")
         if not isinstance(mill_set, dict):
@@ -379,8 +383,29 @@ class MachineService:
         lines = [f"{upload.name} (mill {job}): {summary}", *(f"note: {note}" for note in notes)]
         options = {"mill": job, "side": side if choice is not None else None,
                    "mill_set": mill_set, "accept_shorts": accept_shorts}
+        if not self.machine.runs_mill:
+            return self._dry_run_plan(upload, program, options, lines)
         return self._keep(MillPlan(f"p{next(self._plan_ids)}", upload, program, mill, options,
                                    [line.replace(str(path), upload.name) for line in lines]))
+
+    def _dry_run_plan(self, upload: Upload, program, options: dict, lines: list[str]) -> Plan:
+        """A mill job on a machine that runs no G-code (sim://, our firmware): the dry run
+        `plot --mill` makes there, planned as an uploaded G-code file is, so the page
+        shows its preview and starts it as any plot."""
+        gcode = self.folder / "dry-runs" / f"{upload.id}-{options['mill']}.nc"
+        pauses = write_dry_run(program, gcode)
+        try:
+            planned = plan_source(gcode, self.config, "auto")
+            refused = machine_refusal(planned.program, self.config, self.machine.feed_refusal)
+            if refused is not None:
+                raise GalileoError(refused)
+        except GalileoError as error:
+            raise GalileoError(_as_field(str(error).replace(str(gcode), upload.name))) \
+                from None
+        notes = (f"note: {self.machine.port_name} runs galileo-cnc firmware, not G-code: "
+                 f"{DRY_RUN_NOTE}", *lines, *pauses)
+        return self._plan_made(upload, planned, self.config, {**options, "dry_run": True},
+                               gcode, notes)
 
     def _keep(self, plan):
         with self._lock:

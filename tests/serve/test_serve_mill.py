@@ -75,3 +75,30 @@ def test_serve_drills_a_board_on_grbl_answering_the_bit_change(fresh_sim, tmp_pa
     assert prompts[0] == "paused for a bit change: put in the 1.000 mm bit"
     assert prompts[1].startswith("paused (M0): PROBE: clip the probe to the 1.000 mm bit")
     assert len(prompts) == 3
+
+
+def test_serve_mill_on_sim_is_a_dry_run_planned_and_plotted_as_a_plot(served, tmp_path):
+    """On sim:// a mill plan is the dry run: a plot of the job's G-code with its preview,
+    its lines the dry run's note, the job's summary and every bit change it will not
+    wait for; started, it runs to the end with no prompt."""
+    server, service, client = served
+    folder = square_pad_board(tmp_path / "board")
+    board_zip = Path(shutil.make_archive(str(folder), "zip", folder)).read_bytes()
+    upload = client.post("/api/uploads", content=board_zip,
+                         headers={"x-filename": "pads.zip"}).json()["id"]
+    answer = client.post("/api/plans", json={"upload": upload, "mill": "all",
+                                             "mill_set": mill_table(list(MILL_SET))})
+    assert answer.status_code == 201, answer.text
+    plan = answer.json()
+    assert plan["options"]["dry_run"] is True and plan["options"]["mill"] == "all"
+    lines = plan["lines"]
+    assert lines[0].startswith("note: sim://") and "a dry run" in lines[0]
+    assert lines[1].startswith("pads.zip (mill all): ")
+    assert sum("TOOL CHANGE: put in the" in line for line in lines) == 3
+    assert not any(str(service.store.folder) in line for line in lines)
+    preview = client.get(plan["preview"])
+    assert preview.status_code == 200 and "<svg" in preview.text
+    assert client.post("/api/jobs", json={"plan": plan["id"]}).status_code == 202
+    state = wait_for(client, lambda s: s["activity"] is None)
+    assert state["prompt"] is None
+    assert state["history"][-1]["result"] == "finished", state["history"][-1]
