@@ -44,7 +44,8 @@ machine starts (Z = 0 is pen-down) is not a dot.
 
 - inked: copper pixels inked / copper pixels;
 - outside, as % of the copper: (a) ink outside the copper within the narrow-feature
-  allowance: each narrow feature's centre line (`planned.ink.narrow[k]`: its
+  allowance: each narrow feature's centre line (`planned.ink.narrow[k]`, and the necks
+  drawn as spurs of the walks, `planned.ink.necks`: its
   `.pieces` drawn by `.pen_nm`, or `.path_nm` drawn by `.width_nm`) swept by that
   pen's disc, plus one pixel; (b) the rest;
 - bridges: components (8-connected) of ink | copper that hold 2 or more copper
@@ -220,7 +221,11 @@ def narrow_paths(planned) -> list[tuple[np.ndarray, int]]:
     if ink is None:
         return []
     out = []
-    for item in getattr(ink, "narrow", None) or ():
+    # the necks drawn as spurs of the walks (necks.py) overdraw as centre lines do
+    narrow = list(getattr(ink, "narrow", None) or ())
+    drawn = {id(item) for item in narrow}
+    narrow += [neck for neck in getattr(ink, "necks", None) or () if id(neck) not in drawn]
+    for item in narrow:
         pieces = item.pieces if hasattr(item, "pieces") else [item.path_nm]
         width = getattr(item, "pen_nm", None) or item.width_nm
         out.extend((np.asarray(piece, dtype=np.int64).reshape(-1, 2), int(width))

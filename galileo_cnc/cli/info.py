@@ -121,7 +121,9 @@ def ink_summary(planned, lengths, mm_per_step: float, verbose: bool = False) -> 
         "pen_up_mm": round(lengths.travel_steps * mm_per_step, 1),
         "pen_lifts": lengths.lifts,
         "pen_changes": len(planned.job.pen_changes),
-        "narrow_features": len(ink.narrow),
+        "narrow_features": sum(not feature.neck for feature in ink.narrow),
+        "necks_drawn": len(ink.necks),
+        "necks_left": len(ink.necks_left),
         "bridges_avoided": len(ink.bridges),
         "close_island_pairs": ink.close.count,
         "planning_s": round(ink.seconds, 2),
@@ -192,6 +194,8 @@ def format_summary(summary: dict, verbose: bool = False) -> str:
         lines.append(f"            pen down {ink['pen_down_mm'] / 1000:.2f} m, pen up "
                      f"{ink['pen_up_mm'] / 1000:.2f} m, {ink['pen_lifts']} pen lifts, "
                      f"{ink['narrow_features']} narrow features drawn as centre lines"
+                     + (f", {ink['necks_drawn']} necks drawn" if ink["necks_drawn"] else "")
+                     + (f", {ink['necks_left']} left bare" if ink["necks_left"] else "")
                      + (f", {ink['bridges_avoided']} bridges avoided" if ink["bridges_avoided"]
                         else "")
                      + (f", {ink['close_island_pairs']} pair"

@@ -348,7 +348,8 @@ def _say_ink(ink, out: TextIO) -> None:
     pens = ", ".join(mm_text(w) for w in ink.pens_nm)
     share = 100 * ink.inked_nm2 / ink.copper_nm2 if ink.copper_nm2 else 100.0
     out.write(f"ink: pens {pens} mm, {share:.1f} % of the copper inked, "
-              f"{len(ink.narrow)} narrow features as centre lines\n")
+              f"{sum(not feature.neck for feature in ink.narrow)} narrow features as "
+              f"centre lines" + (f", {len(ink.necks)} necks" if ink.necks else "") + "\n")
     for warning in ink_warnings(ink):
         out.write(f"{warning}\n")
 

@@ -372,8 +372,10 @@ def plan_file(source: str | Path | Program | Artwork, config: MachineConfig | No
                                            artwork.margin_nm)
             if side is not None and side.crosses:
                 # walks of the smallest pen, clear of the marks, of the centre lines' ink
-                # and of every island but the hole's own pad
-                lines = [piece for feature in paths.narrow for piece in feature.pieces]
+                # (the necks' too: their ink also passes the copper's edge) and of every
+                # island but the hole's own pad
+                lines = [piece for feature in paths.narrow + paths.necks
+                         for piece in feature.pieces]
                 crosses = clear_strokes(sides.cross_strokes(side.crosses),
                                         paths.copper.native, paths.bare, pen,
                                         CLEARANCE_NM, INK_TOLERANCE_NM, lines)
@@ -453,11 +455,13 @@ def _board_lines(side: _Side, options: PlanOptions) -> list[BoardLines]:
 def _lines_keep_out(ink: InkPlan | None, inked_over: list, copper: Program, plotted: Program,
                     marks: list, pen_nm: int, widest_pen_nm: int) -> list:
     """Where the outline and silk must not go (board_lines.keep_out): in ink mode the
-    ink's copper, its centre lines and crosses (the smallest pen's) and the bare marks;
+    ink's copper, its centre lines, necks and crosses (the smallest pen's) and the bare
+    marks;
     in centre mode the copper and every centre line as the widest pen would draw it
     (which pen an aperture gets is the user's), and the marks."""
     if ink is not None:
-        lines = inked_over + [piece for feature in ink.narrow for piece in feature.pieces]
+        lines = inked_over + [piece for feature in ink.narrow + ink.necks
+                              for piece in feature.pieces]
         return keep_out(ink.copper.native, lines, pen_nm // 2, ink.bare, pen_nm, CLEARANCE_NM)
     bare = [ring for mark in marks for ring in mark.polygons(INK_TOLERANCE_NM)]
     return keep_out(dark_geometry(copper, INK_TOLERANCE_NM).native,

@@ -39,7 +39,8 @@ def test_the_ink_stages_of_a_large_file_in_order(monkeypatch):
     assert heard == ["inking: working out the copper",
                      "inking: finding features too narrow to fill",
                      "inking: filling with the 0.8 mm pen",
-                     "inking: filling with the 0.3 mm pen", "inking: fitting arcs",
+                     "inking: filling with the 0.3 mm pen",
+                     "inking: looking for necks too narrow to fill", "inking: fitting arcs",
                      "ordering the paths to cut pen-up travel"]
 
 

@@ -41,6 +41,7 @@ from galileo_cnc.plan.ink.islands import (CLEARANCE_NM, ClosePlaces, Islands, cl
                                          keep_back)
 from galileo_cnc.plan.ink.narrow import (Bridge, NarrowFeature, find_narrow,
                                         keep_islands_apart)
+from galileo_cnc.plan.ink.necks import attach_to_walks, neck_features, spliced
 from galileo_cnc.plan.ink.walk_order import Skeleton, WalkOrder, touching_walks
 from galileo_cnc.plan.order.links import LINK_AREAS
 from galileo_cnc.plan.order.pieces import WHOLE_PATHS
@@ -89,6 +90,10 @@ class InkPlan:
     seconds: float = 0.0
     bare: list = field(default_factory=list)   # the area left bare (drill marks), program nm
     bridge_warnings: slice = field(default_factory=lambda: slice(0, 0))  # theirs in `warnings`
+    #: the necks drawn (necks.py): spurs of the walks, and those in `narrow` as lines
+    necks: list[NarrowFeature] = field(default_factory=list)
+    #: the necks left bare: a line along them would come near another island
+    necks_left: list[NarrowFeature] = field(default_factory=list)
 
     def warnings_to_show(self) -> list[str]:
         """The warnings to print before a job: all but the bridges' past the first
@@ -199,13 +204,19 @@ def ink_paths(program: Program, pens_nm: tuple[int, ...] | list[int], *,
             _around_bare(fills[0], bare_area, pens[0] // 2 + tolerance_nm, tolerance_nm)
         if bare_area:
             narrow = _clear_of(narrow, bare_area, smallest // 2 + tolerance_nm, tolerance_nm)
+        stage("inking: looking for necks too narrow to fill")
+        narrow, necks, necks_left = _with_necks(program.source, islands, fills, narrow,
+                                                smallest, edge_margin_nm, tolerance_nm,
+                                                bare_area)
     finally:
         apart.cancel()
-    coverage = Coverage(fills, [piece for f in narrow for piece in f.pieces], smallest // 2,
-                        region, tolerance_nm, fork=big)
+    as_lines = {id(feature) for feature in narrow}
+    spurs = [neck.pieces[0] for neck in necks if id(neck) not in as_lines]
+    coverage = Coverage(fills, [piece for f in narrow for piece in f.pieces] + spurs,
+                        smallest // 2, region, tolerance_nm, fork=big)
     return InkPaths(program, pens, copper, fills, narrow, bridges, zero_size, close,
                     clip.area_nm2(region), coverage, big, began, stage, tolerance_nm,
-                    bare=bare_area)
+                    bare=bare_area, necks=necks, necks_left=necks_left)
 
 
 def _around_bare(fill: PenFill, bare_area: list, reach_nm: int, tolerance_nm: int) -> None:
@@ -272,6 +283,41 @@ def _clear_of(narrow: list[NarrowFeature], bare_area: list, reach_nm: int,
     return kept
 
 
+def _with_necks(source: str, islands: Islands, fills: list[PenFill],
+                narrow: list[NarrowFeature], pen_nm: int, edge_margin_nm: int,
+                tolerance_nm: int, bare_area: list
+                ) -> tuple[list[NarrowFeature], list[NarrowFeature], list[NarrowFeature]]:
+    """A line along each neck the fills leave bare (necks.py): a neck whose line keeps
+    apart from other islands as the centre lines do, and clear of the bare area, is
+    drawn, as a spur of the walk beside it (necks.spliced: no pen lift of its own) or
+    else as a centre line; any other is left bare, as it was (a part of it drawn would
+    be a stub). (The centre lines with those necks, the necks drawn, the necks left.)"""
+    necks = neck_features(source, fills,
+                          [piece for feature in narrow for piece in feature.pieces],
+                          pen_nm, edge_margin_nm, tolerance_nm)
+    if not necks:
+        return narrow, [], []
+    fill = fills[-1]
+    attached = attach_to_walks(necks, fill.paths, pen_nm)
+    planned = {id(neck): neck.pieces[0].copy() for neck in necks}
+    drawn_lines = [feature for feature in narrow if feature.pieces]
+    keep_islands_apart(drawn_lines + necks, islands, pen_nm, settled=len(drawn_lines))
+    clear = _clear_of(necks, bare_area, pen_nm // 2 + tolerance_nm, tolerance_nm) \
+        if bare_area else necks
+    # (Clipper may hand a line back the other way round)
+    whole = {id(neck) for neck in clear if len(neck.pieces) == 1 and any(
+        np.array_equal(line, planned[id(neck)]) for line in (neck.pieces[0],
+                                                             neck.pieces[0][::-1]))}
+    drawn = [neck for neck in necks if id(neck) in whole]
+    for neck in drawn:
+        neck.pieces = [planned[id(neck)]]
+    left = [neck for neck in necks if id(neck) not in whole]
+    spurs = spliced(fill, [(neck, attached[id(neck)]) for neck in drawn
+                           if id(neck) in attached], tolerance_nm)
+    spurred = {id(neck) for neck, _where in spurs}
+    return narrow + [neck for neck in drawn if id(neck) not in spurred], drawn, left
+
+
 def _kept_apart(narrow: list[NarrowFeature], islands: Islands, pen_nm: int
                 ) -> tuple[list[NarrowFeature], list[Bridge]]:
     """keep_islands_apart, and the features it cut (sent back from a second process)."""
@@ -300,6 +346,8 @@ class InkPaths:
     stage: Callable[[str], None]
     tolerance_nm: int                     # the ink's (ink_paths): its arcs are fitted to it
     bare: list = field(default_factory=list)       # the area left bare (drill marks)
+    necks: list = field(default_factory=list)      # InkPlan.necks
+    necks_left: list = field(default_factory=list)  # InkPlan.necks_left
     _fitted: dict = field(default_factory=dict)    # (fill, path) -> its arcs, once fitted
     _narrow: np.ndarray | None = None              # the centre lines' rows, once made
 
@@ -359,7 +407,7 @@ class InkPaths:
         self._fitted = {}        # 100k small tuples on a pour: freed before the collector runs
         plan = InkPlan(rows, self.pens_nm, self.copper, self.fills, self.narrow, self.bridges,
                        self.zero_size, self.close, self.copper_nm2, self.coverage,
-                       bare=self.bare)
+                       bare=self.bare, necks=self.necks, necks_left=self.necks_left)
         plan.warnings, plan.bridge_warnings = _warnings(self.source, plan)
         plan.program.warnings = list(self.source.warnings) + plan.warnings
         plan.seconds = time.perf_counter() - self.began
@@ -548,7 +596,10 @@ def _warnings(program: Program, plan: InkPlan) -> tuple[list[ReaderWarning], sli
     bridges' are in the list."""
     found: list[ReaderWarning] = []
     by_aperture: dict[tuple[int, bool], list[NarrowFeature]] = {}
+    necks = plan.necks
     for feature in plan.narrow:
+        if feature.neck:
+            continue
         key = (int(feature.row[TOOL]), feature.inside_nm is not None)
         by_aperture.setdefault(key, []).append(feature)
     pen = mm_text(plan.pens_nm[-1])
@@ -569,6 +620,18 @@ def _warnings(program: Program, plan: InkPlan) -> tuple[list[ReaderWarning], sli
         found.append(ReaderWarning(first.pos, (
             f"{what} ({mm_text(first.width_nm)} mm wide) too narrow to fill with the {pen} mm pen: "
             f"drawn as centre lines, {mm_text(first.overdraw_nm)} mm overdraw per side{where}")))
+    if necks or plan.necks_left:
+        count, left = len(necks), len(plan.necks_left)
+        drawn = (f"drawn along {'their' if count != 1 else 'its'} middle, the ink "
+                 f"spilling beside {'them' if count != 1 else 'it'} (the first at "
+                 f"{_xy(necks[0].pieces[0][-1])})") if count else "none drawn"
+        bare = (f"; {left} left bare, a line along {'them' if left != 1 else 'it'} would "
+                f"come within {mm_text(CLEARANCE_NM)} mm of another island (the first at "
+                f"{_xy(plan.necks_left[0].inside_nm)})") if left else ""
+        found.append(ReaderWarning(SourcePos(program.source, 0, 0), (
+            f"{count + left} neck{'s' * (count + left != 1)} of copper too narrow to fill "
+            f"with the {pen} mm pen (thermal relief spokes, pours between traces) between "
+            f"inked parts of one island: {drawn}{bare}")))
     first_bridge = len(found)
     for bridge in plan.bridges:
         other = "another copper island" if bridge.other is None else \

@@ -70,6 +70,7 @@ class NarrowFeature:
     cut: bool = False
     inside_nm: tuple[int, int] | None = None  # a point of its copper (None: mid-line)
     island: int = -1          # its copper island (keep_islands_apart)
+    neck: bool = False        # a neck of a region (necks.py), not an object of its own
 
     @property
     def overdraw_nm(self) -> int:
@@ -215,10 +216,12 @@ def _centre_line(row: list[int], start: tuple[int, int], aperture: Aperture, pen
 
 
 def keep_islands_apart(features: list[NarrowFeature], islands: Islands,
-                       pen_nm: int) -> list[Bridge]:
+                       pen_nm: int, settled: int = 0) -> list[Bridge]:
     """Cut every centre line where its ink would come near another island's copper or
-    another island's centre-line ink (module doc); the cuts, each with both places."""
-    if not features or not islands.rings:
+    another island's centre-line ink (module doc); the cuts, each with both places.
+    The first `settled` features were kept apart already: they stay as they are, and
+    the others keep apart from every piece of them."""
+    if len(features) <= settled or not islands.rings:
         return []
     rings, owner_of_ring = islands.rings, islands.owner
     radius = pen_nm // 2
@@ -236,8 +239,14 @@ def keep_islands_apart(features: list[NarrowFeature], islands: Islands,
     near_other_copper, near_other_line = _nearby(features, copper_index, owner_of_ring,
                                                  near_copper, near_ink)
     lines = _LineIndex(features, cell_nm=max(near_ink, 250_000))
+    if settled:
+        # _nearby looked at their first pieces only: the new ones get the exact look
+        near_other_line[settled:] = True
+        for number in range(settled):
+            for piece in features[number].pieces:
+                lines.keep(number, piece)
     bridges: list[Bridge] = []
-    for number in sorted(range(len(features)), key=lambda k: -_size(features[k])):
+    for number in sorted(range(settled, len(features)), key=lambda k: -_size(features[k])):
         feature = features[number]
         path = feature.pieces[0]
         others = np.zeros(0, dtype=np.int64)
