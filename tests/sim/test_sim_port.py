@@ -248,6 +248,16 @@ def paced():
 
 
 @pytest.fixture
+def wall_paced():
+    """sim:// at the wall clock's pace, for a test whose blocks must all be queued
+    before the machine could run out of them even on a host loaded for a moment (at
+    SPEED, once under a full load, a machine braked early on seven blocks sent at once)."""
+    link = sim_link("sim://?speed=1")
+    yield link
+    link.close()
+
+
+@pytest.fixture
 def forget_named():
     forget_named_machines()
     yield
@@ -481,12 +491,13 @@ def test_exit_indices_on_the_wire_give_the_reference_with_junction_speeds(link):
     assert np.array_equal(trace.tick, ref.tick) and trace.same_steps(ref)
 
 
-def test_a_late_block_finds_the_machine_braked_to_the_end_of_its_queue(paced):
+def test_a_late_block_finds_the_machine_braked_to_the_end_of_its_queue(wall_paced):
     # Never overrun: the first side ends at a junction speed, but the next one comes
     # when the machine has stopped: it braked to the end of what it had, as the
     # reference's starved link (Starved) does, and the next side starts from rest.
     from galileo_cnc.machine import Starved
     from galileo_cnc.machine.planner import with_exit_indices
+    paced = wall_paced
     job = CENTRE + [SetFeed(1600)] + OCTAGON[:4]
     wire = with_exit_indices(job, JUNCTIONS_ON)
     assert wire[6].exit_index
