@@ -624,7 +624,7 @@ def _warnings(program: Program, plan: InkPlan) -> tuple[list[ReaderWarning], sli
         count, left = len(necks), len(plan.necks_left)
         drawn = (f"drawn along {'their' if count != 1 else 'its'} middle, the ink "
                  f"spilling beside {'them' if count != 1 else 'it'} (the first at "
-                 f"{_xy(necks[0].pieces[0][-1])})") if count else "none drawn"
+                 f"{_xy(necks[0].inside_nm)})") if count else "none drawn"
         bare = (f"; {left} left bare, a line along {'them' if left != 1 else 'it'} would "
                 f"come within {mm_text(CLEARANCE_NM)} mm of another island (the first at "
                 f"{_xy(plan.necks_left[0].inside_nm)})") if left else ""

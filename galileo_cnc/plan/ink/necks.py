@@ -103,8 +103,10 @@ def _feature(source: str, piece: np.ndarray, pen_nm: int) -> NarrowFeature:
     width = int(abs(pc.Area(piece.tolist())) / max(length, 1.0))
     row = [0] * len(COLUMNS)
     row[KIND] = int(OpKind.LINE)
-    inside = tuple(int(v) for v in np.rint(centre)) \
-        if pc.PointInPolygon(tuple(int(v) for v in np.rint(centre)), piece.tolist()) else \
+    middle = tuple(int(v) for v in np.rint(centre))
+    # a point of its copper, for the island it belongs to (a curved piece may not hold
+    # its centroid: then a vertex, on its outline)
+    inside = middle if pc.PointInPolygon(middle, piece.tolist()) else \
         tuple(int(v) for v in piece[0])
     return NarrowFeature(op_index=-1, pos=SourcePos(source, 0, 0), width_nm=width,
                          pen_nm=pen_nm, row=row, start_nm=(int(a[0]), int(a[1])),
@@ -154,12 +156,15 @@ def spliced(fill: PenFill, necks: list[tuple[NarrowFeature, tuple]], tolerance_n
     if len(fill.coarse) != len(fill.paths):
         fill.coarse = [np.full(len(path), tolerance_nm) for path in fill.paths]
     by_walk: dict[int, list] = {}
-    for neck, (walk, edge, _point) in necks:
-        by_walk.setdefault(walk, []).append((edge, neck))
+    for neck, (walk, edge, point) in necks:
+        start = fill.paths[walk][edge]
+        along = abs(point[0] - int(start[0])) + abs(point[1] - int(start[1]))
+        by_walk.setdefault(walk, []).append((edge, along, neck))
     for walk, items in by_walk.items():
         path, coarse = fill.paths[walk], fill.coarse[walk]
-        # last place first: the earlier places' indices stay as they were
-        for edge, neck in sorted(items, key=lambda item: -item[0]):
+        # last place first (along an edge too): the earlier places' indices stay as
+        # they were, and spurs on one edge come in their order along it
+        for edge, _along, neck in sorted(items, key=lambda item: (-item[0], -item[1])):
             line = neck.pieces[0]
             spur = np.vstack([line, line[-2::-1]])
             path = np.vstack([path[:edge + 1], spur, path[edge + 1:]])
