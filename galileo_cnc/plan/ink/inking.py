@@ -298,7 +298,7 @@ def _with_necks(source: str, islands: Islands, fills: list[PenFill],
     if not necks:
         return narrow, [], []
     fill = fills[-1]
-    attached = attach_to_walks(necks, fill.paths, pen_nm)
+    attached = attach_to_walks(necks, fill.paths, pen_nm, islands)
     planned = {id(neck): neck.pieces[0].copy() for neck in necks}
     drawn_lines = [feature for feature in narrow if feature.pieces]
     keep_islands_apart(drawn_lines + necks, islands, pen_nm, settled=len(drawn_lines))

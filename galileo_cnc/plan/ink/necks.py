@@ -20,6 +20,7 @@ from galileo_cnc.errors import SourcePos
 from galileo_cnc.plan.ink import clip
 from galileo_cnc.plan.ink.edges import EdgeIndex
 from galileo_cnc.plan.ink.fill import GAP_NM, PenFill
+from galileo_cnc.plan.ink.islands import Islands
 from galileo_cnc.plan.ink.narrow import NarrowFeature
 from galileo_cnc.program.ops import COLUMNS, KIND, OpKind
 
@@ -56,8 +57,31 @@ def neck_features(source: str, fills: list[PenFill], centre_lines: list, pen_nm:
     if not pieces:
         return []
     touches = _touches(pieces, reach + other, tolerance_nm)
-    return [_feature(source, piece, pen_nm) for piece, count in zip(pieces, touches)
-            if count >= 2]
+    features = [_feature(source, piece, pen_nm) for piece, count in zip(pieces, touches)
+                if count >= 2]
+    necks = [piece for piece, count in zip(pieces, touches) if count >= 2]
+    # a long bent piece's axis leaves it, over other copper, perhaps another island's
+    # (whose inside the clearance check, which measures to outlines, would not see)
+    return [feature for feature, piece in zip(features, necks)
+            if _follows(feature.pieces[0], piece, radius // 2)]
+
+
+def _follows(line: np.ndarray, piece: np.ndarray, slack_nm: int, samples: int = 9) -> bool:
+    """Whether the line stays inside the piece or within `slack_nm` of it."""
+    a, b = line[0].astype(np.float64), line[-1].astype(np.float64)
+    ring = piece.tolist()
+    start, end = piece.astype(np.float64), np.roll(piece, -1, axis=0).astype(np.float64)
+    edge = end - start
+    length2 = np.maximum((edge * edge).sum(axis=1), 1.0)
+    for t in np.linspace(0.0, 1.0, samples):
+        point = a + (b - a) * t
+        if pc.PointInPolygon(tuple(int(v) for v in np.rint(point)), ring) != 0:
+            continue
+        along = np.clip(((point - start) * edge).sum(axis=1) / length2, 0.0, 1.0)
+        nearest = start + edge * along[:, None]
+        if np.min(np.hypot(*(nearest - point).T)) > slack_nm:
+            return False
+    return True
 
 
 def _touches(pieces: list[np.ndarray], ink: list, tolerance_nm: int) -> np.ndarray:
@@ -114,14 +138,14 @@ def _feature(source: str, piece: np.ndarray, pen_nm: int) -> NarrowFeature:
                          inside_nm=inside, neck=True)
 
 
-def attach_to_walks(necks: list[NarrowFeature], walks: list[np.ndarray], pen_nm: int
-                    ) -> dict[int, tuple[int, int, tuple[int, int]]]:
-    """Each neck's line drawn from the walk its nearer end lies within a pen width of:
-    the line becomes [point on the walk, that end, the other end] (so the clearance
-    check takes the way from the walk too). Per neck so attached (by id): the walk, the
-    edge and the point. A walk's closing edge is the walk's own only where it ends
-    where it began."""
-    if not walks or not necks:
+def attach_to_walks(necks: list[NarrowFeature], walks: list[np.ndarray], pen_nm: int,
+                    islands: Islands) -> dict[int, tuple[int, int, tuple[int, int]]]:
+    """Each neck's line drawn from the walk its nearer end lies within a pen width of,
+    a walk of the neck's own island: the line becomes [point on the walk, that end, the
+    other end] (so the clearance check takes the way from the walk too). Per neck so
+    attached (by id): the walk, the edge and the point. A walk's closing edge is the
+    walk's own only where it ends where it began."""
+    if not walks or not necks or not islands.rings:
         return {}
     index = EdgeIndex(walks, cell_nm=pen_nm)
     ends = np.array([line for neck in necks for line in (neck.pieces[0][0],
@@ -131,11 +155,18 @@ def attach_to_walks(necks: list[NarrowFeature], walks: list[np.ndarray], pen_nm:
     points = np.zeros_like(ends)
     points[found] = np.rint(index.a[k[found]] + (index.b[k[found]] - index.a[k[found]])
                             * t[found][:, None]).astype(np.int64)
+    # a point inside copper is nearer to its own island's outline than to any other's
+    copper = EdgeIndex(islands.rings, cell_nm=max(pen_nm, 100_000))
+    inside = np.array([neck.inside_nm for neck in necks], dtype=np.int64)
+    rings = np.concatenate([inside, points])
+    edge, _t, _d = copper.nearest_many(rings, pen_nm)
+    island = np.where(edge >= 0, islands.owner[copper.ring[np.maximum(edge, 0)]], -1)
+    own, at = island[:len(necks)], island[len(necks):]
     attached = {}
     for number, neck in enumerate(necks):
         pair = (2 * number, 2 * number + 1)
         side = min(pair, key=lambda e: distance[e])
-        if not found[side] or distance[side] > pen_nm:
+        if not found[side] or distance[side] > pen_nm or at[side] != own[number]:
             continue
         walk, edge = int(index.ring[k[side]]), int(index.edge[k[side]])
         path = walks[walk]
