@@ -5,12 +5,14 @@ the pad off its pour."""
 
 from __future__ import annotations
 
+import numpy as np
 import pyclipper as pc
 from inked import joined_islands
 
 from galileo_cnc.job import PenDown
 from galileo_cnc.plan.ink import clip
 from galileo_cnc.plan.ink.fill import GAP_NM
+from galileo_cnc.plan.ink.necks import _feature, _follows
 
 from test_ink_fill import MM, plot
 
@@ -82,3 +84,16 @@ def test_a_neck_whose_ink_would_come_near_another_island_is_left_bare(tmp_path):
     assert "1 left bare, a line along it would come within 0.05 mm of another island" \
         in text
     assert joined_islands(ink, planned.ink.copper.native, GAP_NM) == []
+
+
+def test_a_line_that_leaves_its_bent_piece_is_no_neck_line():
+    """A long bent bare piece's axis runs off it, over copper the clearance check cannot
+    see into (led-display TOP.art: such a line crossed two other islands): only a line
+    that stays within its piece (or half a pen radius of it) is drawn."""
+    spoke = np.array(_square(0, 0, 600_000, 250_000), dtype=np.int64)
+    line = _feature("x", spoke, PEN).pieces[0]
+    assert _follows(line, spoke, PEN // 4)
+    assert abs(int(line[0][1]) - 125_000) <= 1 and abs(int(line[1][1]) - 125_000) <= 1
+    bent = np.array([[0, 0], [10 * MM, 0], [10 * MM, 10 * MM], [9_800_000, 10 * MM],
+                     [9_800_000, 200_000], [0, 200_000]], dtype=np.int64)    # an L, 0.2 mm
+    assert not _follows(_feature("x", bent, PEN).pieces[0], bent, PEN // 4)
