@@ -41,8 +41,6 @@ def add_mill_options(parser: argparse.ArgumentParser) -> None:
                         default="plated-first", help="--mill drill: which holes first")
 
 
-
-
 def run_mill_plot(options, out=None) -> int:
     """`plot FILE|BOARD --mill JOB`: the mill job on the machine at --port through the
     machine interface: GRBL runs its G-code (grbl/mill_job.py: M0 pauses asked like
