@@ -273,6 +273,12 @@ class Machine:
         """The interrupted mill job: (journal entry, MillProgram); GalileoError when none."""
         raise NotImplementedError
 
+    def interrupted_mill(self):
+        """pending_mill's pair, or None where there is no interrupted mill job (always on
+        a machine that runs no G-code); GalileoError only when there is one that cannot
+        be resumed (its G-code changed or is gone)."""
+        return None
+
     def plan_mill_resume(self, pending) -> Resumption:
         """Where the interrupted mill job `pending` (pending_mill's) goes on; `resume`
         runs it."""

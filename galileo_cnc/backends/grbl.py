@@ -29,6 +29,7 @@ from galileo_cnc.grbl.link import GrblLink
 from galileo_cnc.grbl.mill_job import GrblMillJob, mill_journal, pending_mill_job
 from galileo_cnc.grbl.numbers import read_float
 from galileo_cnc.grbl.reports import GrblError, Status, alarm_text, banner_version
+from galileo_cnc.grbl.resume import GrblResumeError
 from galileo_cnc.grbl.stream import GrblStreamError
 from galileo_cnc.grbl.session import (describe, find_position, hold_and_reset,
                                       position_text as stands_at, refuse_other_scale)
@@ -460,6 +461,14 @@ class GrblMachine(Machine):
 
     def pending_mill(self):
         return pending_mill_job(mill_journal())
+
+    def interrupted_mill(self):
+        try:
+            return self.pending_mill()
+        except GrblResumeError:
+            raise                       # there is one, but it cannot be resumed
+        except GalileoError:
+            return None
 
     def probe_height_map(self, grid, on_point=None):
         """The surface under the job probed with G38.2 at every node of `grid`

@@ -5,8 +5,6 @@ lends it the progress bar (job_screen.JobScreen, an Operator)."""
 from __future__ import annotations
 
 from galileo_cnc.console.job_screen import BELL, ConsoleOperator, JobScreen
-from galileo_cnc.errors import GalileoError
-from galileo_cnc.grbl.resume import GrblResumeError
 from galileo_cnc.machine.timing import duration_text
 from galileo_cnc.transport.link import PortGone
 
@@ -33,16 +31,10 @@ def resume(console) -> None:
     """The job the machine's journal holds (from getg or `galileo-cnc plot`), continued
     as `plot --resume` does it; on GRBL an interrupted mill job first (its own journal)."""
     machine = console.machine
-    if machine.runs_mill:
-        try:
-            pending = machine.pending_mill()
-        except GrblResumeError:
-            raise                       # its G-code changed or is gone: said as is
-        except GalileoError:
-            pending = None              # none: a plot may be
-        if pending is not None:
-            _resume_mill(console, pending)
-            return
+    pending = machine.interrupted_mill()    # one that cannot be resumed: said as is
+    if pending is not None:
+        _resume_mill(console, pending)
+        return
     entry = machine.pending()                      # GalileoError: none, and why
     resumption = machine.plan_resume(entry, on_stage=console.say_stage,
                                      plan=console.plans.plan_file,

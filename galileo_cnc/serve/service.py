@@ -430,7 +430,7 @@ class MachineService:
         return self._submit("job", lambda: self._run_job(plan))
 
     def resume(self) -> Future:
-        if not self.lost and self._pending_mill() is None:
+        if not self.lost and self.machine.interrupted_mill() is None:
             self.machine.pending()      # GalileoError at once: none to resume, and why
         return self._submit("resume", self._resume)
 
@@ -482,24 +482,11 @@ class MachineService:
         return self._stream(program.name, job, lambda op: machine.run_job(job, op),
                             first=job.estimate_line(), operator=operator)
 
-    def _pending_mill(self):
-        """The interrupted mill job (entry, MillProgram) of a machine that runs them,
-        else None; GalileoError when its G-code changed (it cannot be resumed)."""
-        from galileo_cnc.grbl.resume import GrblResumeError
-        if not self.machine.runs_mill:
-            return None
-        try:
-            return self.machine.pending_mill()
-        except GrblResumeError:
-            raise
-        except GalileoError:
-            return None
-
     def _resume(self) -> dict:
         if self.lost:
             self._reconnect()
         machine = self.machine
-        pending = self._pending_mill()
+        pending = self.machine.interrupted_mill()
         if pending is not None:                   # a mill job: its own journal
             resumption = machine.plan_mill_resume(pending)
             return self._went_on(pending[1].name, resumption)
@@ -623,7 +610,7 @@ class MachineService:
 
     def _pending_name(self) -> str | None:
         try:
-            mill = self._pending_mill()
+            mill = self.machine.interrupted_mill()
             if mill is not None:
                 return mill[1].name
             entry = self.machine.pending()
