@@ -230,17 +230,20 @@ def keep_islands_apart(features: list[NarrowFeature], islands: Islands,
     near_copper = radius + CLEARANCE_NM + SAMPLE_NM // 2
     near_ink = 2 * radius + CLEARANCE_NM + SAMPLE_NM // 2
     copper_index = EdgeIndex(rings, cell_nm=max(near_copper, 100_000))
+    new = features[settled:]        # the settled ones have their islands and flags
     # each feature's island: the one whose outline is nearest to a point inside its
     # copper (its own outline is nearer than any other island's: the point is inside)
-    inside = np.array([_inside(f) for f in features], dtype=np.int64)
+    inside = np.array([_inside(f) for f in new], dtype=np.int64)
     edge, _t, _d = copper_index.nearest_many(inside, near_copper)
-    for feature, k in zip(features, edge.tolist()):
+    for feature, k in zip(new, edge.tolist()):
         feature.island = int(owner_of_ring[copper_index.ring[k]]) if k >= 0 else -1
-    near_other_copper, near_other_line = _nearby(features, copper_index, owner_of_ring,
-                                                 near_copper, near_ink)
+    near_copper_new, near_line_new = _nearby(new, copper_index, owner_of_ring, near_copper,
+                                             near_ink)
+    near_other_copper = np.concatenate([np.zeros(settled, dtype=bool), near_copper_new])
+    near_other_line = np.concatenate([np.zeros(settled, dtype=bool), near_line_new])
     lines = _LineIndex(features, cell_nm=max(near_ink, 250_000))
     if settled:
-        # _nearby looked at their first pieces only: the new ones get the exact look
+        # _nearby saw the new ones' lines only: they get the exact look against all
         near_other_line[settled:] = True
         for number in range(settled):
             for piece in features[number].pieces:
