@@ -338,11 +338,11 @@ class GrblMachine(Machine):
         GrblPortLost (a PortGone) for a lost port, GrblStreamError for a refusal, an
         alarm or a probe that touched nothing."""
         engine = job.engine
+        engine.check_travel()
         if isinstance(engine, GrblMillJob):
             engine.begin_journal(mill_journal(), engine.entry)
             return self._streamed(engine, operator, f"the spindle stopped, the tool lifted "
                                                     f"to {engine.program.safe_mm} mm")
-        engine.check_travel()
         if engine.entry is None:                # a new job
             self._warn_g92(operator)
         engine.begin_journal(grbl_journal(), engine.entry)

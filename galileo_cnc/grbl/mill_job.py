@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 from galileo_cnc.config.userdirs import data_dir
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.grbl.estimate import PLANNER_BLOCKS, Machine, estimate
+from galileo_cnc.grbl.travel import applies, check_travel
 from galileo_cnc.grbl.gcode import GcodeLine
 from galileo_cnc.grbl.job import JobProgress, go_on_in, link_scale, run_journalled
 from galileo_cnc.grbl.link import CYCLE_START
@@ -354,6 +355,16 @@ class GrblMillJob:
             elif mill_state(self.lines, self.pauses, start).change is not None:
                 why += " comes after a tool change: its Z re-zero is done again first"
         return start, f"resuming at G-code line {start + 1} of {len(self.lines)}: {why}"
+
+    def check_travel(self) -> None:
+        """TravelError (the file line, the axis, the limit) before the first byte, when
+        GRBL knows where its travel is ($20 or $22) and X or Y would leave it. Z is not
+        checked: every tool change zeroes it where the bit touches."""
+        settings = self.link.settings
+        if applies(settings):
+            check_travel(self.lead + self.lines[self.start:], settings,
+                         self.link.tracker.wco_nm, self.link.status().mpos_nm,
+                         where=self.where, axes=(0, 1))
 
     def _estimate(self) -> float:
         machine = Machine.from_settings(self.link.settings, self.link.build.planner_blocks)

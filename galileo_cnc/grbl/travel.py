@@ -19,6 +19,7 @@ from galileo_cnc.grbl.numbers import decimal_text_to_nm
 from galileo_cnc.grbl.reports import GrblError
 
 _WORD = re.compile(r"([A-Z])([-+]?[0-9]*\.?[0-9]*)")
+_COMMENT = re.compile(r"\([^)]*\)")
 AXES = "XYZ"
 
 
@@ -53,15 +54,18 @@ def applies(settings) -> bool:
 
 
 def first_overrun(lines: Sequence, settings, wco_nm, mpos_nm, *,
-                  where: Callable[[int], str] = lambda command: "") -> Overrun | None:
+                  where: Callable[[int], str] = lambda command: "",
+                  axes: Sequence[int] = (0, 1, 2)) -> Overrun | None:
     """The first line that leaves the travel, None if all stay inside.
-    `mpos_nm`/`wco_nm`: GRBL's machine position and work offset before the job."""
+    `mpos_nm`/`wco_nm`: GRBL's machine position and work offset before the job.
+    `axes`: the axes checked; a G92 or a G38.2 probe that moves only axes left out
+    (a mill job's Z, zeroed where the bit touches) is passed over."""
     low = [-settings.max_travel_nm(a) for a in range(3)]
     wco = list(wco_nm)
     work = [m - w for m, w in zip(mpos_nm, wco)]
     motion = "G0"
     for index, line in enumerate(lines):
-        text = getattr(line, "text", line).strip().upper()
+        text = _COMMENT.sub(" ", getattr(line, "text", line)).split(";")[0].strip().upper()
         if text.startswith("$"):
             if text.startswith(("$H", "$J=")):
                 return None         # a new origin: beyond here nothing is known
@@ -75,6 +79,11 @@ def first_overrun(lines: Sequence, settings, wco_nm, mpos_nm, *,
                     wco[a] = work[a] + wco[a] - values[AXES[a]]
                     work[a] = values[AXES[a]]
             continue
+        unchecked_only = all(AXES.index(k) not in axes for k, _ in words if k in AXES)
+        if 92.1 in gs or (92 in gs and unchecked_only):
+            continue                # offsets of the axes left out only
+        if 38.2 in gs and unchecked_only:
+            continue                # a probe down: where it stops is not known here
         if 4 in gs or 92 in gs or 53 in gs:
             if 92 in gs or 53 in gs:
                 raise TravelError(f"G-code line {index + 1} uses "
@@ -90,7 +99,7 @@ def first_overrun(lines: Sequence, settings, wco_nm, mpos_nm, *,
         if motion in ("G2", "G3"):
             reach = _arc_extent(work, target, values.get("I", 0), values.get("J", 0),
                                 motion == "G2")
-        for a in range(3):
+        for a in axes:
             lo, hi = min(reach[a][0], work[a]), max(reach[a][1], work[a])
             for value in (lo + wco[a], hi + wco[a]):
                 if value > 0 or value < low[a]:
@@ -122,10 +131,11 @@ def _arc_extent(start, target, i_nm, j_nm, clockwise):
 
 
 def check_travel(lines: Sequence, settings, wco_nm, mpos_nm, *,
-                 where: Callable[[int], str] = lambda command: "") -> None:
+                 where: Callable[[int], str] = lambda command: "",
+                 axes: Sequence[int] = (0, 1, 2)) -> None:
     """Raises TravelError naming the file line, axis, value and limit."""
     if not applies(settings):
         return
-    overrun = first_overrun(lines, settings, wco_nm, mpos_nm, where=where)
+    overrun = first_overrun(lines, settings, wco_nm, mpos_nm, where=where, axes=axes)
     if overrun is not None:
         raise TravelError(f"job refused before sending: {overrun}")

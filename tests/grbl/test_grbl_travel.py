@@ -88,3 +88,19 @@ def test_refused_before_the_first_byte_in_simavr():
         board.stop()
     pos = positions(board)
     assert pos[:, 0].max() <= 0 and pos[:, 0].min() >= -200 * 160
+
+
+def test_a_mill_job_is_checked_in_x_and_y_past_its_probes_and_z_zeroes():
+    # a tool change's probe and re-zero, then a cut: Z is zeroed where the bit touches,
+    # so only X and Y can be checked; a G92 of X is still refused as unknown
+    s = settings()
+    wco = (-20_000_000, -20_000_000, -10_000_000)
+    lines = ["G21 G90", "G0 Z2", "G0 X1 Y1", "M0 (TOOL CHANGE)", "G38.2 Z-5 F60",
+             "G92 Z1.6", "G0 Z2", "G0 X19 Y5", "G1 Z-0.1 F120", "G1 X21 Y5", "G92.1"]
+    with pytest.raises(TravelError, match="uses G92: not checked"):
+        first_overrun(lines, s, wco, wco)
+    over = first_overrun(lines, s, wco, wco, axes=(0, 1))
+    assert over.index == 9 and over.axis == 0 and over.machine_nm == 1_000_000
+    assert first_overrun(lines[:9], s, wco, wco, axes=(0, 1)) is None
+    with pytest.raises(TravelError, match="uses G92: not checked"):
+        first_overrun(lines[:5] + ["G92 X0 Z1.6"], s, wco, wco, axes=(0, 1))

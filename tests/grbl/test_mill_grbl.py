@@ -20,6 +20,8 @@ from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.config.mill import MillConfig
 from galileo_cnc.grbl import firmware
 from galileo_cnc.grbl.stream import GrblStreamError
+from galileo_cnc.grbl.travel import TravelError
+from galileo_cnc.errors import GalileoError
 from galileo_cnc.grbl.job import InterruptiblePort
 from galileo_cnc.simavr.grbl_firmware import ProbeSurface
 
@@ -209,3 +211,37 @@ def test_a_probe_that_touches_nothing_stops_the_job_clearly_and_loses_nothing(
         assert resumption.job.start == change, resumption.why
         assert "is a tool change: done again" in resumption.why
 
+
+
+def test_a_mill_job_past_the_travel_is_refused_before_the_first_byte(program, tmp_path,
+                                                                     monkeypatch):
+    """On a homed GRBL ($20, $22) a mill job whose X or Y would leave the travel is
+    refused naming the file line, the axis and the limit: no byte of it sent, no journal
+    begun (nothing to resume). Z is not checked: every tool change zeroes it where the
+    bit touches."""
+    monkeypatch.setenv("GALILEO_CNC_HOME", str(tmp_path))
+    homed = {**SETTINGS, 22: "1", 20: "1", 130: "200", 131: "100", 132: "50"}
+    with grbl_machine(homed, **board_kwargs()) as (board, link):
+        machine = mill_machine(link)
+        link.command_checked("G53 G0 X-3 Y-50 Z-10")     # work zero 3 mm from X's end
+        link.command_checked("G10 L20 P0 X0 Y0 Z0")
+        link.wait_idle()
+        job = machine.prepare_mill(program)
+        sent = []
+        write = link.port.write
+        link.port.write = lambda data: (sent.append(data), write(data))[1]
+        with pytest.raises(TravelError) as raised:
+            machine.run_job(job, Operator(machine))
+        link.port.write = write
+        assert sent == [b"?"]               # the status query only
+        message = str(raised.value)
+        assert message.startswith("job refused before sending: board (--mill all):")
+        assert "takes X to" in message and "outside GRBL's travel -200..0 mm ($130=200)" \
+            in message
+        with pytest.raises(GalileoError, match="no interrupted mill job"):
+            machine.pending_mill()
+        # 30 mm further in, the same job passes the check (it is not run here)
+        link.command_checked("G53 G0 X-33")
+        link.command_checked("G10 L20 P0 X0")
+        link.wait_idle()
+        job.engine.check_travel()
