@@ -1,8 +1,9 @@
 """A mill job through `galileo-cnc serve`'s API (issue 35) on stock GRBL 1.1h in simavr
 with its probe pin: an uploaded board's drilling planned by the server ({"mill":
 "drill"}), started, each M0 (the bit change, the probe clipped on and off) answered as
-the page answers a pen change, and the job run to the last hole; a mill plan without
-the token is refused; islands closer than the tool's cut come back as the error."""
+the page answers a pen change, stopped at the probe's clip, resumed (the tool change
+done again) and run to the last hole; a mill plan without the token is refused; islands
+closer than the tool's cut come back as the error."""
 
 from __future__ import annotations
 
@@ -56,25 +57,43 @@ def test_serve_drills_a_board_on_grbl_answering_the_bit_change(fresh_sim, tmp_pa
                                         "1 mm bits, 1 bit change")
             assert plan["pen_changes"] == 3             # the bit, the probe on, the probe off
             assert client.post("/api/jobs", json={"plan": plan["id"]}).status_code == 202
-            prompts = []
-            while True:
-                state = wait_for(client, lambda s: s["prompt"] or s["activity"] is None)
-                if state["prompt"] is None:
-                    break
-                prompt = state["prompt"]
-                assert prompt["kind"] == "pen"
-                prompts.append(prompt["text"])
-                assert client.post("/api/prompt", json={"id": prompt["id"],
-                                                        "answer": True}).status_code == 200
-                wait_for(client, lambda s, i=prompt["id"]: (s["prompt"] or {}).get("id") != i)
+            # ---- stopped at the probe's clip, the tool change's second M0
+            first = _answer_pauses(client, until=2)
+            assert client.post("/api/stop").json() == {"stopping": True}
+            stopped = wait_for(client, lambda s: s["activity"] is None)
+            assert stopped["history"][-1]["result"].startswith("stopped: "), stopped
+            assert stopped["resumable"] == "pads.zip (mill drill)"
+            # ---- resumed: the tool change is done whole again, then the job to its end
+            assert client.post("/api/resume").status_code == 202
+            resumed = _answer_pauses(client)
+            state = wait_for(client, lambda s: s["activity"] is None)
             record = state["history"][-1]
             assert record["file"] == "pads.zip (mill drill)"
             assert record["result"] == "finished", record
+            assert state["resumable"] is None
             # the last hole (1.0 mm, at 3, 7) drilled, the tool up at the safe height
             assert state["position"] == [3.0, 7.0, 1.0]
-    assert prompts[0] == "paused for a bit change: put in the 1.000 mm bit"
-    assert prompts[1].startswith("paused (M0): PROBE: clip the probe to the 1.000 mm bit")
-    assert len(prompts) == 3
+    assert first[0] == "paused for a bit change: put in the 1.000 mm bit"
+    assert first[1].startswith("paused (M0): PROBE: clip the probe to the 1.000 mm bit")
+    assert resumed[:2] == first and len(resumed) == 3
+
+
+def _answer_pauses(client, until: int | None = None) -> list[str]:
+    """Each pause's prompt answered (go on) until the job ends, or until the `until`-th
+    prompt, which is left open; returns the prompts' texts."""
+    prompts = []
+    while True:
+        state = wait_for(client, lambda s: s["prompt"] or s["activity"] is None)
+        prompt = state["prompt"]
+        if prompt is None:
+            return prompts
+        assert prompt["kind"] == "pen"
+        prompts.append(prompt["text"])
+        if len(prompts) == until:
+            return prompts
+        assert client.post("/api/prompt", json={"id": prompt["id"],
+                                                "answer": True}).status_code == 200
+        wait_for(client, lambda s, i=prompt["id"]: (s["prompt"] or {}).get("id") != i)
 
 
 def test_serve_mill_on_sim_is_a_dry_run_planned_and_plotted_as_a_plot(served, tmp_path):
