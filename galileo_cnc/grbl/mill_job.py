@@ -38,7 +38,6 @@ from dataclasses import dataclass, field
 from galileo_cnc.config.userdirs import data_dir
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.grbl.estimate import PLANNER_BLOCKS, Machine, estimate
-from galileo_cnc.grbl.travel import applies, check_travel
 from galileo_cnc.grbl.gcode import GcodeLine
 from galileo_cnc.grbl.job import JobProgress, go_on_in, link_scale, run_journalled
 from galileo_cnc.grbl.link import CYCLE_START
@@ -46,6 +45,7 @@ from galileo_cnc.grbl.reports import GrblError
 from galileo_cnc.grbl.resume import PREAMBLE_TEXT, STEPPER_BLOCKS, GrblResumeError
 from galileo_cnc.grbl.session import hold_and_reset, stream_piece
 from galileo_cnc.grbl.stream import GrblStreamError
+from galileo_cnc.grbl.travel import applies, check_travel
 from galileo_cnc.plan.mill.drill import SPIN_UP, TOOL_CHANGE
 from galileo_cnc.plan.mill.heightmap import HeightCorrector, HeightMap
 from galileo_cnc.program.ops import NM_PER_MM
