@@ -18,10 +18,10 @@ from galileo_cnc.backends.grbl import GrblMachine
 from galileo_cnc.grbl.mill_plan import mill_program
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.config.mill import MillConfig
+from galileo_cnc.errors import GalileoError
 from galileo_cnc.grbl import firmware
 from galileo_cnc.grbl.stream import GrblStreamError
 from galileo_cnc.grbl.travel import TravelError
-from galileo_cnc.errors import GalileoError
 from galileo_cnc.grbl.job import InterruptiblePort
 from galileo_cnc.simavr.grbl_firmware import ProbeSurface
 
@@ -210,7 +210,6 @@ def test_a_probe_that_touches_nothing_stops_the_job_clearly_and_loses_nothing(
                      and "TOOL CHANGE" in job.engine.pauses[i])
         assert resumption.job.start == change, resumption.why
         assert "is a tool change: done again" in resumption.why
-
 
 
 def test_a_mill_job_past_the_travel_is_refused_before_the_first_byte(program, tmp_path,
