@@ -6,6 +6,7 @@ import argparse
 import dataclasses
 import json
 import os
+import re
 import sys
 
 
@@ -520,6 +521,25 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: options whose value may start with a minus ("--offset -1,-1"): argparse takes
+#: "-1,-1" for an option, as it looks like no number; joined as "--offset=-1,-1"
+_NEGATIVE_VALUE_OPTIONS = ("--offset",)
+_NEGATIVE_VALUE = re.compile(r"-[0-9.]")
+
+
+def _negative_values_joined(argv: list[str]) -> list[str]:
+    out: list[str] = []
+    values = iter(range(len(argv)))
+    for i in values:
+        if argv[i] in _NEGATIVE_VALUE_OPTIONS and i + 1 < len(argv) \
+                and _NEGATIVE_VALUE.match(argv[i + 1]):
+            out.append(f"{argv[i]}={argv[i + 1]}")
+            next(values)
+        else:
+            out.append(argv[i])
+    return out
+
+
 def main(argv: list[str] | None = None, start_console=None) -> int:
     """`start_console(profile) -> exit code`: how `galileo-cnc console` (and no command)
     starts the interactive front end."""
@@ -527,7 +547,7 @@ def main(argv: list[str] | None = None, start_console=None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if not argv or argv[0].startswith("--") and argv[0] not in ("--help", "--version"):
         argv = ["console", *argv]          # no command: the console, as the seed started
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_negative_values_joined(argv))
     args.start_console = start_console
     try:
         return args.run(args)

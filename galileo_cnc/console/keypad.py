@@ -56,7 +56,8 @@ class KeypadJog:
             self._refresh()                     # the head is moving: show where it is now
         where = position_mm_text(self.status, self.console.config)
         note = f"\n{self.note}" if self.note else ""      # wrapped: a refusal is long
-        return (f"jog {self.units} units = {self.step} steps   {where}{note}\n{HINT}")
+        jog_mm = self.units * NM_PER_JOG_UNIT / 1_000_000
+        return (f"jog {self.units} units = {jog_mm:g} mm   {where}{note}\n{HINT}")
 
     def jog(self, direction: tuple[int, int, int]) -> None:
         axis = next(a for a, d in enumerate(direction) if d)

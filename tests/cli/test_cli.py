@@ -150,6 +150,14 @@ def test_plot_refuses_bad_offsets_and_jobs_past_the_travel(tmp_path):
     assert "X would reach" in result.stderr and "Traceback" not in result.stderr
 
 
+def test_a_negative_offset_is_taken_as_typed(tmp_path):
+    # "-1,-1" looks like no number to argparse, which took it for an option
+    result = galileo("plot", "samples/square-and-circle.nc", "--offset", "-1,-1", "--yes",
+                     "--port", "sim://?speed=0", home=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert "offset -1.000, -1.000 mm" in result.stdout
+
+
 def test_a_profile_sets_the_machine_and_the_port(tmp_path):
     profile = tmp_path / "profile.toml"
     profile.write_text('[machine]\nx_travel_mm = 30.0\n[serial]\nport = "sim://?speed=0"\n')
