@@ -104,7 +104,12 @@ def plan_summary(artwork: Artwork, config: MachineConfig, options: PlanOptions,
                         "pen_up_mm": round(lengths.travel_steps * mm_per_step, 1),
                         "pen_lifts": lengths.lifts,
                         "pen_changes": len(planned.job.pen_changes)}
-    return "ink", ink_summary(planned, lengths, mm_per_step, verbose)
+    figures = ink_summary(planned, lengths, mm_per_step, verbose)
+    # the offset getg proposes in ink mode: from where the fills go, not the centre lines
+    offset, margin = planned.offset_nm, artwork.margin_nm
+    figures["min_mm"] = {"x": _mm(offset[0] + margin), "y": _mm(offset[1] + margin)}
+    figures["proposed_offset_mm"] = {"x": _mm(offset[0]), "y": _mm(offset[1])}
+    return "ink", figures
 
 
 def ink_summary(planned, lengths, mm_per_step: float, verbose: bool = False) -> dict:
@@ -176,10 +181,16 @@ def format_summary(summary: dict, verbose: bool = False) -> str:
                      f"Y {box['min_y']:.4f} .. {box['max_y']:.4f} mm (centre lines)")
         lines.append(f"            X {full['min_x']:.4f} .. {full['max_x']:.4f} mm, "
                      f"Y {full['min_y']:.4f} .. {full['max_y']:.4f} mm (with apertures)")
-        offset = summary["proposed_offset_mm"]
-        lines.append(f"minimum     X {box['min_x']:.4f} mm, Y {box['min_y']:.4f} mm")
+        inked = summary.get("ink") or {}
+        offset = inked.get("proposed_offset_mm") or summary["proposed_offset_mm"]
+        low = inked.get("min_mm") or {"x": box["min_x"], "y": box["min_y"]}
+        lines.append(f"minimum     X {low['x']:.4f} mm, Y {low['y']:.4f} mm"
+                     + (" (where the pen goes, fills included)" if inked else ""))
         lines.append(f"offset      X {offset['x']:.4f} mm, Y {offset['y']:.4f} mm "
                      f"(minimum minus a {summary['margin_mm']} mm margin)")
+        if not inked and summary.get("inked_by_default"):
+            lines.append("            in ink mode the fills reach past the centre lines: "
+                         "info --plan gives the offset getg and plot propose")
     else:
         lines.append("extent      nothing is drawn")
     if summary.get("misfit"):

@@ -69,6 +69,7 @@ def _run_info(args: argparse.Namespace) -> int:
     summary["misfit"] = artwork.misfit(config)          # None: the job fits
     summary["transform"] = artwork.transform.describe()
     summary["feeds"] = _feed_notes(artwork.program, config)
+    summary["inked_by_default"] = options.mode_for(artwork.program) == "ink"
     if options.optimize and artwork.program.format == "gcode":
         _check_reorder(artwork.program)
     if args.plan or args.pens:          # pens are a question about the plan
@@ -77,6 +78,8 @@ def _run_info(args: argparse.Namespace) -> int:
         with stages_on_terminal(sys.stderr) as on_stage:   # stdout: the summary (maybe JSON)
             key, figures = plan_summary(artwork, config, options, on_stage, args.verbose)
         summary[key] = figures
+        if key == "ink":                # the offset getg proposes: from where the fills go
+            summary["proposed_offset_mm"] = figures["proposed_offset_mm"]
     if args.json:
         print(json.dumps(summary, indent=2))
     else:

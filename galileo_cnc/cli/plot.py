@@ -327,6 +327,8 @@ def _say_place(planned, out: TextIO) -> None:
     """A board's side and its axis, where the drawing sits in the file, and the offset
     that moves it."""
     program, box = planned.artwork.program, planned.artwork.drawn_box_nm
+    if planned.ink is not None:         # the fills reach past the centre lines
+        box = planned.pen_box_nm
     offset = planned.offset_nm
     if getattr(planned, "side_line", ""):
         out.write(f"{planned.side_line}\n")

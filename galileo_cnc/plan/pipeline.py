@@ -219,6 +219,16 @@ class PlannedFile:
         return self.artwork.program
 
     @property
+    def pen_box_nm(self) -> tuple[int, int, int, int] | None:
+        """The box of every point the pen visits, file nm: the artwork's, and in ink
+        mode the fills' too, which reach out to the copper's edges (the box the "auto"
+        offset is proposed from)."""
+        box = self.artwork.visited_box_nm
+        if self.ink is not None:
+            box = union_box(box, extents(self.plotted, visited=True))
+        return box
+
+    @property
     def copper(self):
         """The copper the ink was planned for (program nm; None outside ink mode): the
         preview colours what the ink left bare and drew outside it."""

@@ -150,6 +150,31 @@ def test_plot_refuses_bad_offsets_and_jobs_past_the_travel(tmp_path):
     assert "X would reach" in result.stderr and "Traceback" not in result.stderr
 
 
+PAD = ("%FSLAX46Y46*%\n%MOMM*%\n%ADD10R,2X2*%\nD10*\nX10000000Y10000000D03*\n"
+       "X20000000Y10000000D03*\nM02*\n")
+
+
+def test_info_and_plot_propose_one_offset_in_ink_mode(tmp_path):
+    # two 2 mm pads: their flash points are at X 10 and 20, the ink reaches X 9.202 (the
+    # pad's edge at 9, the 0.4 mm pen's radius, the 2 um edge margin): the proposal
+    # keeps the margin from the ink, as getg's does, and info says so once it planned
+    board = tmp_path / "pads.gbr"
+    board.write_text(PAD)
+    text = galileo("info", str(board), home=tmp_path).stdout
+    assert "offset      X 9.0000 mm, Y 9.0000 mm" in text
+    assert "info --plan gives the offset getg and plot propose" in text
+    planned = galileo("info", str(board), "--plan", home=tmp_path).stdout
+    assert "minimum     X 9.2020 mm, Y 9.2020 mm (where the pen goes, fills included)" \
+        in planned
+    assert "offset      X 8.2020 mm, Y 8.2020 mm" in planned
+    info = json.loads(galileo("info", str(board), "--plan", "--json", home=tmp_path).stdout)
+    assert info["proposed_offset_mm"] == info["ink"]["proposed_offset_mm"] == \
+        {"x": 8.202, "y": 8.202}
+    plotted = galileo("plot", str(board), "--yes", "--port", "sim://?speed=0", home=tmp_path)
+    assert plotted.returncode == 0, plotted.stderr
+    assert "minimum X 9.202 mm, Y 9.202 mm; offset 8.202, 8.202 mm" in plotted.stdout
+
+
 def test_a_negative_offset_is_taken_as_typed(tmp_path):
     # "-1,-1" looks like no number to argparse, which took it for an option
     result = galileo("plot", "samples/square-and-circle.nc", "--offset", "-1,-1", "--yes",
