@@ -39,6 +39,10 @@ def _mm(nm: int) -> float:
     return round(nm / NM_PER_MM, 6)
 
 
+def _fixed(mm: float) -> str:
+    return f"{round(mm, 4) + 0.0:.4f}"      # + 0.0: never "-0.0000" for -1 nm
+
+
 def _box_mm(box):
     if box is None:
         return None
@@ -184,9 +188,9 @@ def format_summary(summary: dict, verbose: bool = False) -> str:
         inked = summary.get("ink") or {}
         offset = inked.get("proposed_offset_mm") or summary["proposed_offset_mm"]
         low = inked.get("min_mm") or {"x": box["min_x"], "y": box["min_y"]}
-        lines.append(f"minimum     X {low['x']:.4f} mm, Y {low['y']:.4f} mm"
+        lines.append(f"minimum     X {_fixed(low['x'])} mm, Y {_fixed(low['y'])} mm"
                      + (" (where the pen goes, fills included)" if inked else ""))
-        lines.append(f"offset      X {offset['x']:.4f} mm, Y {offset['y']:.4f} mm "
+        lines.append(f"offset      X {_fixed(offset['x'])} mm, Y {_fixed(offset['y'])} mm "
                      f"(minimum minus a {summary['margin_mm']} mm margin)")
         if not inked and summary.get("inked_by_default"):
             lines.append("            in ink mode the fills reach past the centre lines: "

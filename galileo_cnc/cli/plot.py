@@ -338,11 +338,14 @@ def _say_place(planned, out: TextIO) -> None:
     if box is not None:
         done = planned.artwork.transform.describe()
         out.write(f"{program.source}: {done + '; ' if done else ''}"
-                  f"minimum X {box[0] / NM_PER_MM:.3f} mm, "
-                  f"Y {box[1] / NM_PER_MM:.3f} mm; offset {offset[0] / NM_PER_MM:.3f}, "
-                  f"{offset[1] / NM_PER_MM:.3f} mm\n")
+                  f"minimum X {_fixed(box[0])} mm, Y {_fixed(box[1])} mm; "
+                  f"offset {_fixed(offset[0])}, {_fixed(offset[1])} mm\n")
     for warning in getattr(planned, "feed_warnings", ()):     # a resumed job said them
         out.write(f"{warning}\n")
+
+
+def _fixed(nm: int) -> str:
+    return f"{round(nm / NM_PER_MM, 3) + 0.0:.3f}"     # + 0.0: never "-0.000" for -1 nm
 
 
 def _say_ink(ink, out: TextIO) -> None:
