@@ -30,6 +30,7 @@ from galileo_cnc.command_text import command_text
 from galileo_cnc.config.hardware import BANNER_WAIT_S, DEFAULT_BAUD
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.errors import GalileoError
+from galileo_cnc import job as J
 from galileo_cnc.job import Command
 from galileo_cnc.transport.port import (SIMAVR_URL, is_simulated, open_port, port_error_text,
                                         with_sim_config)
@@ -449,9 +450,24 @@ class MachineLink:
         limit = P.parse_soft_limit(reply.text) \
             if reply.code == P.ERROR_BY_NAME["SOFT_LIMIT"].code else None
         if limit is not None:
-            detail = f"soft limit: {self.config.travel_refusal(*limit)} (machine coordinates)"
+            detail = (f"soft limit: {self.config.travel_refusal(*limit)} (machine coordinates)"
+                      f"{self._work_travel_text(command, *limit)}")
         return (f"the machine refused {command_text(command, self.config.steps_per_mm)} "
                 f"[{P.command_text(command)}]: error:{reply.code} {detail}")
+
+    def _work_travel_text(self, command: Command, axis: str, value: int, limit: int) -> str:
+        """Where the travel ends in the command's own (work) coordinates, when an origin
+        set away from the machine's zero moved it: a move to its target is checked at
+        that target, so the origin is the difference."""
+        target = getattr(command, f"{axis.lower()}_steps", None) \
+            if isinstance(command, (J.Rapid, J.LineTo)) else None
+        if target is None or value == target:
+            return ""
+        spm = self.config.steps_per_mm
+        origin = value - target
+        end = "ends" if value > limit else "starts"
+        return (f"; the origin was set at {axis} {origin / spm:.3f} mm on the machine, so "
+                f"in work coordinates the travel {end} at {axis} {(limit - origin) / spm:.3f} mm")
 
     def status(self, timeout_s: float | None = None) -> P.Status:
         """A fresh status (real-time status byte, asked again after `status_retry_s`,

@@ -127,7 +127,8 @@ def test_a_refused_line_stops_the_job_naming_the_file_line(journal):
     assert messages == []           # the stop that follows is ours: no "alarm:14 aborted"
     assert f"{SAMPLE}:" in str(refused.value) and "error:5" in str(refused.value)
     assert "X would reach 205.750 mm, beyond the travel's end at 200.000 mm [32920 steps] " \
-        "(machine coordinates)" in str(refused.value)
+        "(machine coordinates); the origin was set at X 193.750 mm on the machine, so in " \
+        "work coordinates the travel ends at X 6.250 mm" in str(refused.value)
     # in mm, work coordinates, the wire's line only in brackets (issue 31, item 14)
     assert re.search(r"the machine refused \w+ to X -?\d+\.\d{3} mm .*\(work\) \[\w ",
                      str(refused.value)), str(refused.value)
