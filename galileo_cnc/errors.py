@@ -25,6 +25,8 @@ class SourcePos:
     col: int
 
     def __str__(self) -> str:
+        if self.line <= 0:          # about the whole file (a DXF header left out)
+            return self.file
         return f"{self.file}:{self.line}:{self.col}"
 
 

@@ -518,6 +518,8 @@ def test_a_headerless_drawing_is_millimetres_with_a_warning_not_metres(tmp_path,
     assert program.metadata["layers"] == {"0": 4}  # not ezdxf's default table's Defpoints
     assert [w.message for w in program.warnings] == [
         "the drawing has no $INSUNITS: read as millimetres (--units in reads it as inches)"]
+    # about the whole file: named without a line and column that do not exist
+    assert str(program.warnings[0]).startswith(f"{program.source}: warning: the drawing")
 
 
 @pytest.mark.parametrize("version, fmt", [("R12", "asc"), ("R12", "bin"), ("R2000", "asc"),
