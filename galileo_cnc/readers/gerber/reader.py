@@ -919,9 +919,12 @@ class GerberReader:
     def _unparsed(self, end: int) -> None:
         rest = self.text[end:]
         self.offset = end + len(rest) - len(rest.lstrip())
+        # nothing after it parses: the file ends inside this statement
         if rest.lstrip().startswith("%"):
-            raise self.error("extended command not closed: expected '%'", rest.strip())
-        raise self.error("expected '*' or '%' to end the statement", rest.strip())
+            raise self.error("the file ends inside this extended command (no closing '%'): "
+                             "is the file cut short?", rest.strip())
+        raise self.error("the file ends inside this statement (no closing '*'): is the file "
+                         "cut short?", rest.strip())
 
     def _program(self) -> Program:
         table = self.builder.table()
