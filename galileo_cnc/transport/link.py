@@ -25,12 +25,12 @@ from typing import Callable
 
 import serial
 
+from galileo_cnc import job as J
 from galileo_cnc import protocol as P
 from galileo_cnc.command_text import command_text
 from galileo_cnc.config.hardware import BANNER_WAIT_S, DEFAULT_BAUD
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.errors import GalileoError
-from galileo_cnc import job as J
 from galileo_cnc.job import Command
 from galileo_cnc.transport.port import (SIMAVR_URL, is_simulated, open_port, port_error_text,
                                         with_sim_config)
