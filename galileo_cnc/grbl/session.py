@@ -22,7 +22,7 @@ from galileo_cnc.grbl.gcode import AxisScale, GcodeLine, GrblPen
 from galileo_cnc.grbl.jog import home, unlock
 from galileo_cnc.grbl.link import FEED_HOLD, GrblLink
 from galileo_cnc.grbl.numbers import read_float, steps_per_mm_f32
-from galileo_cnc.grbl.reports import GrblError, alarm_text, error_text
+from galileo_cnc.grbl.reports import GrblError, Status, alarm_text, error_text
 from galileo_cnc.grbl.resume import PREAMBLE_TEXT, pen_up_texts
 from galileo_cnc.grbl.stream import GrblStreamError, stream
 from galileo_cnc.plan.pipeline import PlannedFile
@@ -131,16 +131,30 @@ def source_line(planned: PlannedFile, command: int) -> int:
     return pos.line if pos is not None else 0
 
 
+def held(link: GrblLink, wait_s: float = HOLD_WAIT_S) -> Status | None:
+    """After a feed hold: the first report of GRBL at rest (None when none came within
+    `wait_s`). A hold makes an idle GRBL `Hold:0` at once (protocol.c), so an `Idle`
+    report is trusted only twice in a row: the first may answer a `?` asked before the
+    hold (the streamer's status watch), from a GRBL between two blocks of a run that
+    then went on; a cancelled jog ends Idle."""
+    deadline = time.monotonic() + wait_s
+    idle = False
+    while time.monotonic() < deadline:
+        status = link.status()
+        if (status.state == "Hold" and status.substate == 0) or status.state == "Alarm":
+            return status
+        if status.state == "Idle" and idle:
+            return status
+        idle = status.state == "Idle"
+    return None
+
+
 def hold_and_reset(link: GrblLink) -> None:
     """Ctrl-C: a feed hold decelerates on the path (no step lost), then the soft
     reset drops GRBL's queue; a reset while moving would lose the position."""
     try:
         link.realtime(FEED_HOLD)
-        deadline = time.monotonic() + HOLD_WAIT_S
-        while time.monotonic() < deadline:
-            status = link.status()
-            if status.state == "Idle" or (status.state == "Hold" and status.substate == 0):
-                break
+        held(link)
         link.soft_reset()
     except GrblError:
         pass        # the user already asked to stop; the message says what to do

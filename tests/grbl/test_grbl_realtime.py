@@ -4,11 +4,14 @@ limit switches, and a soft-limit alarm named with its file line."""
 
 from __future__ import annotations
 
+import time
+
 import pytest
 
 from galileo_cnc.grbl.gcode import GcodeLine
-from galileo_cnc.grbl.link import CYCLE_START, FEED_HOLD
+from galileo_cnc.grbl.link import CYCLE_START, FEED_HOLD, STATUS_QUERY
 from galileo_cnc.grbl.reports import GrblError
+from galileo_cnc.grbl.session import held
 from galileo_cnc.grbl.stream import GrblStreamError, stream
 
 from grbl_support import QUICK_HOMING, SETTINGS, check_trace, grbl_machine, positions
@@ -101,3 +104,21 @@ def test_homing_then_soft_limit_alarm_names_the_file_line():
         assert link.command("$X").ok and link.status().state == "Idle"
         board.stop()
     assert board.summary["overruns"] == "0"
+
+
+def test_a_stop_waits_for_the_hold_past_a_report_asked_before_it():
+    """The streamer's status watch may have a `?` out when the user stops: its answer,
+    Idle from before the move began, comes back first. The stop must wait for Hold:0
+    (a feed hold makes even an idle GRBL Hold:0), or its reset lands in the
+    deceleration: ALARM:3, the position lost (a console test met it under load)."""
+    with grbl_machine(**PACED) as (board, link):
+        link.realtime(STATUS_QUERY)             # answered Idle, left unread for now
+        link.port.write(b"G1 X40 F300\n")       # its ok left unread too
+        time.sleep(0.3)                         # moving
+        link.realtime(FEED_HOLD)
+        status = held(link)
+        assert (status.state, status.substate) == ("Hold", 0)
+        link.soft_reset()
+        assert link.alarms == []                # reset at rest: the position kept
+        assert link.status().state == "Idle"
+        board.stop()
