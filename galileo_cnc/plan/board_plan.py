@@ -28,8 +28,16 @@ from galileo_cnc.readers import read_drill, read_file
 from galileo_cnc.readers.board import Board, BoardError, is_board, open_board
 
 #: zip boards stay unpacked while the program runs: messages, previews and a resume
-#: in the same session name their files
+#: in the same session name their files; the last KEPT_UNPACKED planned only (a
+#: server plans many), and none that failed to plan
 _UNPACKED: list[Board] = []
+KEPT_UNPACKED = 4
+
+
+def _keep_unpacked(board: Board) -> None:
+    _UNPACKED.append(board)
+    while len(_UNPACKED) > KEPT_UNPACKED:
+        _UNPACKED.pop(0).close()
 
 
 @dataclass(frozen=True)
@@ -141,6 +149,7 @@ def plan_board(path: str | os.PathLike, config: MachineConfig | None = None,
                options: PlanOptions = PlanOptions(), **kwargs) -> PlannedFile:
     """The board at `path`, one side planned (plan_file's keywords pass through)."""
     board = open_board(path, choice.layers)
+    planned = None
     try:
         copper, side = side_options(board, choice, options)
         planned = plan_file(copper, config, offset, options=side, **kwargs)
@@ -149,8 +158,8 @@ def plan_board(path: str | os.PathLike, config: MachineConfig | None = None,
                 *planned.line_warnings, f"--silk: no file is {choice.side}-silk: no silk "
                 f"on the {choice.side} side"))
     finally:
-        if Path(path).suffix.lower() == ".zip":
-            _UNPACKED.append(board)
+        if planned is not None and Path(path).suffix.lower() == ".zip":
+            _keep_unpacked(board)
         else:
             board.close()
     planned.job.source = str(Path(path).resolve())

@@ -243,3 +243,30 @@ def test_a_side_without_silk_says_so_and_a_board_without_an_outline_refuses_it(t
     (board / "board-Edge_Cuts.gbr").unlink()
     with pytest.raises(BoardError, match="--outline: no file is outline"):
         plan_board(board, CONFIG, choice=BoardChoice(outline=True))
+
+
+def test_a_server_planning_zip_boards_keeps_few_unpacked(tmp_path, monkeypatch):
+    """A zip board stays unpacked after its plan (messages name its files), but only the
+    last few: `serve` plans many, each a folder in /tmp. A plan that fails keeps none."""
+    import shutil
+    import tempfile
+
+    from galileo_cnc.errors import GalileoError
+    from galileo_cnc.plan import board_plan
+
+    board_zip = shutil.make_archive(str(tmp_path / "board"), "zip",
+                                    make_board(tmp_path / "board"))
+    unpacked = tmp_path / "tmp"
+    unpacked.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(unpacked))
+    roots = []
+    for _ in range(board_plan.KEPT_UNPACKED + 2):
+        plan_board(board_zip, MachineConfig())
+        roots.append(board_plan._UNPACKED[-1].root)
+    assert [root.exists() for root in roots] == [False] * 2 + [True] * board_plan.KEPT_UNPACKED
+    assert len(list(unpacked.iterdir())) == board_plan.KEPT_UNPACKED
+    kept = list(board_plan._UNPACKED)
+    with pytest.raises(GalileoError, match="wide"):       # 12 mm on 5 mm of travel
+        plan_board(board_zip, MachineConfig(x_travel_mm=5.0))
+    assert board_plan._UNPACKED == kept and all(board.root.exists() for board in kept)
+    assert len(list(unpacked.iterdir())) == board_plan.KEPT_UNPACKED
