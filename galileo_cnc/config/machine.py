@@ -181,9 +181,9 @@ class MachineConfig:
             widths = (widths,)
         if (not isinstance(widths, (list, tuple)) or not 1 <= len(widths) <= MAX_PENS
                 or any(isinstance(w, bool) or not isinstance(w, (int, float))
-                       or not 0 < w <= MAX_PEN_MM for w in widths)):
-            raise ConfigError(f"config: pens widths_mm must be 1 to {MAX_PENS} widths above 0 "
-                              f"and at most {MAX_PEN_MM:g} mm, got {self.pen_widths_mm!r}")
+                       or not MIN_PEN_MM <= w <= MAX_PEN_MM for w in widths)):
+            raise ConfigError(f"config: pens widths_mm must be 1 to {MAX_PENS} widths from "
+                              f"{MIN_PEN_MM:g} to {MAX_PEN_MM:g} mm, got {self.pen_widths_mm!r}")
         object.__setattr__(self, "pen_widths_mm",
                            tuple(sorted({float(w) for w in widths}, reverse=True)))
 
@@ -426,8 +426,9 @@ MAX_SPINDLE_S = 100_000
 MAX_SERVO_DWELL_MS = 10_000
 #: Arduino Uno pins a profile may use: D2..D13 and A0..A5 as 14..19 (D0/D1: serial).
 FIRST_PIN, LAST_PIN = 2, 19
-#: Pens in a set, and the widest pen, that the ink mode takes.
-MAX_PENS, MAX_PEN_MM = 8, 5.0
+#: Pens in a set, and the narrowest and widest pen, that the ink mode takes: the finest
+#: technical pens draw 0.1 mm; a pen of a few um would take hours and gigabytes to plan
+MAX_PENS, MIN_PEN_MM, MAX_PEN_MM = 8, 0.05, 5.0
 _FIELD_NAMES = frozenset(f.name for f in fields(MachineConfig))
 
 

@@ -14,6 +14,8 @@ from galileo_cnc.program.extents import extents
 from galileo_cnc.program.ops import NM_PER_MM, Program
 
 DEFAULT_MARGIN_NM = 1 * NM_PER_MM
+#: 1 km, as the readers' coordinates: far beyond any travel, and well inside int64 in nm
+MAX_OFFSET_MM = 1_000_000
 
 
 class OffsetError(GalileoError):
@@ -49,5 +51,7 @@ def offset_from_text(text: str) -> tuple[int, int]:
         raise ValueError(f"expected two numbers, X,Y in mm, got {text!r}") from None
     if not (math.isfinite(x_mm) and math.isfinite(y_mm)):
         raise ValueError("the offsets must be finite numbers")
+    if max(abs(x_mm), abs(y_mm)) > MAX_OFFSET_MM:
+        raise ValueError(f"the offsets must be within {MAX_OFFSET_MM} mm (1 km)")
     return round(x_mm * NM_PER_MM), round(y_mm * NM_PER_MM)
 

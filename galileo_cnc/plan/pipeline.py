@@ -262,9 +262,10 @@ def resolve_offset(artwork: Artwork, choice: OffsetChoice) -> tuple[int, int]:
         return (0, 0)
     try:
         return offset_from_text(choice)
-    except ValueError:
+    except ValueError as problem:
+        why = f": {problem}" if "within" in str(problem) else ""
         raise OffsetError(f"--offset: expected auto, none or X,Y in mm (e.g. 5,4), "
-                          f"got {choice!r}") from None
+                          f"got {choice!r}{why}") from None
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,7 @@ SAMPLE = Path(__file__).resolve().parents[2] / "samples" / "led-blinker.gbr"
     (b"[machine]\ny_dir_pin = 20\n", "y_dir_pin = 20 is not a pin of the board"),
     (b"[machine]\nx_step_pin = -1\n", "x_step_pin = -1 is not a pin of the board (use 2..19)"),
     (b"[machine]\nx_step_pin = 10\n", "x_step_pin and x_dir_pin are both pin 10"),
-    (b"[pens]\nwidths_mm = [nan]\n", "widths_mm must be 1 to 8 widths above 0"),
+    (b"[pens]\nwidths_mm = [nan]\n", "widths_mm must be 1 to 8 widths from 0.05 to 5 mm"),
     (b"[serial]\nbaud = 0\n", "[serial] baud: baud rate 0 not supported"),
     (b"[serial]\nbaud = \"fast\"\n", "[serial] baud: baud rate 'fast' not supported"),
     (b"[serial]\nbaud = true\n", "baud rate True not supported"),

@@ -176,6 +176,13 @@ def test_wrong_options_are_refused_naming_the_option_in_mm(served):
             "mode: expected auto, ink or centre, got 'fast'",
         ("/api/plans", '{"upload": "%s", "pens": "abc"}'): "pens: expected widths in mm",
         ("/api/plans", '{"upload": "%s", "pens": "NaN"}'): "pens: expected 1 to 8 widths",
+        # a pen of 1 nm (rounding to 0 once made a 500), or 1 um (hours to plan)
+        ("/api/plans", '{"upload": "%s", "pens": "1e-9"}'):
+            "pens: expected 1 to 8 widths from 0.05 to 5 mm",
+        ("/api/plans", '{"upload": "%s", "pens": "0.001"}'):
+            "pens: expected 1 to 8 widths from 0.05 to 5 mm",
+        ("/api/plans", '{"upload": "%s", "offset": "1e20,0"}'):
+            "offset: expected auto, none or X,Y in mm",
         ("/api/plans", '{"upload": "%s", "offset": "/etc/passwd"}'):
             "offset: expected auto, none or X,Y in mm",
         ("/api/plans", '{}'): "plan: which upload?",
