@@ -14,6 +14,7 @@ import re
 import secrets
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from urllib.parse import unquote
 
 from galileo_cnc.config.userdirs import data_dir
 from galileo_cnc.errors import GalileoError
@@ -47,8 +48,15 @@ class Upload:
 
 
 def display_name(name: str | None) -> str:
-    """The client's name for a file, as text to show: its last part, printable."""
-    last = re.split(r"[\\/]", name or "")[-1]
+    """The client's name for a file, as text to show: its last part, printable. A
+    header carries bytes, which Starlette reads as Latin-1: a client's UTF-8 (curl's
+    `café.gbr`) is read back as UTF-8, the page's percent-escapes are undone."""
+    name = name or ""
+    try:
+        name = name.encode("latin-1").decode("utf-8")
+    except UnicodeError:
+        pass                            # Latin-1 it was
+    last = re.split(r"[\\/]", unquote(name))[-1]
     shown = re.sub(r"[^\w .,+()-]", "_", last)[:80].strip()
     return shown or "upload"
 

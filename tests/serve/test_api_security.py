@@ -93,6 +93,14 @@ def test_the_printed_url_sets_a_cookie_and_the_page_needs_it(served):
         assert same.status_code == 200
 
 
+def test_an_upload_keeps_its_name_in_utf_8(served):
+    # sent in UTF-8 (curl), or percent-escaped (the page: a header holds Latin-1 only)
+    server, service, client = served
+    for sent in ("café.gbr".encode("utf-8"), b"caf%C3%A9.gbr"):
+        named = client.post("/api/uploads", content=GERBER, headers={"x-filename": sent})
+        assert named.json()["name"] == "café.gbr", sent
+
+
 def test_uploads_are_checked_by_content_and_named_by_the_server(served, tmp_path):
     server, service, client = served
     kept = client.post("/api/uploads", content=GERBER,

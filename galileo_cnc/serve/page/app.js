@@ -111,7 +111,7 @@ $("upload").addEventListener("change", async () => {
   const file = $("upload").files[0];
   if (!file) return;
   const response = await fetch("/api/uploads", {method: "POST", body: file,
-    headers: {"x-filename": file.name.replace(/[^\x20-\x7e]/g, "_")}});
+    headers: {"x-filename": encodeURIComponent(file.name)}});
   const data = await response.json();
   if (!response.ok) { say(data.error, true); return; }
   upload = data; plan = null;
