@@ -196,16 +196,17 @@ async def jog(request: Request) -> Response:
     the head."""
     data = await _json(request)
     axis_name = str(data.get("axis", "")).lower()
-    if axis_name not in AXES or data.get("direction") not in (1, -1):
+    direction = data.get("direction")
+    if axis_name not in AXES or isinstance(direction, bool) or direction not in (1, -1):
         raise GalileoError("jog: expected {\"axis\": \"x\"|\"y\"|\"z\", \"direction\": 1|-1}")
     distance = data.get("distance_mm")
     if distance is not None:
-        try:
-            distance = float(distance)
-        except (TypeError, ValueError):
-            raise GalileoError("jog: distance_mm must be a number") from None
+        if isinstance(distance, bool) or not isinstance(distance, (int, float)):
+            raise GalileoError(f"jog: distance_mm must be a number of mm, got "
+                               f"{json.dumps(distance)}")
         if not 0 < distance <= 1000:
             raise GalileoError("jog: distance_mm must be above 0 and at most 1000")
+        distance = float(distance)
     service = _service(request)
     cancelled = threading.Event()
     future = service.jog_session(AXES.index(axis_name), data["direction"], cancelled,

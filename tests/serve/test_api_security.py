@@ -198,6 +198,11 @@ def test_wrong_options_are_refused_naming_the_option_in_mm(served):
         ("/api/feed", '{"mm_s": NaN}'): 'feed: expected {"mm_s": N}, a number of mm/s',
         ("/api/feed", '{"mm_s": Infinity}'): 'feed: expected {"mm_s": N}, a number of mm/s',
         ("/api/feed", '{"mm_s": 0}'): "feed 0 mm/s refused: the machine runs",
+        # a string or a boolean is no number, as for the feed
+        ("/api/jog", '{"axis": "x", "direction": 1, "distance_mm": "5"}'):
+            'jog: distance_mm must be a number of mm, got "5"',
+        ("/api/jog", '{"axis": "x", "direction": true, "distance_mm": 1}'):
+            'jog: expected {"axis": "x"|"y"|"z", "direction": 1|-1}',
     }
     for (path, body), text in refused.items():
         answer = client.post(path, content=body.replace("%s", upload),
