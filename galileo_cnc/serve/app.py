@@ -113,10 +113,19 @@ async def upload(request: Request) -> JSONResponse:
     return JSONResponse(kept.public(), status_code=201)
 
 
+#: what POST /api/plans takes
+PLAN_FIELDS = frozenset({"upload", "pens", "mode", "side", "offset", "allow_open", "mill",
+                         "mill_set", "accept_shorts"})
+
+
 async def make_plan(request: Request) -> JSONResponse:
     """{upload, pens?, mode?, side?, offset?, allow_open?}: planned, its preview drawn;
     with {mill: isolate|drill|cutout|all, mill_set?, accept_shorts?} a mill job."""
     data = await _json(request)
+    unknown = sorted(set(data) - PLAN_FIELDS)
+    if unknown:        # a misspelt option would be planned without, unsaid
+        raise GalileoError(f"plan: unknown field {unknown[0]!r}; the fields are "
+                           f"{', '.join(sorted(PLAN_FIELDS))}")
     service = _service(request)
     plan = await asyncio.to_thread(
         service.plan, str(data.get("upload", "")), pens=str(data.get("pens") or ""),

@@ -194,6 +194,8 @@ def test_wrong_options_are_refused_naming_the_option_in_mm(served):
         ("/api/plans", '{"upload": "%s", "offset": "/etc/passwd"}'):
             "offset: expected auto, none or X,Y in mm",
         ("/api/plans", '{}'): "plan: which upload?",
+        # a misspelt option is not planned without, unsaid
+        ("/api/plans", '{"upload": "%s", "pen": "0.8"}'): "plan: unknown field 'pen'; the fields",
         ("/api/feed", '{"mm_s": "nan"}'): 'feed: expected {"mm_s": N}, a number of mm/s',
         ("/api/feed", '{"mm_s": NaN}'): 'feed: expected {"mm_s": N}, a number of mm/s',
         ("/api/feed", '{"mm_s": Infinity}'): 'feed: expected {"mm_s": N}, a number of mm/s',
