@@ -654,8 +654,15 @@ class MachineService:
 
 def _as_field(text: str) -> str:
     """A planning error as the API's client knows the option: `mode`, not `--mode`
-    (the command line's name, which the planner's messages use)."""
+    (the command line's name, which the planner's messages use); a way out that only
+    the command line has is said to be the command line's."""
     text = re.sub(r"^--(pens|mode|offset|side)\b", r"\1", text)
+    text = re.sub(r"--fit scales it to the travel \(or --scale F(, --rotate 90)?\)",
+                  "the page cannot scale a job: `galileo-cnc plot --fit` scales it to the "
+                  "travel", text)
+    text = re.sub(r"--layer FILE=other leaves one out",
+                  "upload the board without the ones not wanted (or `galileo-cnc plot "
+                  "--layer FILE=other`)", text)
     return re.sub(r"^config: pens widths_mm must be", "pens: expected", text)
 
 

@@ -93,6 +93,17 @@ def test_the_printed_url_sets_a_cookie_and_the_page_needs_it(served):
         assert same.status_code == 200
 
 
+def test_a_job_too_big_names_no_option_the_api_lacks(served):
+    server, service, client = served
+    upload = client.post("/api/uploads", content=b"G21 G90\nG1 X5000 Y10 F300\n",
+                         headers={"x-filename": "far.nc"}).json()["id"]
+    answer = client.post("/api/plans", json={"upload": upload})
+    assert answer.status_code == 422, answer.text
+    error = answer.json()["error"]
+    assert "the job is 5000.0 mm wide" in error and "--scale" not in error, error
+    assert "the page cannot scale a job: `galileo-cnc plot --fit` scales it" in error
+
+
 def test_an_upload_keeps_its_name_in_utf_8(served):
     # sent in UTF-8 (curl), or percent-escaped (the page: a header holds Latin-1 only)
     server, service, client = served
