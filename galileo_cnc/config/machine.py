@@ -182,8 +182,11 @@ class MachineConfig:
         if (not isinstance(widths, (list, tuple)) or not 1 <= len(widths) <= MAX_PENS
                 or any(isinstance(w, bool) or not isinstance(w, (int, float))
                        or not MIN_PEN_MM <= w <= MAX_PEN_MM for w in widths)):
+            got = ", ".join(f"{w:g}" if isinstance(w, (int, float)) else repr(w)
+                            for w in widths) if isinstance(widths, (list, tuple)) \
+                else repr(widths)
             raise ConfigError(f"config: pens widths_mm must be 1 to {MAX_PENS} widths from "
-                              f"{MIN_PEN_MM:g} to {MAX_PEN_MM:g} mm, got {self.pen_widths_mm!r}")
+                              f"{MIN_PEN_MM:g} to {MAX_PEN_MM:g} mm, got {got or 'none'}")
         object.__setattr__(self, "pen_widths_mm",
                            tuple(sorted({float(w) for w in widths}, reverse=True)))
 

@@ -14,6 +14,7 @@ import threading
 from importlib import resources
 
 from starlette.applications import Starlette
+from starlette.exceptions import HTTPException
 from starlette.requests import Request
 from starlette.responses import JSONResponse, Response
 from starlette.routing import Route
@@ -53,7 +54,8 @@ def create_app(service: MachineService, token: str, port: int) -> Guard:
         Route("/api/home", home, methods=["POST"]),
         Route("/api/unlock", unlock, methods=["POST"]),
     ]
-    app = Starlette(routes=routes, exception_handlers={GalileoError: _error})
+    app = Starlette(routes=routes, exception_handlers={GalileoError: _error,
+                                                       HTTPException: _http_error})
     app.state.service = service
     return Guard(app, token, port)
 
@@ -62,6 +64,12 @@ async def _error(request: Request, error: Exception) -> JSONResponse:
     status = (error.status if isinstance(error, UploadRefused) else
               409 if isinstance(error, Busy) else 404 if isinstance(error, NotFound) else 422)
     return JSONResponse({"error": str(error)}, status_code=status)
+
+
+async def _http_error(request: Request, error: HTTPException) -> JSONResponse:
+    """No such route, or not with that method: JSON too, as every other answer."""
+    return JSONResponse({"error": f"{request.method} {request.url.path}: {error.detail}"},
+                        status_code=error.status_code, headers=error.headers)
 
 
 def _service(request: Request) -> MachineService:
@@ -128,7 +136,7 @@ async def make_plan(request: Request) -> JSONResponse:
                            f"{', '.join(sorted(PLAN_FIELDS))}")
     service = _service(request)
     plan = await asyncio.to_thread(
-        service.plan, str(data.get("upload", "")), pens=str(data.get("pens") or ""),
+        service.plan, str(data.get("upload") or ""), pens=str(data.get("pens") or ""),
         mode=str(data.get("mode") or "auto"), side=str(data.get("side") or "top"),
         offset=str(data.get("offset") or "auto"), allow_open=bool(data.get("allow_open")),
         mill=str(data.get("mill") or ""), mill_set=data.get("mill_set") or {},

@@ -200,11 +200,15 @@ def test_wrong_options_are_refused_naming_the_option_in_mm(served):
             "pens: expected 1 to 8 widths from 0.05 to 5 mm",
         ("/api/plans", '{"upload": "%s", "pens": "0.001"}'):
             "pens: expected 1 to 8 widths from 0.05 to 5 mm",
+        ("/api/plans", '{"upload": "%s", "pens": "-1"}'):
+            "pens: expected 1 to 8 widths from 0.05 to 5 mm, got -1",
         ("/api/plans", '{"upload": "%s", "offset": "1e20,0"}'):
             "offset: expected auto, none or X,Y in mm",
         ("/api/plans", '{"upload": "%s", "offset": "/etc/passwd"}'):
             "offset: expected auto, none or X,Y in mm",
         ("/api/plans", '{}'): "plan: which upload?",
+        ("/api/plans", '{"upload": null}'): "plan: which upload?",
+        ("/api/nothing", '{}'): "POST /api/nothing: Not Found",
         # a misspelt option is not planned without, unsaid
         ("/api/plans", '{"upload": "%s", "pen": "0.8"}'): "plan: unknown field 'pen'; the fields",
         ("/api/feed", '{"mm_s": "nan"}'): 'feed: expected {"mm_s": N}, a number of mm/s',
