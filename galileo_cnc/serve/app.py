@@ -34,8 +34,10 @@ PAGE_FILES = {"/": ("index.html", "text/html; charset=utf-8"),
               "/app.css": ("app.css", "text/css; charset=utf-8")}
 
 
-def create_app(service: MachineService, token: str, port: int) -> Guard:
-    """The application with the guard in front (`port`: the cookie's name)."""
+def create_app(service: MachineService, token: str, port: int,
+               hosts: frozenset[str] | None = None) -> Guard:
+    """The application with the guard in front (`port`: the cookie's name; `hosts`: the
+    host names a request may be addressed to, None for any)."""
     routes = [
         Route("/", page), Route("/app.js", page), Route("/app.css", page),
         Route("/api/state", state),
@@ -57,7 +59,7 @@ def create_app(service: MachineService, token: str, port: int) -> Guard:
     app = Starlette(routes=routes, exception_handlers={GalileoError: _error,
                                                        HTTPException: _http_error})
     app.state.service = service
-    return Guard(app, token, port)
+    return Guard(app, token, port, hosts)
 
 
 async def _error(request: Request, error: Exception) -> JSONResponse:

@@ -30,10 +30,11 @@ def cookie_name(port: int) -> str:
 class Guard:
     """ASGI middleware in front of the whole application."""
 
-    def __init__(self, app, token: str, port: int):
+    def __init__(self, app, token: str, port: int, hosts: frozenset[str] | None = None):
         self.app = app
         self.token = token
         self.port = port
+        self.hosts = hosts
 
     async def __call__(self, scope, receive, send):
         if scope["type"] == "lifespan":
@@ -44,17 +45,22 @@ class Guard:
             return
         headers = {k.decode("latin-1").lower(): v.decode("latin-1")
                    for k, v in scope["headers"]}
+        if self.hosts is not None and _host_name(headers.get("host", "")) not in self.hosts:
+            await _refuse(send, 403, "refused: the request is addressed to another host "
+                                     "name than this computer's own (Host)")
+            return
         if self._foreign(headers):
             await _refuse(send, 403, "refused: the request comes from another site's page "
                                      "(Origin)")
             return
         query = dict(parse_qsl(scope.get("query_string", b"").decode("latin-1")))
         given = query.get(TOKEN_PARAMETER)
-        if given is not None and self._right(given):
-            if scope["method"] in ("GET", "HEAD"):
-                await self._keep_in_cookie(scope, query, send)
-                return
-        elif not self._right(self._sent_token(headers)):
+        if given is not None and self._right(given) and scope["method"] in ("GET", "HEAD"):
+            await self._keep_in_cookie(scope, query, send)
+            return
+        # the URL's token only opens the page: a command carries it in a header or the
+        # cookie (a URL is kept in histories and logs)
+        if not self._right(self._sent_token(headers)):
             await _refuse(send, 401, "the token is missing or wrong: open the URL "
                                      "galileo-cnc serve printed (it holds the token)")
             return
@@ -99,6 +105,13 @@ class Guard:
                                 (b"set-cookie", cookie.encode("latin-1")),
                                 (b"content-length", b"0")]})
         await send({"type": "http.response.body", "body": b""})
+
+
+def _host_name(host: str) -> str:
+    """`127.0.0.1:8765` -> `127.0.0.1`, `[::1]:8765` -> `::1`."""
+    if host.startswith("["):
+        return host[1:].partition("]")[0]
+    return host.rpartition(":")[0] if host.count(":") == 1 else host
 
 
 async def _refuse(send, status: int, text: str) -> None:

@@ -17,6 +17,8 @@ from galileo_cnc.serve.service import MachineService
 
 DEFAULT_LISTEN = "127.0.0.1:8765"
 LOOPBACK = ("127.0.0.1", "::1", "localhost")
+#: the host names a request to a server on loopback may be addressed to
+LOOPBACK_NAMES = frozenset(LOOPBACK)
 
 
 def parse_listen(text: str) -> tuple[str, int]:
@@ -40,7 +42,10 @@ class WebServer:
         self.host = host
         self.port = self.sock.getsockname()[1]
         self.token = token or new_token()
-        self.app = create_app(service, self.token, self.port)
+        # on loopback only loopback names: a name of another site's that resolves here
+        # (DNS rebinding) is refused whatever it carries
+        self.app = create_app(service, self.token, self.port,
+                              hosts=None if self.everywhere else LOOPBACK_NAMES)
         # held streams (the event stream) end with the server: don't wait for them
         self.server = _Server(uvicorn.Config(
             self.app, log_level="warning", lifespan="off", timeout_graceful_shutdown=2),

@@ -79,6 +79,13 @@ def test_the_printed_url_sets_a_cookie_and_the_page_needs_it(served):
     base = f"http://127.0.0.1:{server.port}"
     assert httpx.get(base + "/").status_code == 401
     assert httpx.get(base + "/?token=wrong").status_code == 401
+    # a page of another name that resolves here (DNS rebinding): refused by its Host
+    rebound = httpx.get(server.url, headers={"host": f"evil.example:{server.port}"})
+    assert rebound.status_code == 403 and "(Host)" in rebound.json()["error"]
+    assert httpx.get(f"http://localhost:{server.port}/").status_code == 401   # a name of ours
+    # the URL's token opens the page only: a command in a URL is kept in histories
+    token = server.url.split("token=")[1]
+    assert httpx.post(f"{base}/api/home?token={token}").status_code == 401
     first = httpx.get(server.url)
     assert first.status_code == 303 and first.headers["location"] == "/"
     set_cookie = first.headers["set-cookie"]
