@@ -22,6 +22,10 @@ class OffsetError(GalileoError):
     """An offset the user gave cannot be read."""
 
 
+class OffsetRangeError(ValueError):
+    """An offset read, but beyond MAX_OFFSET_MM."""
+
+
 def offset_for_box(box: tuple[int, int, int, int] | None,
                    margin_nm: int = DEFAULT_MARGIN_NM) -> tuple[int, int]:
     """The seed's rule: the box's minimum coordinate minus a margin ((0, 0) for no box).
@@ -52,6 +56,6 @@ def offset_from_text(text: str) -> tuple[int, int]:
     if not (math.isfinite(x_mm) and math.isfinite(y_mm)):
         raise ValueError("the offsets must be finite numbers")
     if max(abs(x_mm), abs(y_mm)) > MAX_OFFSET_MM:
-        raise ValueError(f"the offsets must be within {MAX_OFFSET_MM} mm (1 km)")
+        raise OffsetRangeError(f"the offsets must be within {MAX_OFFSET_MM} mm (1 km)")
     return round(x_mm * NM_PER_MM), round(y_mm * NM_PER_MM)
 

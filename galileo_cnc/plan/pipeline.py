@@ -41,8 +41,8 @@ from galileo_cnc.plan.ink.geometry import dark_geometry
 from galileo_cnc.plan.ink.inking import (DEFAULT_EDGE_MARGIN_NM, INK_TOLERANCE_NM, InkPlan,
                                          ink_paths)
 from galileo_cnc.plan.order.apertures import OrderedRows
-from galileo_cnc.plan.offsets import (DEFAULT_MARGIN_NM, OffsetError, offset_for_box,
-                                      offset_from_text)
+from galileo_cnc.plan.offsets import (DEFAULT_MARGIN_NM, OffsetError, OffsetRangeError,
+                                      offset_for_box, offset_from_text)
 from galileo_cnc.plan.planner import PlanError, plan_program
 from galileo_cnc.plan.widths import mm_text
 from galileo_cnc.plan.transform import (NO_TRANSFORM, Transform, TransformError,
@@ -263,7 +263,7 @@ def resolve_offset(artwork: Artwork, choice: OffsetChoice) -> tuple[int, int]:
     try:
         return offset_from_text(choice)
     except ValueError as problem:
-        why = f": {problem}" if "within" in str(problem) else ""
+        why = f": {problem}" if isinstance(problem, OffsetRangeError) else ""
         raise OffsetError(f"--offset: expected auto, none or X,Y in mm (e.g. 5,4), "
                           f"got {choice!r}{why}") from None
 
