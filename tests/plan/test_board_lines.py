@@ -259,6 +259,7 @@ def test_a_server_planning_zip_boards_keeps_few_unpacked(tmp_path, monkeypatch):
     unpacked = tmp_path / "tmp"
     unpacked.mkdir()
     monkeypatch.setattr(tempfile, "tempdir", str(unpacked))
+    monkeypatch.setattr(board_plan, "_UNPACKED", [])      # this test's boards only
     roots = []
     for _ in range(board_plan.KEPT_UNPACKED + 2):
         plan_board(board_zip, MachineConfig())
@@ -270,3 +271,5 @@ def test_a_server_planning_zip_boards_keeps_few_unpacked(tmp_path, monkeypatch):
         plan_board(board_zip, MachineConfig(x_travel_mm=5.0))
     assert board_plan._UNPACKED == kept and all(board.root.exists() for board in kept)
     assert len(list(unpacked.iterdir())) == board_plan.KEPT_UNPACKED
+    for board in kept:
+        board.close()
