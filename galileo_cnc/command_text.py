@@ -18,6 +18,12 @@ def mm_text(steps: int, steps_per_mm: float) -> str:
     return f"{steps / steps_per_mm:.3f} mm"
 
 
+def fixed_text(value: float, places: int) -> str:
+    """`12.5000`: exactly `places` decimals, and `0.0000`, never `-0.0000`, for a value
+    that rounds to zero from below (an offset of -1 nm)."""
+    return f"{round(value, places) + 0.0:.{places}f}"
+
+
 def number_text(value: float) -> str:
     """`0.03125`, `1000000`: up to 5 decimals, never an exponent."""
     text = f"{value:.5f}".rstrip("0").rstrip(".")

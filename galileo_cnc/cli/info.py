@@ -12,6 +12,7 @@ from typing import Callable
 
 import numpy as np
 
+from galileo_cnc.command_text import fixed_text
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.plan.measure import job_lengths
 from galileo_cnc.plan.open_traces import ink_warnings, open_traces
@@ -37,10 +38,6 @@ def per_aperture_counts(program: Program) -> dict[int, dict[str, int]]:
 
 def _mm(nm: int) -> float:
     return round(nm / NM_PER_MM, 6)
-
-
-def _fixed(mm: float) -> str:
-    return f"{round(mm, 4) + 0.0:.4f}"      # + 0.0: never "-0.0000" for -1 nm
 
 
 def _box_mm(box):
@@ -188,9 +185,11 @@ def format_summary(summary: dict, verbose: bool = False) -> str:
         inked = summary.get("ink") or {}
         offset = inked.get("proposed_offset_mm") or summary["proposed_offset_mm"]
         low = inked.get("min_mm") or {"x": box["min_x"], "y": box["min_y"]}
-        lines.append(f"minimum     X {_fixed(low['x'])} mm, Y {_fixed(low['y'])} mm"
+        lines.append(f"minimum     X {fixed_text(low['x'], 4)} mm, Y "
+                     f"{fixed_text(low['y'], 4)} mm"
                      + (" (where the pen goes, fills included)" if inked else ""))
-        lines.append(f"offset      X {_fixed(offset['x'])} mm, Y {_fixed(offset['y'])} mm "
+        lines.append(f"offset      X {fixed_text(offset['x'], 4)} mm, Y "
+                     f"{fixed_text(offset['y'], 4)} mm "
                      f"(minimum minus a {summary['margin_mm']} mm margin)")
         if not inked and summary.get("inked_by_default"):
             lines.append("            in ink mode the fills reach past the centre lines: "

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Iterator, TextIO
 
 from galileo_cnc.backends import JobResult, open_machine
+from galileo_cnc.command_text import fixed_text
 from galileo_cnc.config.profile import Profile
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.grbl.stream import GrblStreamError
@@ -338,14 +339,14 @@ def _say_place(planned, out: TextIO) -> None:
     if box is not None:
         done = planned.artwork.transform.describe()
         out.write(f"{program.source}: {done + '; ' if done else ''}"
-                  f"minimum X {_fixed(box[0])} mm, Y {_fixed(box[1])} mm; "
-                  f"offset {_fixed(offset[0])}, {_fixed(offset[1])} mm\n")
+                  f"minimum X {_mm(box[0])} mm, Y {_mm(box[1])} mm; "
+                  f"offset {_mm(offset[0])}, {_mm(offset[1])} mm\n")
     for warning in getattr(planned, "feed_warnings", ()):     # a resumed job said them
         out.write(f"{warning}\n")
 
 
-def _fixed(nm: int) -> str:
-    return f"{round(nm / NM_PER_MM, 3) + 0.0:.3f}"     # + 0.0: never "-0.000" for -1 nm
+def _mm(nm: int) -> str:
+    return fixed_text(nm / NM_PER_MM, 3)
 
 
 def _say_ink(ink, out: TextIO) -> None:

@@ -12,6 +12,7 @@ import os
 
 from prompt_toolkit.completion import PathCompleter
 
+from galileo_cnc.command_text import fixed_text
 from galileo_cnc.config.machine import pen_widths_from_text
 from galileo_cnc.console import jobs, mill
 from galileo_cnc.plan.offsets import offset_from_text
@@ -242,4 +243,4 @@ def choose_offset(console, artwork: Artwork, inked=None) -> tuple[int, int] | No
 
 
 def _mm(nm: int) -> str:
-    return f"{round(nm / NM_PER_MM, 4) + 0.0:.4f}"     # + 0.0: never "-0.0000"
+    return fixed_text(nm / NM_PER_MM, 4)
