@@ -143,6 +143,12 @@ class PenFill:
         """The polygon set the pen covers (the batches' inks are disjoint)."""
         return [ring for _batch, ink in self.parts for ring in ink]
 
+    def with_coarse(self, tolerance_nm: int) -> None:
+        """`coarse` for every path (each vertex `tolerance_nm`) where the fill kept none,
+        before paths are added or changed (InkPaths.add_strokes, necks.spliced)."""
+        if len(self.coarse) != len(self.paths):
+            self.coarse = [np.full(len(path), tolerance_nm) for path in self.paths]
+
     def settled(self) -> "PenFill":
         """This fill with its recipes' areas asked for (a forked process sends it back:
         nothing in it may wait on a process of its own)."""

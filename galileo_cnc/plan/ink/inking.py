@@ -372,8 +372,7 @@ class InkPaths:
         pen as walks of its own: path order takes them with the pen's other walks.
         Before `start_order` and `finish`."""
         fill = self.fills[-1]
-        if len(fill.coarse) != len(fill.paths):
-            fill.coarse = [np.full(len(path), self.tolerance_nm) for path in fill.paths]
+        fill.with_coarse(self.tolerance_nm)
         for stroke in strokes:
             if len(stroke) >= 2:
                 fill.paths.append(np.ascontiguousarray(stroke, dtype=np.int64))

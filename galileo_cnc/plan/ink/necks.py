@@ -57,9 +57,8 @@ def neck_features(source: str, fills: list[PenFill], centre_lines: list, pen_nm:
     if not pieces:
         return []
     touches = _touches(pieces, reach + other, tolerance_nm)
-    features = [_feature(source, piece, pen_nm) for piece, count in zip(pieces, touches)
-                if count >= 2]
     necks = [piece for piece, count in zip(pieces, touches) if count >= 2]
+    features = [_feature(source, piece, pen_nm) for piece in necks]
     # a long bent piece's axis leaves it, over other copper, perhaps another island's
     # (whose inside the clearance check, which measures to outlines, would not see)
     return [feature for feature, piece in zip(features, necks)
@@ -184,8 +183,7 @@ def spliced(fill: PenFill, necks: list[tuple[NarrowFeature, tuple]], tolerance_n
             ) -> list[tuple[NarrowFeature, tuple]]:
     """Each neck's line [on the walk, ...] put into its walk as a spur, out and back
     (`necks`: pairs of the neck and attach_to_walks' place); the pairs put in."""
-    if len(fill.coarse) != len(fill.paths):
-        fill.coarse = [np.full(len(path), tolerance_nm) for path in fill.paths]
+    fill.with_coarse(tolerance_nm)
     by_walk: dict[int, list] = {}
     for neck, (walk, edge, point) in necks:
         start = fill.paths[walk][edge]
