@@ -362,15 +362,19 @@ class GrblMillJob:
         checked: every tool change zeroes it where the bit touches."""
         settings = self.link.settings
         if applies(settings):
-            check_travel(self.lead + self.lines[self.start:], settings,
-                         self.link.tracker.wco_nm, self.link.status().mpos_nm,
-                         where=self.where, axes=(0, 1))
+            check_travel(self.rest, settings, self.link.tracker.wco_nm,
+                         self.link.status().mpos_nm, where=self.where, axes=(0, 1))
+
+    @property
+    def rest(self) -> list[GcodeLine]:
+        """What is still to send: the resume's lead-in and lines[start:] (as GrblJob's)."""
+        return self.lead + self.lines[self.start:]
 
     def _estimate(self) -> float:
         machine = Machine.from_settings(self.link.settings, self.link.build.planner_blocks)
-        rest = self.lead + self.lines[self.start:]
         # G38.2 runs its whole reach at most; the estimate takes the line as a G1
-        return estimate([line.text.replace("G38.2", "G1") for line in rest], machine).seconds
+        return estimate([line.text.replace("G38.2", "G1") for line in self.rest],
+                        machine).seconds
 
     def begin_journal(self, journal: Journal, entry: JournalEntry | None = None) -> None:
         """A new job in `journal` (its G-code kept beside it), or the interrupted
