@@ -532,14 +532,11 @@ _NEGATIVE_VALUE = re.compile(r"-[0-9.]")
 
 def _negative_values_joined(argv: list[str]) -> list[str]:
     out: list[str] = []
-    values = iter(range(len(argv)))
-    for i in values:
-        if argv[i] in _NEGATIVE_VALUE_OPTIONS and i + 1 < len(argv) \
-                and _NEGATIVE_VALUE.match(argv[i + 1]):
-            out.append(f"{argv[i]}={argv[i + 1]}")
-            next(values)
+    for arg in argv:
+        if out and out[-1] in _NEGATIVE_VALUE_OPTIONS and _NEGATIVE_VALUE.match(arg):
+            out[-1] = f"{out[-1]}={arg}"
         else:
-            out.append(argv[i])
+            out.append(arg)
     return out
 
 

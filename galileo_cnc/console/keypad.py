@@ -19,6 +19,7 @@ from galileo_cnc.backends.galileo import GalileoMachine
 from galileo_cnc.console.units import NM_PER_JOG_UNIT, jog_units_to_steps, refusal_text
 from galileo_cnc.errors import GalileoError
 from galileo_cnc.job import AXIS_NAMES
+from galileo_cnc.program.ops import NM_PER_MM
 from galileo_cnc.command_text import mm_text
 from galileo_cnc.transport.link import LinkError, PortGone
 
@@ -56,7 +57,7 @@ class KeypadJog:
             self._refresh()                     # the head is moving: show where it is now
         where = position_mm_text(self.status, self.console.config)
         note = f"\n{self.note}" if self.note else ""      # wrapped: a refusal is long
-        jog_mm = self.units * NM_PER_JOG_UNIT / 1_000_000
+        jog_mm = self.units * NM_PER_JOG_UNIT / NM_PER_MM
         return (f"jog {self.units} units = {jog_mm:g} mm   {where}{note}\n{HINT}")
 
     def jog(self, direction: tuple[int, int, int]) -> None:
