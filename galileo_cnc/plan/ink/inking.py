@@ -290,27 +290,33 @@ def _clear_of(narrow: list[NarrowFeature], bare_area: list, reach_nm: int,
 #: A centre line's part cut out between two kept ones (_past_the_fills) is put back
 #: when shorter than this many pens.
 BRIDGED_PENS = 2
+#: The longest line _into_walks draws as a spur, out and back: drawing it twice costs
+#: its length at the feed, about what a pen lift and lower cost (0.75 s) at 5 mm/s.
+SPUR_MOST_NM = 3_000_000
 
 
 def _past_the_fills(narrow: list[NarrowFeature], fills: list[PenFill], edge_margin_nm: int,
                     tolerance_nm: int) -> tuple[list[NarrowFeature], list[NarrowFeature]]:
     """The centre lines less where they would only spill beside ink the fills make
-    already. A narrow stroke along a wider area's edge (KiCad 4 outlines its pours
-    with the zone's least width, 0.254 mm) lies within the reach of the area's fill,
-    and a line of its own there spills (pen - width) / 2 beyond the copper, into the
-    clearance.
+    already; (the features, and those now apart from the lines they met: the ones
+    shortened, and those that ended where a line shortened or dropped did).
 
-    A line is cut out where it comes within a pen radius of the copper's edge
-    (outside E0, where the pen's disc stays on copper) and the fills' ink holds its
-    copper's disc (less the edge margin and the tolerances the fills leave at the
-    copper's edge too); inside E0 it spills nothing and is kept. A piece left that is
-    shorter than the pen and lies in that band throughout is a stub round a corner,
-    where the fill's round pen leaves the copper's corner bare as it does a pad's: it
-    is cut out too. Then a part cut out between two kept ones and shorter than
-    BRIDGED_PENS pens is put back: where a trace meets its pad or a thermal spoke its
-    pour, the line runs on into E0 as before, where the pen links it to the fill's
-    walk without a lift. A feature left with nothing by this is dropped. (The
-    features, and those of them shortened.)"""
+    KiCad 4 strokes its pours' outlines with the zone's least width (0.254 mm): a
+    narrow feature lying along a wide area's edge, inside the reach of the area's
+    fill. Its own line there adds nothing but (pen - width) / 2 of ink beyond the
+    copper, into the clearance. So a line is cut out where
+
+    - it lies outside E0 (within a pen radius of the copper's edge: inside E0 the
+      pen's disc stays on the copper, and the line spills nothing), and
+    - the fills' ink holds its copper's disc (less the edge margin and tolerances
+      the fills leave at the copper's edge too).
+
+    Of what is left, a piece shorter than the pen that lies in that band throughout is
+    a stub round a corner, where the fill's round pen leaves the copper's corner bare
+    as it does a pad's: cut out too. A cut between two kept pieces shorter than
+    BRIDGED_PENS pens is put back: where a trace meets its pad or a spoke its pour,
+    the line runs on into E0 as before, where path order links it to a walk. A
+    feature left with nothing is dropped."""
     paths = [(k, piece) for k, feature in enumerate(narrow) for piece in feature.pieces
              if len(piece)]
     if not paths:
@@ -352,7 +358,7 @@ def _past_the_fills(narrow: list[NarrowFeature], fills: list[PenFill], edge_marg
     of_feature: dict[int, list[int]] = {}
     for n, (k, _piece) in enumerate(paths):
         of_feature.setdefault(k, []).append(n)
-    kept, shortened = [], []
+    kept, alone, changed_ends = [], [], set()
     for k, feature in enumerate(narrow):
         members = of_feature.get(k, [])
         if not members:                   # cut whole already (keep_islands_apart)
@@ -361,11 +367,19 @@ def _past_the_fills(narrow: list[NarrowFeature], fills: list[PenFill], edge_marg
         pieces = [piece for n in members for piece in left.get(n, [])]
         if _same_lines(pieces, [paths[n][1] for n in members]):
             kept.append(feature)
-        elif pieces:
+            continue
+        changed_ends.update(tuple(end) for n in members for end in paths[n][1][[0, -1]].tolist())
+        if pieces:
             feature.pieces, feature.cut = pieces, True
             kept.append(feature)
-            shortened.append(feature)
-    return kept, shortened
+            alone.append(feature)
+    # a line that ended where one so changed did (a spoke at its pour's outline) may
+    # have been drawn on from there, and no longer is
+    shortened = {id(feature) for feature in alone}
+    alone += [feature for feature in kept if id(feature) not in shortened and any(
+        tuple(end) in changed_ends for piece in feature.pieces if len(piece) > 1
+        for end in piece[[0, -1]].tolist())]
+    return kept, alone
 
 
 def _into_walks(lines: list[NarrowFeature], narrow: list[NarrowFeature], fill: PenFill,
@@ -379,7 +393,8 @@ def _into_walks(lines: list[NarrowFeature], narrow: list[NarrowFeature], fill: P
     drawn as it was. A spliced line keeps its pieces (the ink's coverage and the
     narrow-feature allowance count them) and is marked `spur`, so it is not drawn
     twice."""
-    lines = [line for line in lines if len(line.pieces) == 1 and len(line.pieces[0]) >= 2]
+    lines = [line for line in lines if len(line.pieces) == 1 and len(line.pieces[0]) >= 2
+             and float(np.hypot(*np.diff(line.pieces[0], axis=0).T).sum()) <= SPUR_MOST_NM]
     if not lines or not fill.paths:
         return
     before = {id(line): (line.pieces[0], line.start_nm, line.inside_nm) for line in lines}
