@@ -1,7 +1,7 @@
-"""Centre lines beside a fill's ink (inking._past_the_fills, _into_walks): a pour that
-KiCad 4 outlines with strokes of the zone's least width, planned in ink mode, stepped
-by the reference machine and the pen-down steps swept by the pen (tests/inked.py)
-compared with the copper."""
+"""Centre lines beside a fill's ink (plan/ink/beside.py): a pour that KiCad 4 outlines
+with strokes of the zone's least width, planned in ink mode, stepped by the reference
+machine and the pen-down steps swept by the pen (tests/inked.py) compared with the
+copper; the cut put back, and the clipping path by path."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from inked import ink_of_trace, joined_islands
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.job import PenDown
 from galileo_cnc.machine.planner import simulate
-from galileo_cnc.plan.ink import clip, inking
+from galileo_cnc.plan.ink import beside, clip, inking
 from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 
 MM = 1_000_000
@@ -91,7 +91,7 @@ def test_thermal_spokes_across_a_pours_clearance_are_drawn_as_spurs(tmp_path, mo
     spurs = [f for f in planned.ink.narrow if f.spur]
     assert spurs
     # spliced into the walks, the spokes cost no pen lift of their own
-    monkeypatch.setattr(inking, "_into_walks", lambda *args: None)
+    monkeypatch.setattr(inking, "into_walks", lambda *args: None)
     alone, _ink, _copper = plot(tmp_path, pour + pad + spokes)
     assert lifts(planned) < lifts(alone)
     assert joined_islands(ink, copper, 30_000) == []
@@ -102,19 +102,19 @@ def test_a_cut_shorter_than_two_pens_between_kept_pieces_is_put_back():
     near = [np.array([[0, 0], [400_000, 0]]), np.array([[1_000_000, 2_000_000],
                                                         [1_000_000, 300_000]])]
     # 0.6 + 0.3 mm cut out round the corner: more than two pens, kept apart
-    assert len(inking._bridged(source, near, 2 * PEN)) == 2
-    (joined,) = inking._bridged(source, [near[0], np.array([[1_000_000, 1_500_000],
+    assert len(beside._bridged(source, near, 2 * PEN)) == 2
+    (joined,) = beside._bridged(source, [near[0], np.array([[1_000_000, 1_500_000],
                                                             [1_000_000, 100_000]])], 3 * PEN)
     assert joined.tolist() == [[0, 0], [400_000, 0], [1_000_000, 0], [1_000_000, 100_000],
                                [1_000_000, 1_500_000]]
     # a cut just inside each end of the line is no cut between two pieces
-    assert inking._bridged(source, [np.array([[0, 0], [1_000_000, 0],
+    assert beside._bridged(source, [np.array([[0, 0], [1_000_000, 0],
                                               [1_000_000, 1_900_000]])], 2 * PEN)[0] \
         .tolist()[-1] == [1_000_000, 1_900_000]
     # pieces that make the line whole again give back the line itself
     halves = [np.array([[0, 0], [1_000_000, 0], [1_000_000, 500_000]]),
               np.array([[1_000_000, 600_000], [1_000_000, 2_000_000]])]
-    (whole,) = inking._bridged(source, halves, 2 * PEN)
+    (whole,) = beside._bridged(source, halves, 2 * PEN)
     assert whole is source
 
 
