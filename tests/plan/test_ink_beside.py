@@ -147,3 +147,14 @@ def test_open_difference_by_path_gives_each_paths_pieces():
 
 def _length(lines: list[np.ndarray]) -> float:
     return sum(float(np.hypot(*np.diff(line, axis=0).T).sum()) for line in lines)
+
+
+def test_a_trace_of_the_pens_width_stays_one_line_round_its_bends(tmp_path):
+    # 0.3 mm segments, each narrow: at a bend the two capsules make room for the pen,
+    # and the fill's ink there would cut both segments' ends; one cut round the joint,
+    # shorter than two pens, is put back, so the trace is still drawn as one line
+    body = ("%ADD11C,0.3*%\nD11*\nX0Y0D02*\nX5000000Y0D01*\nX5000000Y5000000D01*\n"
+            "X10000000Y5000000D01*\n")
+    planned, _ink, _copper = plot(tmp_path, body)
+    assert lifts(planned) == 1
+    assert [(f.cut, f.spur) for f in planned.ink.narrow] == [(False, False)] * 3

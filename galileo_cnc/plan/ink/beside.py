@@ -87,9 +87,25 @@ def past_the_fills(narrow: list[NarrowFeature], fills: list[PenFill], edge_margi
         for (n, piece), held in zip(stubs, outside):
             if not held:
                 left[n] = [p for p in left[n] if p is not piece]
+    # a cut round a joint of two lines (a trace's bend, where the fill's ink bulges)
+    # counts as one cut between their pieces
+    ends: dict[tuple, list[tuple[int, int]]] = {}
+    for n, (_k, source) in enumerate(paths):
+        if len(source) > 1:
+            for side, end in ((0, source[0]), (1, source[-1])):
+                ends.setdefault(tuple(end.tolist()), []).append((n, side))
+    gaps = {n: _end_gaps(paths[n][1], left.get(n, [])) for n in range(len(paths))}
+    to_ends = {n: [False, False] for n in left}
+    for pair in ends.values():
+        if len(pair) != 2 or not all(n in left and left[n] for n, _side in pair):
+            continue
+        (n, side), (m, other) = pair
+        if gaps[n][side] + gaps[m][other] < BRIDGED_PENS * narrow[paths[n][0]].pen_nm:
+            to_ends[n][side] = to_ends[m][other] = True
     for n, pieces in left.items():
         if pieces:
-            left[n] = _bridged(paths[n][1], pieces, BRIDGED_PENS * narrow[paths[n][0]].pen_nm)
+            left[n] = _bridged(paths[n][1], pieces, BRIDGED_PENS * narrow[paths[n][0]].pen_nm,
+                               tuple(to_ends[n]))
     of_feature: dict[int, list[int]] = {}
     for n, (k, _piece) in enumerate(paths):
         of_feature.setdefault(k, []).append(n)
@@ -186,12 +202,9 @@ def _meeting_boxes(boxes: np.ndarray, others: np.ndarray) -> np.ndarray:
     return np.array(met, dtype=np.int64)
 
 
-def _bridged(source: np.ndarray, pieces: list[np.ndarray], gap_nm: int) -> list[np.ndarray]:
-    """The pieces of the polyline `source` (Clipper's, either way round), with the
-    parts cut out between two of them that are shorter than `gap_nm` put back."""
-    lines = [piece for piece in pieces if len(piece) > 1]
-    if len(lines) < 2 or len(source) < 2:
-        return pieces
+def _spans(source: np.ndarray, pieces: list[np.ndarray]) -> tuple[np.ndarray, list]:
+    """(arclength of each vertex of the polyline `source`, its pieces `pieces` as
+    [start, end, piece] along it, sorted; Clipper hands a piece either way round)."""
     a, b = source[:-1], source[1:]
     lengths = np.hypot(*(b - a).T.astype(np.float64))
     along = np.concatenate([[0.0], np.cumsum(lengths)])
@@ -203,16 +216,31 @@ def _bridged(source: np.ndarray, pieces: list[np.ndarray], gap_nm: int) -> list[
         return along[k] + t[k] * lengths[k]
 
     spans = []
-    for piece in lines:
+    for piece in pieces:
         s0, s1 = position(piece[0]), position(piece[-1])
-        spans.append((s0, s1, piece) if s0 <= s1 else (s1, s0, piece[::-1]))
-    spans.sort(key=lambda span: span[0])
-    joined = [list(spans[0])]
+        spans.append([s0, s1, piece] if s0 <= s1 else [s1, s0, piece[::-1]])
+    return along, sorted(spans, key=lambda span: span[0])
+
+
+def _bridged(source: np.ndarray, pieces: list[np.ndarray], gap_nm: int,
+             to_ends: tuple[bool, bool] = (False, False)) -> list[np.ndarray]:
+    """The pieces of the polyline `source`, with the parts cut out between two of them
+    that are shorter than `gap_nm` put back, and those between the first piece and
+    the source's start, the last and its end, where `to_ends` says so."""
+    lines = [piece for piece in pieces if len(piece) > 1]
+    if len(source) < 2 or not lines or (len(lines) < 2 and not any(to_ends)):
+        return pieces
+    along, spans = _spans(source, lines)
+    if to_ends[0]:
+        spans.insert(0, [0.0, 0.0, source[:1]])
+    if to_ends[1]:
+        spans.append([along[-1], along[-1], source[-1:]])
+    joined = [spans[0]]
     for s0, s1, piece in spans[1:]:
         last = joined[-1]
-        if s1 <= last[1]:
+        if s1 <= last[1] and len(piece) > 1:
             continue
-        if s0 - last[1] < gap_nm:
+        if s0 - last[1] < gap_nm or len(piece) == 1 or len(last[2]) == 1:
             between = source[1:-1][(along[1:-1] > last[1]) & (along[1:-1] < s0)]
             last[2] = np.vstack([last[2], between, piece])
             last[1] = max(last[1], s1)
@@ -222,6 +250,17 @@ def _bridged(source: np.ndarray, pieces: list[np.ndarray], gap_nm: int) -> list[
         return [source]                   # put back whole
     return [piece for piece in pieces if len(piece) < 2] + \
         [clip.without_repeats(piece) for _s0, _s1, piece in joined]
+
+
+def _end_gaps(source: np.ndarray, pieces: list[np.ndarray]) -> tuple[float, float]:
+    """How much of the polyline `source` is cut out before its first piece and after
+    its last (its length when nothing is left)."""
+    lines = [piece for piece in pieces if len(piece) > 1]
+    along, spans = _spans(source, lines) if lines and len(source) > 1 else \
+        (np.array([0.0, _length(source) if len(source) > 1 else 0.0]), [])
+    if not spans:
+        return along[-1], along[-1]
+    return spans[0][0], along[-1] - max(span[1] for span in spans)
 
 
 def _short(piece: np.ndarray, pen_nm: int) -> bool:
