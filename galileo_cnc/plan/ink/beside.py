@@ -31,7 +31,7 @@ SPUR_MOST_NM = 3_000_000
 
 
 def past_the_fills(narrow: list[NarrowFeature], fills: list[PenFill], edge_margin_nm: int,
-                    tolerance_nm: int) -> tuple[list[NarrowFeature], list[NarrowFeature]]:
+                   tolerance_nm: int) -> tuple[list[NarrowFeature], list[NarrowFeature]]:
     """The centre lines less where they would only spill beside ink the fills make
     already; (the features, and those now apart from the lines they met: the ones
     shortened, and those that ended where a line shortened or dropped did).
@@ -49,63 +49,95 @@ def past_the_fills(narrow: list[NarrowFeature], fills: list[PenFill], edge_margi
     Of what is left, a piece shorter than the pen that lies in that band throughout is
     a stub round a corner, where the fill's round pen leaves the copper's corner bare
     as it does a pad's: cut out too. A cut between two kept pieces shorter than
-    BRIDGED_PENS pens is put back: where a trace meets its pad or a spoke its pour,
-    the line runs on into E0 as before, where path order links it to a walk. A
-    feature left with nothing is dropped."""
+    BRIDGED_PENS pens is put back (where a trace meets its pad or a spoke its pour,
+    the line runs on into E0 as before, where path order links it to a walk), and so
+    is one round the joint of two lines (a trace's bend). A feature left with nothing
+    is dropped."""
     paths = [(k, piece) for k, feature in enumerate(narrow) for piece in feature.pieces
              if len(piece)]
     if not paths:
         return narrow, []
+    band = _Band(fills, [piece for _k, piece in paths], tolerance_nm)
     by_shrink: dict[int, list[int]] = {}
     for n, (k, _piece) in enumerate(paths):
         shrink = narrow[k].width_nm // 2 - edge_margin_nm - 2 * tolerance_nm
         by_shrink.setdefault(max(shrink, 0), []).append(n)
-    ink, centre = _fills_near(fills, boxes_of([piece for _k, piece in paths]))
-    ink_boxes, centre_boxes = boxes_of(ink), boxes_of(centre)
-
-    def band(lines: list[np.ndarray], shrink: int) -> list:
-        """The ink shrunk by `shrink`, less E0, near the lines (a hole too, as far as
-        the shrink reaches): a pour's whole ink is large to shrink."""
-        near = _meeting_boxes(ink_boxes, boxes_of(lines, shrink + tolerance_nm))
-        if not len(near):
-            return []
-        rings = [ink[k] for k in near.tolist()]
-        inner = clip.offset(rings, -shrink, tolerance_nm) if shrink else rings
-        near = _meeting_boxes(centre_boxes, boxes_of(lines, tolerance_nm))
-        return clip.difference(inner, [centre[k] for k in near.tolist()])
-
     left: dict[int, list[np.ndarray]] = {}
     for shrink, members in by_shrink.items():
         sources = [paths[n][1] for n in members]
-        cut = clip.open_difference_by_path(sources, band(sources, shrink))
+        cut = clip.open_difference_by_path(sources, band.of(sources, shrink))
         left.update((n, pieces) for n, pieces in zip(members, cut) if pieces)
     stubs = [(n, piece) for n, pieces in left.items() for piece in pieces
              if _short(piece, narrow[paths[n][0]].pen_nm)]
     if stubs:
         lines = [piece for _n, piece in stubs]
-        outside = clip.open_difference_by_path(lines, band(lines, 0))
-        for (n, piece), held in zip(stubs, outside):
+        for (n, piece), held in zip(stubs, clip.open_difference_by_path(lines,
+                                                                        band.of(lines, 0))):
             if not held:
                 left[n] = [p for p in left[n] if p is not piece]
-    # a cut round a joint of two lines (a trace's bend, where the fill's ink bulges)
-    # counts as one cut between their pieces
+    gap = {n: BRIDGED_PENS * narrow[k].pen_nm for n, (k, _piece) in enumerate(paths)}
+    to_ends = _to_joints(paths, left, gap)
+    for n, pieces in left.items():
+        if pieces:
+            left[n] = _bridged(paths[n][1], pieces, gap[n], to_ends.get(n, (False, False)))
+    return _regrouped(narrow, paths, left)
+
+
+class _Band:
+    """Where a narrow line only spills beside the fills' ink: the ink shrunk by the
+    line's half width, less E0; made near the lines asked about, from the batches
+    that meet any of the lines (a pour's whole ink is large to shrink)."""
+
+    def __init__(self, fills: list[PenFill], lines: list[np.ndarray], tolerance_nm: int):
+        self.ink, self.centre = [], []
+        boxes = boxes_of(lines)
+        for fill in fills:
+            for batch, recipe in fill.recipes:
+                low = np.min([ring.min(axis=0) for ring in batch], axis=0)
+                high = np.max([ring.max(axis=0) for ring in batch], axis=0)
+                if len(_meeting_boxes(np.array([[*low, *high]]), boxes)):
+                    self.ink.extend(recipe.ink())
+                    self.centre.extend(recipe.centre_area)
+        self.ink_boxes, self.centre_boxes = boxes_of(self.ink), boxes_of(self.centre)
+        self.tolerance_nm = tolerance_nm
+
+    def of(self, lines: list[np.ndarray], shrink: int) -> list:
+        """The band for lines of half width `shrink` (a hole of the ink too, as far
+        as the shrink reaches)."""
+        near = _meeting_boxes(self.ink_boxes, boxes_of(lines, shrink + self.tolerance_nm))
+        if not len(near):
+            return []
+        rings = [self.ink[k] for k in near.tolist()]
+        inner = clip.offset(rings, -shrink, self.tolerance_nm) if shrink else rings
+        near = _meeting_boxes(self.centre_boxes, boxes_of(lines, self.tolerance_nm))
+        return clip.difference(inner, [self.centre[k] for k in near.tolist()])
+
+
+def _to_joints(paths: list[tuple[int, np.ndarray]], left: dict[int, list[np.ndarray]],
+               gap: dict[int, int]) -> dict[int, tuple[bool, bool]]:
+    """Per path with pieces left, whether to put back what was cut at its start and
+    at its end: where it meets one other path end to end (a joint) and the two cuts
+    there are shorter than the gap together."""
     ends: dict[tuple, list[tuple[int, int]]] = {}
     for n, (_k, source) in enumerate(paths):
         if len(source) > 1:
             for side, end in ((0, source[0]), (1, source[-1])):
                 ends.setdefault(tuple(end.tolist()), []).append((n, side))
-    gaps = {n: _end_gaps(paths[n][1], left.get(n, [])) for n in range(len(paths))}
-    to_ends = {n: [False, False] for n in left}
+    cut = {n: _end_gaps(paths[n][1], pieces) for n, pieces in left.items() if pieces}
+    to_ends = {n: [False, False] for n in cut}
     for pair in ends.values():
-        if len(pair) != 2 or not all(n in left and left[n] for n, _side in pair):
+        if len(pair) != 2 or not all(n in cut for n, _side in pair):
             continue
         (n, side), (m, other) = pair
-        if gaps[n][side] + gaps[m][other] < BRIDGED_PENS * narrow[paths[n][0]].pen_nm:
+        if cut[n][side] + cut[m][other] < gap[n]:
             to_ends[n][side] = to_ends[m][other] = True
-    for n, pieces in left.items():
-        if pieces:
-            left[n] = _bridged(paths[n][1], pieces, BRIDGED_PENS * narrow[paths[n][0]].pen_nm,
-                               tuple(to_ends[n]))
+    return {n: (a, b) for n, (a, b) in to_ends.items()}
+
+
+def _regrouped(narrow: list[NarrowFeature], paths: list[tuple[int, np.ndarray]],
+               left: dict[int, list[np.ndarray]]
+               ) -> tuple[list[NarrowFeature], list[NarrowFeature]]:
+    """The features with the pieces left of their paths (past_the_fills' result)."""
     of_feature: dict[int, list[int]] = {}
     for n, (k, _piece) in enumerate(paths):
         of_feature.setdefault(k, []).append(n)
@@ -167,20 +199,6 @@ def into_walks(lines: list[NarrowFeature], narrow: list[NarrowFeature], fill: Pe
         line.pieces = [planned[id(line)]]
         line.spur = True
     spliced(fill, [(line, attached[id(line)]) for line in spurs], tolerance_nm)
-
-
-def _fills_near(fills: list[PenFill], boxes: np.ndarray) -> tuple[list, list]:
-    """The rings of the fills' ink and of their E0 (InkRecipe.centre_area) in the
-    batches that meet any of the boxes."""
-    ink, centre = [], []
-    for fill in fills:
-        for batch, recipe in fill.recipes:
-            low = np.min([ring.min(axis=0) for ring in batch], axis=0)
-            high = np.max([ring.max(axis=0) for ring in batch], axis=0)
-            if len(_meeting_boxes(np.array([[*low, *high]]), boxes)):
-                ink.extend(recipe.ink())
-                centre.extend(recipe.centre_area)
-    return ink, centre
 
 
 def _meeting_boxes(boxes: np.ndarray, others: np.ndarray) -> np.ndarray:
