@@ -158,3 +158,43 @@ def test_a_trace_of_the_pens_width_stays_one_line_round_its_bends(tmp_path):
     planned, _ink, _copper = plot(tmp_path, body)
     assert lifts(planned) == 1
     assert [(f.cut, f.spur) for f in planned.ink.narrow] == [(False, False)] * 3
+
+
+RING = ("%ADD12C,0.2*%\nG36*\nX5000000Y7100000D02*\nG03X5000000Y2900000I0J-2100000D01*\n"
+        "G01X5000000Y7100000D01*\nG37*\nD12*\nX7000000Y5000000D02*\nG75*\n")
+
+
+def test_a_full_circle_beside_a_fill_is_cut_along_itself_both_ways_round(tmp_path):
+    # a half disc and a 0.2 mm circle (G75, its end at its start) round it: the circle
+    # runs beside the fill on the left and alone on the right; what is left of it must
+    # follow the circle round its closing point, never cut across it
+    for turn in ("G02", "G03"):
+        pad = "%ADD13R,0.4X0.4*%\nD13*\nX5900000Y6000000D03*\n"    # another island inside
+        body = RING + f"{turn}X7000000Y5000000I-2000000J0D01*\n" + pad
+        planned, ink, copper = plot(tmp_path, body)
+        assert joined_islands(ink, copper, 30_000) == []
+        # the ink beyond the copper is the circle's own overdraw, along the circle
+        circle = np.array([[5 * MM + 2 * MM * np.cos(a), 5 * MM + 2 * MM * np.sin(a)]
+                           for a in np.linspace(0, 2 * np.pi, 721)]).round().astype(np.int64)
+        along = clip.stroke([circle], PEN // 2 + 5_000, 1_000)
+        assert clip.area_nm2(clip.difference(clip.difference(ink, copper), along)) < \
+            0.001 * MM * MM
+        # the circle's right half, away from the half disc, inked whole
+        right = [[[5_200_000, 2_000_000], [8_000_000, 2_000_000], [8_000_000, 8_000_000],
+                  [5_200_000, 8_000_000]]]
+        ring = clip.intersection(clip.stroke([circle], 150_000, 1_000), right)
+        assert clip.area_nm2(clip.difference(clip.intersection(copper, ring), ink)) < \
+            0.002 * MM * MM
+
+
+def test_a_traces_end_cap_beside_a_pad_is_still_drawn(tmp_path):
+    # a 0.25 mm trace along a 2 mm pad's lower edge, ending just past its corner: the
+    # piece left there is short and its centre lies in the pad's ink, but it holds the
+    # trace's free end, whose cap the pad's fill does not ink
+    body = ("%ADD20R,2X2*%\nD20*\nX5000000Y5000000D03*\n%ADD30C,0.25*%\nD30*\n"
+            "X5000000Y4084000D02*\nX3980000Y4084000D01*\n")
+    planned, ink, copper = plot(tmp_path, body)
+    cap = [[[3_800_000, 3_900_000], [4_050_000, 3_900_000], [4_050_000, 4_250_000],
+            [3_800_000, 4_250_000]]]
+    assert clip.area_nm2(clip.difference(clip.intersection(copper, cap), ink)) < \
+        0.002 * MM * MM

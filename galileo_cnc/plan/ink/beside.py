@@ -66,9 +66,15 @@ def past_the_fills(narrow: list[NarrowFeature], fills: list[PenFill], edge_margi
     for shrink, members in by_shrink.items():
         sources = [paths[n][1] for n in members]
         cut = clip.open_difference_by_path(sources, band.of(sources, shrink))
-        left.update((n, pieces) for n, pieces in zip(members, cut) if pieces)
+        # Clipper may hand back a piece of no length where a line touches the band
+        left.update((n, [p for p in pieces if len(clip.without_repeats(p)) > 1
+                         or len(p) == 1]) for n, pieces in zip(members, cut) if pieces)
+    ends = _line_ends(paths)
+    free = {end for end, at in ends.items() if len(at) == 1}
+    # a stub holding a line's free end (a trace's end cap) is that line's own copper
     stubs = [(n, piece) for n, pieces in left.items() for piece in pieces
-             if _short(piece, narrow[paths[n][0]].pen_nm)]
+             if _short(piece, narrow[paths[n][0]].pen_nm)
+             and not {tuple(piece[0].tolist()), tuple(piece[-1].tolist())} & free]
     if stubs:
         lines = [piece for _n, piece in stubs]
         for (n, piece), held in zip(stubs, clip.open_difference_by_path(lines,
@@ -76,7 +82,7 @@ def past_the_fills(narrow: list[NarrowFeature], fills: list[PenFill], edge_margi
             if not held:
                 left[n] = [p for p in left[n] if p is not piece]
     gap = {n: BRIDGED_PENS * narrow[k].pen_nm for n, (k, _piece) in enumerate(paths)}
-    to_ends = _to_joints(paths, left, gap)
+    to_ends = _to_joints(paths, left, gap, ends)
     for n, pieces in left.items():
         if pieces:
             left[n] = _bridged(paths[n][1], pieces, gap[n], to_ends.get(n, (False, False)))
@@ -113,16 +119,22 @@ class _Band:
         return clip.difference(inner, [self.centre[k] for k in near.tolist()])
 
 
-def _to_joints(paths: list[tuple[int, np.ndarray]], left: dict[int, list[np.ndarray]],
-               gap: dict[int, int]) -> dict[int, tuple[bool, bool]]:
-    """Per path with pieces left, whether to put back what was cut at its start and
-    at its end: where it meets one other path end to end (a joint) and the two cuts
-    there are shorter than the gap together."""
+def _line_ends(paths: list[tuple[int, np.ndarray]]) -> dict[tuple, list[tuple[int, int]]]:
+    """Per end point of the paths' lines: the (path, 0 start or 1 end) there."""
     ends: dict[tuple, list[tuple[int, int]]] = {}
     for n, (_k, source) in enumerate(paths):
         if len(source) > 1:
             for side, end in ((0, source[0]), (1, source[-1])):
                 ends.setdefault(tuple(end.tolist()), []).append((n, side))
+    return ends
+
+
+def _to_joints(paths: list[tuple[int, np.ndarray]], left: dict[int, list[np.ndarray]],
+               gap: dict[int, int], ends: dict[tuple, list[tuple[int, int]]]
+               ) -> dict[int, tuple[bool, bool]]:
+    """Per path with pieces left, whether to put back what was cut at its start and
+    at its end: where it meets one other path end to end (a joint; a closed line
+    meets itself) and the two cuts there are shorter than the gap together."""
     cut = {n: _end_gaps(paths[n][1], pieces) for n, pieces in left.items() if pieces}
     to_ends = {n: [False, False] for n in cut}
     for pair in ends.values():
@@ -181,7 +193,8 @@ def into_walks(lines: list[NarrowFeature], narrow: list[NarrowFeature], fill: Pe
              and _length(line.pieces[0]) <= SPUR_MOST_NM]
     if not lines or not fill.paths:
         return
-    before = {id(line): (line.pieces[0], line.start_nm, line.inside_nm) for line in lines}
+    before = {id(line): (line.pieces[0], line.start_nm, line.inside_nm, line.cut)
+              for line in lines}
     for line in lines:            # attach_to_walks finds the island from a point inside
         line.inside_nm = inside_point(line)
     attached = attach_to_walks(lines, fill.paths, pen_nm, islands)
@@ -192,7 +205,7 @@ def into_walks(lines: list[NarrowFeature], narrow: list[NarrowFeature], fill: Pe
     clear = clear_of_bare(tried)
     whole = {id(line) for line in clear if _same_lines(line.pieces, [planned[id(line)]])}
     for line in lines:
-        piece, line.start_nm, line.inside_nm = before[id(line)]
+        piece, line.start_nm, line.inside_nm, line.cut = before[id(line)]
         line.pieces = [piece]
     spurs = [line for line in tried if id(line) in whole]
     for line in spurs:
@@ -227,15 +240,25 @@ def _spans(source: np.ndarray, pieces: list[np.ndarray]) -> tuple[np.ndarray, li
     lengths = np.hypot(*(b - a).T.astype(np.float64))
     along = np.concatenate([[0.0], np.cumsum(lengths)])
 
-    def position(point: np.ndarray) -> float:
+    def positions(point: np.ndarray) -> np.ndarray:
+        """Every place along the source the point lies at (within a few nm): two
+        where a closed source's end meets its start."""
         t, gap = point_to_edges(np.repeat(point[None].astype(np.float64), len(a), axis=0),
                                 a, b)
-        k = int(np.argmin(gap))
-        return along[k] + t[k] * lengths[k]
+        on = np.flatnonzero(gap <= gap.min() + 4)
+        return along[on] + t[on] * lengths[on]
 
     spans = []
     for piece in pieces:
-        s0, s1 = position(piece[0]), position(piece[-1])
+        # an end is where it lies next to the piece's other points
+        inner = positions(piece[len(piece) // 2]) if len(piece) > 2 else None
+        ends = []
+        for end, other in ((piece[0], piece[-1]), (piece[-1], piece[0])):
+            places = positions(end)
+            near = inner if inner is not None else positions(other)
+            ends.append(float(places[np.argmin(np.abs(places[:, None] - near[None, :])
+                                               .min(axis=1))]))
+        s0, s1 = ends
         spans.append([s0, s1, piece] if s0 <= s1 else [s1, s0, piece[::-1]])
     return along, sorted(spans, key=lambda span: span[0])
 
@@ -258,7 +281,8 @@ def _bridged(source: np.ndarray, pieces: list[np.ndarray], gap_nm: int,
         last = joined[-1]
         if s1 <= last[1] and len(piece) > 1:
             continue
-        if s0 - last[1] < gap_nm or len(piece) == 1 or len(last[2]) == 1:
+        if s0 >= last[1] - 1 and (s0 - last[1] < gap_nm or len(piece) == 1
+                                  or len(last[2]) == 1):
             between = source[1:-1][(along[1:-1] > last[1]) & (along[1:-1] < s0)]
             last[2] = np.vstack([last[2], between, piece])
             last[1] = max(last[1], s1)
