@@ -6,13 +6,11 @@ copper; the cut put back, and the clipping path by path."""
 from __future__ import annotations
 
 import numpy as np
-from inked import ink_of_trace, joined_islands
+from inked import joined_islands, plan_and_ink
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.job import PenDown
-from galileo_cnc.machine.planner import simulate
 from galileo_cnc.plan.ink import beside, clip, inking
-from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 
 MM = 1_000_000
 PEN = 300_000
@@ -44,10 +42,7 @@ def plot(tmp_path, body: str):
     """(planned job, ink from the steps, copper) of a Gerber body."""
     path = tmp_path / "pour.gbr"
     path.write_text(HEADER + body + "M02*\n")
-    planned = plan_file(path, CONFIG, "auto", options=PlanOptions(mode="ink", pens_nm=(PEN,)))
-    trace = simulate(planned.job.commands, CONFIG)
-    ink = ink_of_trace(trace, CONFIG, planned.offset_nm, [PEN])
-    return planned, ink, planned.ink.copper.native
+    return plan_and_ink(path, PEN, CONFIG)
 
 
 def lifts(planned) -> int:
