@@ -193,3 +193,13 @@ def test_a_traces_end_cap_beside_a_pad_is_still_drawn(tmp_path):
             [3_800_000, 4_250_000]]]
     assert clip.area_nm2(clip.difference(clip.intersection(copper, cap), ink)) < \
         0.002 * MM * MM
+
+
+def test_a_draw_of_no_length_is_left_as_it_was(tmp_path):
+    # Eagle writes round pads as draws from a point to itself: Clipper hands such a
+    # line back as its one point, which is no cut (else it became a dot of its own)
+    body = ("%ADD11R,2X2*%\nD11*\nX5000000Y5000000D03*\n%ADD30C,0.25*%\nD30*\n"
+            "X2000000Y2000000D02*\nX2000000Y2000000D01*\nX2000000Y4000000D01*\n")
+    planned, _ink, _copper = plot(tmp_path, body)
+    assert not any(type(command).__name__ == "Flash" for command in planned.job.commands)
+    assert [f.cut for f in planned.ink.narrow] == [False, False]

@@ -315,7 +315,9 @@ def _length(line: np.ndarray) -> float:
 
 
 def _same_lines(pieces: list[np.ndarray], sources: list[np.ndarray]) -> bool:
-    """The pieces are the sources whole (Clipper may hand a line back reversed)."""
+    """The pieces are the sources whole: Clipper may hand a line back reversed, and a
+    draw of no length back as its one point."""
+    whole = [clip.without_repeats(q) for q in sources]
     return len(pieces) == len(sources) and all(
         any(len(p) == len(q) and (np.array_equal(p, q) or np.array_equal(p, q[::-1]))
-            for q in sources) for p in pieces)
+            for q in whole) for p in pieces)
