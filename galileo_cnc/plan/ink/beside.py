@@ -48,7 +48,8 @@ def past_the_fills(narrow: list[NarrowFeature], fills: list[PenFill], edge_margi
 
     Of what is left, a piece shorter than the pen that lies in that band throughout is
     a stub round a corner, where the fill's round pen leaves the copper's corner bare
-    as it does a pad's: cut out too. A cut between two kept pieces shorter than
+    as it does a pad's: cut out too, unless it holds a line's free end (a trace's end
+    cap, which the fill does not ink). A cut between two kept pieces shorter than
     BRIDGED_PENS pens is put back (where a trace meets its pad or a spoke its pour,
     the line runs on into E0 as before, where path order links it to a walk), and so
     is one round the joint of two lines (a trace's bend). A feature left with nothing
