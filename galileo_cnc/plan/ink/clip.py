@@ -178,12 +178,14 @@ def open_difference_by_path(paths: list, polygons: PolygonSet) -> list[list[np.n
         subjects = [paths[k][:, ::-1] if swap else paths[k] for k in group]
         rings = swapped if swap else polygons
         pieces = _open_outside(subjects, rings)
+        owners = piece_owners(pieces, subjects)
         mine: dict[int, list[np.ndarray]] = {}
-        for piece, owner in zip(pieces, piece_owners(pieces, subjects)):
-            mine.setdefault(int(owner), []).append(piece)
+        for piece, owner in zip(pieces, owners.tolist()):
+            mine.setdefault(owner, []).append(piece)
+        lost = bool(np.any(owners < 0))       # a piece on no path: which lost it?
         for i, k in enumerate(group):
             got = mine.get(i, [])
-            if not _on_paths(got, [subjects[i]]):
+            if lost or not _on_paths(got, [subjects[i]]):
                 got = _exact_outside(subjects[i], rings)
             out[k] = [piece[:, ::-1] for piece in got] if swap else got
     return out
@@ -192,7 +194,9 @@ def open_difference_by_path(paths: list, polygons: PolygonSet) -> list[list[np.n
 def piece_owners(pieces: list[np.ndarray], paths: list[np.ndarray]) -> np.ndarray:
     """For each piece of clipped open paths, the index of the path it was cut from:
     the one nearest to the middle of its first segment (on it within Clipper's
-    rounding of a cut point; of two paths drawn over each other, either)."""
+    rounding of a cut point; of two paths drawn over each other, either), or -1 where
+    none passes within OWNER_CELL_NM / 2. A piece Clipper made off its path goes to
+    the nearest, whose check (_on_paths) then fails."""
     if not pieces:
         return np.zeros(0, dtype=np.int64)
     a = np.concatenate([path[:-1] for path in paths]).astype(np.int64)
@@ -202,7 +206,7 @@ def piece_owners(pieces: list[np.ndarray], paths: list[np.ndarray]) -> np.ndarra
     # cells OWNER_CELL_NM wide: a finer grid samples long paths too often
     i, j = segments_near(probe, probe, a, b, OWNER_CELL_NM // 2)
     _t, gap = point_to_edges(probe[i].astype(np.float64), a[j], b[j])
-    found = np.zeros(len(pieces), dtype=np.int64)
+    found = np.full(len(pieces), -1, dtype=np.int64)
     order = np.argsort(-gap)          # the nearest written last
     found[i[order]] = owner[j[order]]
     return found
