@@ -165,8 +165,12 @@ def open_difference_by_path(paths: list, polygons: PolygonSet) -> list[list[np.n
     paths = [without_repeats(path) for path in paths]
     if not polygons:
         return [[path] for path in paths]
-    out: list[list[np.ndarray]] = [open_difference([path], polygons) if len(path) == 1
-                                   else [] for path in paths]
+    out: list[list[np.ndarray]] = [[] for _path in paths]
+    # a dot goes in as a line 1 nm long, up from it, and is kept when any of it is:
+    # Clipper sweeps a board's thousands of vias with the lines
+    dots = {k for k, path in enumerate(paths) if len(path) == 1}
+    paths = [np.vstack([path, path + [0, 1]]) if k in dots else path
+             for k, path in enumerate(paths)]
     lines = [k for k, path in enumerate(paths) if len(path) >= 2]
     flat = [k for k in lines if (paths[k][:, 1] == paths[k][0, 1]).all()]
     steep = [k for k in lines if not (paths[k][:, 1] == paths[k][0, 1]).all()]
@@ -188,6 +192,8 @@ def open_difference_by_path(paths: list, polygons: PolygonSet) -> list[list[np.n
             if lost or not _on_paths(got, [subjects[i]]):
                 got = _exact_outside(subjects[i], rings)
             out[k] = [piece[:, ::-1] for piece in got] if swap else got
+    for k in dots:
+        out[k] = [paths[k][:1]] if out[k] else []
     return out
 
 
