@@ -68,3 +68,16 @@ def joined_islands(ink: list, copper: list, gap_nm: int) -> list[list[int]]:
         groups.setdefault(piece, set()).add(alone[k])
     return [sorted(k for k, piece in enumerate(inked) if piece == p)
             for p, apart in groups.items() if len(apart) > 1]
+
+
+def plan_and_ink(path, pen_nm: int, config: MachineConfig):
+    """(planned job, ink from the steps, copper) of a Gerber file planned in ink mode
+    with one pen and stepped by the reference machine."""
+    from galileo_cnc.machine.planner import simulate
+    from galileo_cnc.plan.pipeline import PlanOptions, plan_file
+
+    planned = plan_file(path, config, "auto",
+                        options=PlanOptions(mode="ink", pens_nm=(pen_nm,)))
+    trace = simulate(planned.job.commands, config)
+    ink = ink_of_trace(trace, config, planned.offset_nm, [pen_nm])
+    return planned, ink, planned.ink.copper.native

@@ -15,10 +15,9 @@ import math
 import numpy as np
 import pytest
 from corpus import CORPUS
-from inked import ink_of_trace, joined_islands
+from inked import joined_islands, plan_and_ink
 
 from galileo_cnc.config.machine import MachineConfig
-from galileo_cnc.machine.planner import simulate
 from galileo_cnc.plan.ink import clip
 from galileo_cnc.cli import plot as plot_cli
 from galileo_cnc.plan.ink import inking, narrow
@@ -27,7 +26,6 @@ from galileo_cnc.plan.ink.geometry import dark_geometry
 from galileo_cnc.plan.ink.islands import Islands
 from galileo_cnc.plan.ink.narrow import CLEARANCE_NM, find_narrow, keep_islands_apart
 from galileo_cnc.plan.open_traces import open_traces
-from galileo_cnc.plan.pipeline import PlanOptions, plan_file
 from galileo_cnc.readers import read_file
 
 MM = 1_000_000
@@ -42,10 +40,7 @@ def plot(tmp_path, body: str):
     body's first line."""
     path = tmp_path / "board.gbr"
     path.write_text(HEADER + body + "M02*\n")
-    planned = plan_file(path, CONFIG, "auto", options=PlanOptions(mode="ink", pens_nm=(PEN,)))
-    trace = simulate(planned.job.commands, CONFIG)
-    ink = ink_of_trace(trace, CONFIG, planned.offset_nm, [PEN])
-    return planned, ink, planned.ink.copper.native
+    return plan_and_ink(path, PEN, CONFIG)
 
 
 def box(x0, y0, x1, y1):

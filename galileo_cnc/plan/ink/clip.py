@@ -14,9 +14,13 @@ import itertools
 import numpy as np
 import pyclipper as pc
 
+from galileo_cnc.plan.ink.edges import point_to_edges, segments_near
+
 PolygonSet = list
 #: Paths per strip in stroke_in_strips.
 STROKE_STRIP = 300
+#: Cells of the grid piece_owners finds a clipped piece's path on.
+OWNER_CELL_NM = 500_000
 
 
 def offset(polygons: PolygonSet, delta_nm: int, tolerance_nm: int, *,
@@ -152,6 +156,66 @@ def open_difference(paths: list, polygons: PolygonSet) -> list[np.ndarray]:
         kept += _faithful([path[:, ::-1] for path in
                            _open_outside([p[:, ::-1] for p in flat], swapped)], flat, polygons)
     return kept
+
+
+def open_difference_by_path(paths: list, polygons: PolygonSet) -> list[list[np.ndarray]]:
+    """open_difference path by path: for each path, its parts outside the set. Clipper
+    cuts them all at once; a path whose pieces leave it (_faithful) is cut again alone
+    and exactly, not every path of the call."""
+    paths = [without_repeats(path) for path in paths]
+    if not polygons:
+        return [[path] for path in paths]
+    out: list[list[np.ndarray]] = [[] for _path in paths]
+    # a dot goes in as a line 1 nm long, up from it, and is kept when any of it is:
+    # Clipper sweeps a board's thousands of vias with the lines
+    dots = {k for k, path in enumerate(paths) if len(path) == 1}
+    paths = [np.vstack([path, path + [0, 1]]) if k in dots else path
+             for k, path in enumerate(paths)]
+    lines = [k for k, path in enumerate(paths) if len(path) >= 2]
+    flat = [k for k in lines if (paths[k][:, 1] == paths[k][0, 1]).all()]
+    steep = [k for k in lines if not (paths[k][:, 1] == paths[k][0, 1]).all()]
+    # the flat ones with x and y swapped, as open_difference does (Clipper 6)
+    swapped = [np.asarray(ring)[::-1, ::-1].tolist() for ring in polygons] if flat else []
+    for group, swap in ((steep, False), (flat, True)):
+        if not group:
+            continue
+        subjects = [paths[k][:, ::-1] if swap else paths[k] for k in group]
+        rings = swapped if swap else polygons
+        pieces = _open_outside(subjects, rings)
+        owners = piece_owners(pieces, subjects)
+        mine: dict[int, list[np.ndarray]] = {}
+        for piece, owner in zip(pieces, owners.tolist()):
+            mine.setdefault(owner, []).append(piece)
+        lost = bool(np.any(owners < 0))       # a piece on no path: which lost it?
+        for i, k in enumerate(group):
+            got = mine.get(i, [])
+            if lost or not _on_paths(got, [subjects[i]]):
+                got = _exact_outside(subjects[i], rings)
+            out[k] = [piece[:, ::-1] for piece in got] if swap else got
+    for k in dots:
+        out[k] = [paths[k][:1]] if out[k] else []
+    return out
+
+
+def piece_owners(pieces: list[np.ndarray], paths: list[np.ndarray]) -> np.ndarray:
+    """For each piece of clipped open paths, the index of the path it was cut from:
+    the one nearest to the middle of its first segment (on it within Clipper's
+    rounding of a cut point; of two paths drawn over each other, either), or -1 where
+    none passes within OWNER_CELL_NM / 2. A piece Clipper made off its path goes to
+    the nearest, whose check (_on_paths) then fails."""
+    if not pieces:
+        return np.zeros(0, dtype=np.int64)
+    a = np.concatenate([path[:-1] for path in paths]).astype(np.int64)
+    b = np.concatenate([path[1:] for path in paths]).astype(np.int64)
+    owner = np.repeat(np.arange(len(paths)), [len(path) - 1 for path in paths])
+    probe = np.array([(piece[0] + piece[1]) // 2 for piece in pieces], dtype=np.int64)
+    # cells OWNER_CELL_NM wide: a finer grid samples long paths too often
+    i, j = segments_near(probe, probe, a, b, OWNER_CELL_NM // 2)
+    _t, gap = point_to_edges(probe[i].astype(np.float64), a[j], b[j])
+    found = np.full(len(pieces), -1, dtype=np.int64)
+    order = np.argsort(-gap)          # the nearest written last
+    found[i[order]] = owner[j[order]]
+    return found
 
 
 def _faithful(pieces: list[np.ndarray], paths: list[np.ndarray],

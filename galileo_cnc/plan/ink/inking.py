@@ -33,6 +33,7 @@ from galileo_cnc.errors import ReaderWarning, SourcePos
 from galileo_cnc.plan.ink import clip
 from galileo_cnc.plan.ink.arcs import fit_arcs, fit_paths
 from galileo_cnc.plan.ink.background import Deferred
+from galileo_cnc.plan.ink.beside import into_walks, past_the_fills
 from galileo_cnc.plan.ink.fill import (BACKGROUND_VERTICES, DEFAULT_OVERLAP, GAP_NM, PenFill,
                                       boxes_of, fill_region, inked_area_nm2,
                                       met_by_other_ink)
@@ -124,7 +125,8 @@ class InkPlan:
 
     @property
     def pen_lifts(self) -> int:
-        return sum(len(f.paths) for f in self.fills) + sum(len(n.pieces) for n in self.narrow)
+        return sum(len(f.paths) for f in self.fills) + sum(len(n.pieces) for n in self.narrow
+                                                           if not n.spur)
 
     def pen_label(self, key: int) -> str:
         return f"{mm_text(self.pens_nm[key - 1])} mm pen"
@@ -204,10 +206,14 @@ def ink_paths(program: Program, pens_nm: tuple[int, ...] | list[int], *,
             _around_bare(fills[0], bare_area, pens[0] // 2 + tolerance_nm, tolerance_nm)
         if bare_area:
             narrow = _clear_of(narrow, bare_area, smallest // 2 + tolerance_nm, tolerance_nm)
+        narrow, alone = past_the_fills(narrow, fills, edge_margin_nm, tolerance_nm)
         stage("inking: looking for necks too narrow to fill")
         narrow, necks, necks_left = _with_necks(program.source, islands, fills, narrow,
                                                 smallest, edge_margin_nm, tolerance_nm,
                                                 bare_area)
+        into_walks(alone, narrow, fills[-1], islands, smallest, tolerance_nm,
+                   lambda lines: _clear_of(lines, bare_area, smallest // 2 + tolerance_nm,
+                                           tolerance_nm) if bare_area else lines)
     finally:
         apart.cancel()
     as_lines = {id(feature) for feature in narrow}
@@ -461,7 +467,8 @@ class InkPaths:
         if self._narrow is None:
             out = ProgramBuilder(self.source.source)
             for feature in self.narrow:
-                _emit_feature(out, feature, len(self.pens_nm), self.tolerance_nm)
+                if not feature.spur:          # drawn in its walk (beside.into_walks)
+                    _emit_feature(out, feature, len(self.pens_nm), self.tolerance_nm)
             self._narrow = out.table().copy()
         return self._narrow
 

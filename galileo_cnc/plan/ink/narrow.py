@@ -71,6 +71,7 @@ class NarrowFeature:
     inside_nm: tuple[int, int] | None = None  # a point of its copper (None: mid-line)
     island: int = -1          # its copper island (keep_islands_apart)
     neck: bool = False        # a neck of a region (necks.py), not an object of its own
+    spur: bool = False        # drawn as a spur of a fill's walk, not after a lift of its own
 
     @property
     def overdraw_nm(self) -> int:
@@ -233,7 +234,7 @@ def keep_islands_apart(features: list[NarrowFeature], islands: Islands,
     new = features[settled:]        # the settled ones have their islands and flags
     # each feature's island: the one whose outline is nearest to a point inside its
     # copper (its own outline is nearer than any other island's: the point is inside)
-    inside = np.array([_inside(f) for f in new], dtype=np.int64)
+    inside = np.array([inside_point(f) for f in new], dtype=np.int64)
     edge, _t, _d = copper_index.nearest_many(inside, near_copper)
     for feature, k in zip(new, edge.tolist()):
         feature.island = int(owner_of_ring[copper_index.ring[k]]) if k >= 0 else -1
@@ -350,7 +351,7 @@ def _size(feature: NarrowFeature) -> int:
     return int(length + feature.width_nm) * feature.width_nm
 
 
-def _inside(feature: NarrowFeature) -> tuple[int, int]:
+def inside_point(feature: NarrowFeature) -> tuple[int, int]:
     """A point of the feature's copper: the middle of its centre line, or the one given."""
     if feature.inside_nm is not None:
         return feature.inside_nm
