@@ -176,8 +176,8 @@ def fill_region(region: list, width_nm: int, tolerance_nm: int, *,
     fill = PenFill(width_nm)
     avoid = clip.offset(keep_out, width_nm // 2, tolerance_nm) if keep_out else []
     boxes = boxes_of(avoid)
-    batches = [(batch, [avoid[k] for k in _meeting(boxes, batch).tolist()],
-                area_unless_near is not None and not len(_meeting(area_unless_near, batch)))
+    batches = [(batch, [avoid[k] for k in meeting(boxes, batch).tolist()],
+                area_unless_near is not None and not len(meeting(area_unless_near, batch)))
                for batch in island_batches(region, batch_vertices, islands)]
     if not batches:
         return fill
@@ -224,7 +224,7 @@ def inked_area_nm2(fills: list[PenFill], extra: list, region: list,
     for number, (batch, recipe) in enumerate(fills[0].recipes):
         if skip is not None and skip[number]:
             continue
-        near = [others[k] for k in _meeting(boxes, batch).tolist()]
+        near = [others[k] for k in meeting(boxes, batch).tolist()]
         if near or recipe.has_ink:      # the polygons' area where they are made anyway
             total += clip.area_nm2(clip.intersection(list(recipe.ink()) + near, batch))
         else:
@@ -239,7 +239,7 @@ def met_by_other_ink(fills: list[PenFill], extra_boxes: np.ndarray) -> list[bool
         return []
     boxes = np.concatenate([boxes_of(_other_ink(fills, [])),
                             extra_boxes.reshape(-1, 4).astype(np.int64)])
-    return [len(_meeting(boxes, batch)) > 0 for batch, _recipe in fills[0].recipes]
+    return [len(meeting(boxes, batch)) > 0 for batch, _recipe in fills[0].recipes]
 
 
 def _other_ink(fills: list[PenFill], extra: list) -> list[np.ndarray]:
@@ -257,7 +257,7 @@ def boxes_of(rings: list, grown_nm: int = 0) -> np.ndarray:
         if rings else np.zeros((0, 4), dtype=np.int64)
 
 
-def _meeting(boxes: np.ndarray, batch: list) -> np.ndarray:
+def meeting(boxes: np.ndarray, batch: list) -> np.ndarray:
     """Indices of the boxes that meet the batch's box."""
     low = np.min([ring.min(axis=0) for ring in batch], axis=0)
     high = np.max([ring.max(axis=0) for ring in batch], axis=0)
