@@ -17,7 +17,7 @@ import numpy as np
 
 from galileo_cnc.plan.ink import clip
 from galileo_cnc.plan.ink.edges import point_to_edges
-from galileo_cnc.plan.ink.fill import PenFill, boxes_of
+from galileo_cnc.plan.ink.fill import PenFill, boxes_of, meeting
 from galileo_cnc.plan.ink.islands import Islands
 from galileo_cnc.plan.ink.narrow import NarrowFeature, inside_point, keep_islands_apart
 from galileo_cnc.plan.ink.necks import attach_to_walks, spliced
@@ -83,10 +83,14 @@ def past_the_fills(narrow: list[NarrowFeature], fills: list[PenFill], edge_margi
             if not held:
                 left[n] = [p for p in left[n] if p is not piece]
     gap = {n: BRIDGED_PENS * narrow[k].pen_nm for n, (k, _piece) in enumerate(paths)}
-    to_ends = _to_joints(paths, left, gap, ends)
-    for n, pieces in left.items():
-        if pieces:
-            left[n] = _bridged(paths[n][1], pieces, gap[n], to_ends.get(n, (False, False)))
+    # where each piece lies along its line: the joints and the bridging both ask
+    placed = {n: _spans(paths[n][1], [p for p in pieces if len(p) > 1])
+              for n, pieces in left.items()
+              if len(paths[n][1]) > 1 and any(len(p) > 1 for p in pieces)}
+    to_ends = _to_joints(placed, gap, ends)
+    for n, where in placed.items():
+        left[n] = _bridged(paths[n][1], left[n], gap[n], to_ends.get(n, (False, False)),
+                           where)
     return _regrouped(narrow, paths, left)
 
 
@@ -100,9 +104,7 @@ class _Band:
         boxes = boxes_of(lines)
         for fill in fills:
             for batch, recipe in fill.recipes:
-                low = np.min([ring.min(axis=0) for ring in batch], axis=0)
-                high = np.max([ring.max(axis=0) for ring in batch], axis=0)
-                if len(_meeting_boxes(np.array([[*low, *high]]), boxes)):
+                if len(meeting(boxes, batch)):
                     self.ink.extend(recipe.ink())
                     self.centre.extend(recipe.centre_area)
         self.ink_boxes, self.centre_boxes = boxes_of(self.ink), boxes_of(self.centre)
@@ -130,13 +132,13 @@ def _line_ends(paths: list[tuple[int, np.ndarray]]) -> dict[tuple, list[tuple[in
     return ends
 
 
-def _to_joints(paths: list[tuple[int, np.ndarray]], left: dict[int, list[np.ndarray]],
-               gap: dict[int, int], ends: dict[tuple, list[tuple[int, int]]]
-               ) -> dict[int, tuple[bool, bool]]:
-    """Per path with pieces left, whether to put back what was cut at its start and
-    at its end: where it meets one other path end to end (a joint; a closed line
-    meets itself) and the two cuts there are shorter than the gap together."""
-    cut = {n: _end_gaps(paths[n][1], pieces) for n, pieces in left.items() if pieces}
+def _to_joints(placed: dict[int, tuple[np.ndarray, list]], gap: dict[int, int],
+               ends: dict[tuple, list[tuple[int, int]]]) -> dict[int, tuple[bool, bool]]:
+    """Per path with pieces left (`placed`: _spans of each), whether to put back what
+    was cut at its start and at its end: where it meets one other path end to end (a
+    joint; a closed line meets itself) and the two cuts there are shorter than the
+    gap together."""
+    cut = {n: _end_gaps(*where) for n, where in placed.items()}
     to_ends = {n: [False, False] for n in cut}
     for pair in ends.values():
         if len(pair) != 2 or not all(n in cut for n, _side in pair):
@@ -265,14 +267,17 @@ def _spans(source: np.ndarray, pieces: list[np.ndarray]) -> tuple[np.ndarray, li
 
 
 def _bridged(source: np.ndarray, pieces: list[np.ndarray], gap_nm: int,
-             to_ends: tuple[bool, bool] = (False, False)) -> list[np.ndarray]:
+             to_ends: tuple[bool, bool] = (False, False),
+             placed: tuple[np.ndarray, list] | None = None) -> list[np.ndarray]:
     """The pieces of the polyline `source`, with the parts cut out between two of them
     that are shorter than `gap_nm` put back, and those between the first piece and
-    the source's start, the last and its end, where `to_ends` says so."""
+    the source's start, the last and its end, where `to_ends` says so. `placed`: the
+    lines' _spans, where the caller has them."""
     lines = [piece for piece in pieces if len(piece) > 1]
     if len(source) < 2 or not lines or (len(lines) < 2 and not any(to_ends)):
         return pieces
-    along, spans = _spans(source, lines)
+    along, spans = placed or _spans(source, lines)
+    spans = [list(span) for span in spans]      # joined below in place
     if to_ends[0]:
         spans.insert(0, [0.0, 0.0, source[:1]])
     if to_ends[1]:
@@ -295,14 +300,9 @@ def _bridged(source: np.ndarray, pieces: list[np.ndarray], gap_nm: int,
         [clip.without_repeats(piece) for _s0, _s1, piece in joined]
 
 
-def _end_gaps(source: np.ndarray, pieces: list[np.ndarray]) -> tuple[float, float]:
-    """How much of the polyline `source` is cut out before its first piece and after
-    its last (its length when nothing is left)."""
-    lines = [piece for piece in pieces if len(piece) > 1]
-    along, spans = _spans(source, lines) if lines and len(source) > 1 else \
-        (np.array([0.0, _length(source) if len(source) > 1 else 0.0]), [])
-    if not spans:
-        return along[-1], along[-1]
+def _end_gaps(along: np.ndarray, spans: list) -> tuple[float, float]:
+    """How much of a line (`along`, `spans`: _spans of its pieces) is cut out before
+    its first piece and after its last."""
     return spans[0][0], along[-1] - max(span[1] for span in spans)
 
 
