@@ -81,3 +81,15 @@ def plan_and_ink(path, pen_nm: int, config: MachineConfig):
     trace = simulate(planned.job.commands, config)
     ink = ink_of_trace(trace, config, planned.offset_nm, [pen_nm])
     return planned, ink, planned.ink.copper.native
+
+
+def box(x0: int, y0: int, x1: int, y1: int) -> list:
+    """The rectangle as a polygon set (nm)."""
+    return [[[x0, y0], [x1, y0], [x1, y1], [x0, y1]]]
+
+
+def bare_within(copper: list, ink: list, area: list) -> float:
+    """The copper inside `area` that the ink leaves bare (nm²)."""
+    from galileo_cnc.plan.ink import clip
+
+    return clip.area_nm2(clip.difference(clip.intersection(copper, area), ink))

@@ -6,7 +6,7 @@ copper; the cut put back, and the clipping path by path."""
 from __future__ import annotations
 
 import numpy as np
-from inked import joined_islands, plan_and_ink
+from inked import bare_within, box, joined_islands, plan_and_ink
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.job import PenDown
@@ -74,11 +74,9 @@ def test_thermal_spokes_across_a_pours_clearance_are_drawn_as_spurs(tmp_path, mo
     planned, ink, copper = plot(tmp_path, pour + pad + spokes)
     assert len(clip.components(copper)) == 1
     # the spokes cross the clearance inked: each 0.254 mm neck 0.5 mm long
-    for x0, y0, x1, y1 in ((5.0, 3.9, 5.5, 4.1), (2.5, 3.9, 3.0, 4.1), (3.9, 5.0, 4.1, 5.5),
-                           (3.9, 2.5, 4.1, 3.0)):
-        neck = [[[round(x0 * MM), round(y0 * MM)], [round(x1 * MM), round(y0 * MM)],
-                 [round(x1 * MM), round(y1 * MM)], [round(x0 * MM), round(y1 * MM)]]]
-        assert clip.area_nm2(clip.difference(clip.intersection(neck, copper), ink)) < \
+    for neck in ((5.0, 3.9, 5.5, 4.1), (2.5, 3.9, 3.0, 4.1), (3.9, 5.0, 4.1, 5.5),
+                 (3.9, 2.5, 4.1, 3.0)):
+        assert bare_within(copper, ink, box(*(round(v * MM) for v in neck))) < \
             0.005 * MM * MM
     # the pour's outline is not drawn: what spills is the spokes' own overdraw only
     # (23 um each side along the 4 x 0.5 mm of clearance, and where they meet the edges)
@@ -175,11 +173,9 @@ def test_a_full_circle_beside_a_fill_is_cut_along_itself_both_ways_round(tmp_pat
         assert clip.area_nm2(clip.difference(clip.difference(ink, copper), along)) < \
             0.001 * MM * MM
         # the circle's right half, away from the half disc, inked whole
-        right = [[[5_200_000, 2_000_000], [8_000_000, 2_000_000], [8_000_000, 8_000_000],
-                  [5_200_000, 8_000_000]]]
+        right = box(5_200_000, 2_000_000, 8_000_000, 8_000_000)
         ring = clip.intersection(clip.stroke([circle], 150_000, 1_000), right)
-        assert clip.area_nm2(clip.difference(clip.intersection(copper, ring), ink)) < \
-            0.002 * MM * MM
+        assert bare_within(copper, ink, ring) < 0.002 * MM * MM
 
 
 def test_a_traces_end_cap_beside_a_pad_is_still_drawn(tmp_path):
@@ -189,10 +185,8 @@ def test_a_traces_end_cap_beside_a_pad_is_still_drawn(tmp_path):
     body = ("%ADD20R,2X2*%\nD20*\nX5000000Y5000000D03*\n%ADD30C,0.25*%\nD30*\n"
             "X5000000Y4084000D02*\nX3980000Y4084000D01*\n")
     planned, ink, copper = plot(tmp_path, body)
-    cap = [[[3_800_000, 3_900_000], [4_050_000, 3_900_000], [4_050_000, 4_250_000],
-            [3_800_000, 4_250_000]]]
-    assert clip.area_nm2(clip.difference(clip.intersection(copper, cap), ink)) < \
-        0.002 * MM * MM
+    cap = box(3_800_000, 3_900_000, 4_050_000, 4_250_000)
+    assert bare_within(copper, ink, cap) < 0.002 * MM * MM
 
 
 def test_a_draw_of_no_length_is_left_as_it_was(tmp_path):

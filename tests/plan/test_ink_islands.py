@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 import shapely
-from inked import ink_of_trace
+from inked import box, ink_of_trace
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.machine.planner import simulate
@@ -42,10 +42,6 @@ def inks_apart(ink) -> float:
     """The smallest distance between two separate pieces of ink (nm)."""
     pieces = [shapely.Polygon(outer, holes) for outer, holes in clip.components(ink)]
     return min(a.distance(b) for k, a in enumerate(pieces) for b in pieces[k + 1:])
-
-
-def box(x0, y0, x1, y1):
-    return [[[x0, y0], [x1, y0], [x1, y1], [x0, y1]]]
 
 
 def test_two_pads_30_um_apart_are_inked_at_least_the_clearance_apart(tmp_path):

@@ -15,7 +15,7 @@ import math
 import numpy as np
 import pytest
 from corpus import CORPUS
-from inked import joined_islands, plan_and_ink
+from inked import box, joined_islands, plan_and_ink
 
 from galileo_cnc.config.machine import MachineConfig
 from galileo_cnc.plan.ink import clip
@@ -41,10 +41,6 @@ def plot(tmp_path, body: str):
     path = tmp_path / "board.gbr"
     path.write_text(HEADER + body + "M02*\n")
     return plan_and_ink(path, PEN, CONFIG)
-
-
-def box(x0, y0, x1, y1):
-    return [[[x0, y0], [x1, y0], [x1, y1], [x0, y1]]]
 
 
 def uninked(ink, area) -> float:
