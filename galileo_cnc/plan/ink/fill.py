@@ -372,8 +372,8 @@ def _concentric(centre_area: list, spacing: int, tolerance_nm: int) -> list[list
 def _corners_rounded(area: list, outside: list, radius: int, spacing: int,
                      tolerance_nm: int) -> list:
     """E(k) (k >= 1) less a cap at each convex corner: its ring turns there along a
-    circle, not on the spot, so the pen keeps more of its speed (docs/ink.md, "Rounded
-    corners").
+    circle, not on the spot, so the pen keeps more of its speed (docs/ink.md, "Keeping
+    the pen moving").
 
     Walking a ring with its area on the left (Clipper's orientation, holes too), a
     left turn by phi is a convex corner whose sides meet at alpha = 180° - phi; a circle
@@ -409,8 +409,9 @@ def _corners_rounded(area: list, outside: list, radius: int, spacing: int,
                                  np.minimum(lu, lv) / 2 / np.tan(turn / 2)])
     chosen = np.flatnonzero((turn >= ROUNDED_LEAST_TURN) & (turn < np.pi)
                             & (lu > 0) & (lv > 0) & (rho >= ROUNDED_LEAST_NM))
-    chosen = chosen[_inherited(points[chosen], (u / lu[:, None] - v / lv[:, None])[chosen],
-                               spacing / half_side[chosen], outside, tolerance_nm)]
+    outwards = u[chosen] / lu[chosen, None] - v[chosen] / lv[chosen, None]
+    chosen = chosen[_inherited(points[chosen], outwards, spacing / half_side[chosen],
+                               outside, tolerance_nm)]
     if not len(chosen):
         return area
     caps = []
