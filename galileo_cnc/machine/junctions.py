@@ -16,7 +16,10 @@ Per vertex the index is capped by
   between the reversed first direction and the second (so θ = 180° is straight on);
 - the per-axis speed change: every axis changes speed at the vertex by at most
   `vertex_speed_change` (the speed each axis already takes from rest at a start);
-- on an arc's end, the centripetal limit v² ≤ A · r.
+- on an arc's end, the centripetal limit v² ≤ A · r;
+- next to a line of length L, Klipper's mid-move limit v² ≤ A · (L/2) · tan(θ/2): the
+  circle standing for the corner touches the line no farther out than its middle, so
+  a curve drawn as short lines passes at the speed its radius allows.
 Then a backward and a forward pass keep every move able to reach its exit from its
 entry along the ramp law, which changes the index by at most one per event:
 |entry − exit| ≤ n − 1 (a one-event move keeps its index).
@@ -162,12 +165,35 @@ def vertex_index(a: LineMove | ArcMove, b: LineMove | ArcMove, limits: JunctionL
     for side in (end, start):
         if side.radius != inf:
             speed = min(speed, sqrt(limits.accel_steps_per_s2 * side.radius))
+    speed = min(speed, _within_half_moves(a, b, end.direction, start.direction, limits))
     m = min(end.index_at_most(speed), start.index_at_most(speed), a.ramp)
     # The two sides' event speeds differ a little (an arc's band, a line's rho): the
     # per-axis bound holds for the speeds the events really have.
     while m > 0 and _axis_change(end, start, m) > limits.axis_change_steps_per_s:
         m -= 1
     return m
+
+
+def _within_half_moves(a: LineMove | ArcMove, b: LineMove | ArcMove,
+                       u: tuple[float, float, float], v: tuple[float, float, float],
+                       limits: JunctionLimits) -> float:
+    """Klipper's bound for a corner between lines: the circle that stands for the
+    corner touches each line no farther from the vertex than its middle, so the speed
+    is at most the centripetal one on that circle, v² = A · (L / 2) · tan(θ/2) for each
+    line of length L. A curve drawn as many short lines (a small rounded corner) then
+    passes at the speed its radius allows, not at what each small turn alone would."""
+    dot = u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+    cos_half = sqrt(max(0.0, 0.5 * (1.0 - dot)))        # cos(θ/2), θ = 180° straight on
+    if cos_half == 0.0:
+        return inf
+    tan_half = sqrt(max(0.0, 0.5 * (1.0 + dot))) / cos_half
+    speed = inf
+    for move in (a, b):
+        if isinstance(move, LineMove):
+            dx, dy, dz = move.delta
+            half = 0.5 * sqrt(dx * dx + dy * dy + dz * dz)
+            speed = min(speed, sqrt(limits.accel_steps_per_s2 * half * tan_half))
+    return speed
 
 
 def _axis_change(end: MoveEnd, start: MoveEnd, m: int) -> float:

@@ -15,7 +15,8 @@ from galileo_cnc.job import (ArcTo, Dwell, EndJob, Jog, LineTo, PenDown, PenUp, 
 from galileo_cnc.machine import Hold, ReferenceMachine, Starved, simulate
 from galileo_cnc.machine.analysis import min_step_gap_ticks
 from galileo_cnc.machine.blocks import LineMove, Pause
-from galileo_cnc.machine.junctions import JunctionLimits, plan_indices, vertex_speed
+from galileo_cnc.machine.junctions import (JunctionLimits, move_ends, plan_indices,
+                                          vertex_index, vertex_speed)
 from galileo_cnc.machine.ramps import ramp_sum
 from galileo_cnc.machine.timing import job_timing
 
@@ -74,6 +75,38 @@ def test_the_vertex_speed_rules():
     # 45 degrees: y changes by 0.71 of the speed, x by 0.29
     assert LIMITS.axis_change_steps_per_s == 320
     assert round(vertex_speed(x, diag, LIMITS)) == round(320 / math.sqrt(0.5))
+
+
+def test_a_curve_of_short_lines_passes_at_the_speed_its_radius_allows():
+    """Each 11.25-degree turn alone would let 7 mm/s through (the deviation of 0.05 mm
+    and the per-axis bound), but the 32 sides lie on a circle of 400 steps (2.5 mm),
+    and at 5 mm/s² the centripetal speed there is sqrt(A r), 3.5 mm/s: the mid-move
+    rule (Klipper's) gives that, within the sides' rounding to whole steps. Long
+    lines at the same turn pass at the feed."""
+    gentle = ON.replace(accel_mm_s2=5.0, junction_deviation_mm=0.05)
+    limits = JunctionLimits.of(gentle)
+    radius, sides = 400, 32
+
+    def drawn(points):
+        commands = [Jog(12000, 12000, 0), SetOrigin(), PenDown()] + [
+            LineTo(x, y) for x, y in points]
+        return [it for it in ReferenceMachine(gentle).plan(commands)
+                if isinstance(it, LineMove) and not it.delta[2] and it.n][-len(points):]
+
+    def speeds(moves):
+        indices = [vertex_index(a, b, limits) for a, b in zip(moves, moves[1:])]
+        return [move_ends(a)[1].speed(m) for a, m in zip(moves, indices)]
+
+    turn = 2 * math.pi / sides
+    circle = drawn([(round(radius * math.cos(k * turn)) - radius,
+                     round(radius * math.sin(k * turn))) for k in range(1, sides + 1)])
+    centripetal = math.sqrt(limits.accel_steps_per_s2 * radius)
+    assert centripetal < 0.75 * gentle.feed_steps_per_s
+    got = speeds(circle)
+    assert max(got) <= centripetal * 1.05
+    assert min(got) >= centripetal * 0.9
+    long = drawn([(9000, 0), (9000 + round(9000 * math.cos(turn)), round(9000 * math.sin(turn)))])
+    assert vertex_index(*long, limits) == long[0].ramp
 
 
 def test_junction_speeds_keep_the_steps_shorten_the_job_and_brake_in_time():

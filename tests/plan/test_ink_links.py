@@ -52,6 +52,22 @@ def test_a_link_lies_inside_the_pens_area(end, start, linked):
     assert linked_after(end, start) is (linked and not long)
 
 
+@pytest.mark.parametrize("end, start", [
+    ((200000, 0), (1200000, 0)), ((1200000, 0), (200000, 0)),                  # bottom
+    ((4 * MM, 200000), (4 * MM, 1200000)), ((4 * MM, 1200000), (4 * MM, 200000)),
+    ((1200000, 2 * MM), (200000, 2 * MM)), ((200000, 2 * MM), (1200000, 2 * MM)),
+    ((0, 1200000), (0, 200000)), ((0, 200000), (0, 1200000)),                  # left
+    ((2500000, 600000), (2500000, 1400000)), ((3500000, 1400000), (3500000, 600000)),
+    ((2600000, 1500000), (3400000, 1500000)), ((3400000, 500000), (2600000, 500000)),
+])
+def test_a_link_along_the_areas_outline_is_inside(end, start):
+    """A walk that ends on E0's outline and a path that starts on it: the link runs
+    along the outline, either way round, on the outer ring and on a hole's. Clipper's
+    clipping of an open path along an edge answers inside on some edges and outside
+    on others; the area grown by LINK_SLACK_NM holds every one."""
+    assert linked_after(end, start)
+
+
 def test_no_link_between_pens_or_without_an_area():
     table = rows((MOVE, 0, 1 * MM), (LINE, 200000, 1 * MM), (MOVE, 300000, 1 * MM),
                  (LINE, 400000, 1 * MM))

@@ -22,6 +22,11 @@ LINK_AREAS = "link_areas"
 #: The longest link: a lift and a lower cost about as much as 4 mm at the feed, and
 #: a link draws over ink already there, so only the short ones are worth it
 LINK_MOST_NM = 2_000_000
+#: The area is grown by this much before the test: a link along one of its edges (a
+#: walk ending on E0's outline, the next path starting on it) then lies inside it, where
+#: Clipper's clipping of an open path decides it either way. It strays no farther than
+#: E0's own arcs may (the ink's tolerance, 2 um) and stays inside the edge margin.
+LINK_SLACK_NM = 1_000
 
 _MOVE = int(OpKind.MOVE)
 _PATH_KINDS = (int(OpKind.LINE), int(OpKind.ARC_CW), int(OpKind.ARC_CCW))
@@ -47,7 +52,10 @@ def linked_moves(table: np.ndarray, areas: dict, most_nm: int | None = None) -> 
         if not area:
             continue
         mine = at[tools[at] == tool]
-        inside = _inside(table[mine - 1][:, [X, Y]], table[mine][:, [X, Y]], area)
+        grown = pc.PyclipperOffset(2.0)
+        grown.AddPaths(area, pc.JT_MITER, pc.ET_CLOSEDPOLYGON)
+        inside = _inside(table[mine - 1][:, [X, Y]], table[mine][:, [X, Y]],
+                         grown.Execute(float(LINK_SLACK_NM)))
         kept.append(mine[inside])
     return np.sort(np.concatenate(kept)) if kept else np.zeros(0, dtype=np.int64)
 
