@@ -11,6 +11,7 @@ walks, so they cost no pen lift of their own.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Callable
 
 import numpy as np
@@ -186,46 +187,52 @@ def _regrouped(narrow: list[NarrowFeature], paths: list[tuple[int, np.ndarray]],
 def into_walks(lines: list[NarrowFeature], narrow: list[NarrowFeature], fill: PenFill,
                islands: Islands, pen_nm: int, tolerance_nm: int,
                clear_of_bare: Callable[[list[NarrowFeature]], list[NarrowFeature]]) -> None:
-    """The centre lines past_the_fills left alone, each drawn as a spur of the walk one
-    of its ends lies within a pen width of (necks.attach_to_walks, spliced), where it
-    is one piece of at most SPUR_MOST_NM: a pour's thermal spoke, or a trace, that the
-    pour's outline strokes joined to the rest; alone it would cost a pen lift. A line
-    that ends on the walk and whose other end is a junction of JUNCTION_LINES lines
-    or more is left to path order, which draws through it for less. The way
-    from the walk keeps apart from other islands as a centre line does
-    (keep_islands_apart) and clear of the bare area (`clear_of_bare`: the lines cut
-    short of it); a line whose way would not is drawn as it was. A spliced line keeps
-    its pieces (the ink's coverage and the narrow-feature allowance count them) and
-    is marked `spur`, so it is not drawn twice."""
-    lines = [line for line in lines if len(line.pieces) == 1 and len(line.pieces[0]) >= 2
-             and _length(line.pieces[0]) <= SPUR_MOST_NM]
+    """The centre lines past_the_fills left alone, each piece drawn as a spur of the
+    walk one of its ends lies within a pen width of (necks.attach_to_walks, spliced),
+    where every piece of the line is at most SPUR_MOST_NM long and so placed: a
+    pour's thermal spoke, or a trace, that the pour's outline strokes joined to the
+    rest; alone each piece would cost a pen lift. A piece that ends on the walk and
+    whose other end is a junction of JUNCTION_LINES lines or more is left to path
+    order, which draws through it for less. The way from the walk keeps apart from
+    other islands as a centre line does (keep_islands_apart) and clear of the bare
+    area (`clear_of_bare`: the lines cut short of it); a line any of whose ways would
+    not is drawn as it was. A spliced line keeps its pieces, each with its way (the
+    ink's coverage and the narrow-feature allowance count them), and is marked
+    `spur`, so it is not drawn twice."""
+    lines = [line for line in lines if line.pieces and all(
+        len(piece) >= 2 and _length(piece) <= SPUR_MOST_NM for piece in line.pieces)]
     if not lines or not fill.paths:
         return
-    before = {id(line): (line.pieces[0], line.start_nm, line.inside_nm, line.cut)
-              for line in lines}
-    for line in lines:            # attach_to_walks finds the island from a point inside
-        line.inside_nm = inside_point(line)
-    attached = attach_to_walks(lines, fill.paths, pen_nm, islands)
-    # a line that ends on its walk, its other end where three lines or more meet (an
-    # attached line counted from its walk on): path order runs on through it (Eagle's
+    # each piece tried as a line of its own (attach_to_walks and the checks change
+    # these, not the lines); a line is spliced when all its pieces are
+    parts = [(line, replace(line, pieces=[piece])) for line in lines for piece in line.pieces]
+    for _line, part in parts:     # attach_to_walks finds the island from a point inside
+        part.inside_nm = inside_point(part)
+    attached = attach_to_walks([part for _line, part in parts], fill.paths, pen_nm, islands)
+    # a piece that ends on its walk, its other end where three lines or more meet (an
+    # attached piece counted from its walk on): path order runs on through it (Eagle's
     # pour outlines on eagle/manifold-slave: 250 such spurs, 3 lifts fewer, 18 s more)
-    meeting_there = _ends_met(narrow)
-    tried = [line for line in lines if id(line) in attached and not (
-        np.array_equal(line.pieces[0][0], line.pieces[0][1])
-        and meeting_there.get(tuple(line.pieces[0][-1].tolist()), 0) >= JUNCTION_LINES)]
-    planned = {id(line): line.pieces[0].copy() for line in tried}
-    settled = [feature for feature in narrow if feature.pieces and id(feature) not in planned]
+    tried_lines = {id(line) for line in lines}
+    meeting_there = _ends_met([f for f in narrow if id(f) not in tried_lines]
+                              + [part for _line, part in parts])
+    refused = {id(line) for line, part in parts if id(part) not in attached or (
+        np.array_equal(part.pieces[0][0], part.pieces[0][1])
+        and meeting_there.get(tuple(part.pieces[0][-1].tolist()), 0) >= JUNCTION_LINES)}
+    tried = [part for line, part in parts if id(line) not in refused]
+    planned = {id(part): part.pieces[0].copy() for part in tried}
+    settled = [feature for feature in narrow if feature.pieces
+               and (id(feature) not in tried_lines or id(feature) in refused)]
     keep_islands_apart(settled + tried, islands, pen_nm, settled=len(settled))
-    clear = clear_of_bare(tried)
-    whole = {id(line) for line in clear if _same_lines(line.pieces, [planned[id(line)]])}
-    for line in lines:
-        piece, line.start_nm, line.inside_nm, line.cut = before[id(line)]
-        line.pieces = [piece]
-    spurs = [line for line in tried if id(line) in whole]
-    for line in spurs:
-        line.pieces = [planned[id(line)]]
-        line.spur = True
-    spliced(fill, [(line, attached[id(line)]) for line in spurs], tolerance_nm)
+    whole = {id(part) for part in clear_of_bare(tried)
+             if _same_lines(part.pieces, [planned[id(part)]])}
+    refused |= {id(line) for line, part in parts if id(part) not in whole}
+    spurs = [(line, part) for line, part in parts if id(line) not in refused]
+    for line in {id(line): line for line, _part in spurs}.values():
+        line.pieces, line.spur = [], True
+    for line, part in spurs:
+        part.pieces = [planned[id(part)]]
+        line.pieces.append(part.pieces[0])
+    spliced(fill, [(part, attached[id(part)]) for _line, part in spurs], tolerance_nm)
 
 
 def _ends_met(narrow: list[NarrowFeature]) -> dict[tuple, int]:
