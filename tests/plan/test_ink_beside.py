@@ -9,11 +9,17 @@ import numpy as np
 from inked import bare_within, box, joined_islands, plan_and_ink
 
 from galileo_cnc.config.machine import MachineConfig
+from galileo_cnc.errors import SourcePos
 from galileo_cnc.job import PenDown
 from galileo_cnc.plan.ink import beside, clip, inking
+from galileo_cnc.plan.ink.fill import fill_region
+from galileo_cnc.plan.ink.islands import Islands
+from galileo_cnc.plan.ink.narrow import NarrowFeature
+from galileo_cnc.program.ops import COLUMNS
 
 MM = 1_000_000
 PEN = 300_000
+TOLERANCE = 1_000
 HEADER = "%FSLAX46Y46*%\n%MOMM*%\nG75*\n%ADD10C,0.254*%\n"
 CONFIG = MachineConfig()
 
@@ -197,3 +203,58 @@ def test_a_draw_of_no_length_is_left_as_it_was(tmp_path):
     planned, _ink, _copper = plot(tmp_path, body)
     assert not any(type(command).__name__ == "Flash" for command in planned.job.commands)
     assert [f.cut for f in planned.ink.narrow] == [False, False]
+
+
+def test_a_line_that_ends_on_a_walk_is_spliced_into_it():
+    # a line cut where it enters a fill's centre area ends on the fill's outer walk,
+    # which runs along that area's edge: its way from the walk has no length, and the
+    # spur starts with that point twice. Repeats count for nothing when into_walks asks
+    # whether the way kept apart (5afa1ad had made them count: such lines were left
+    # as strokes of their own, 114 more pen lifts on KiCad's atmega328 F.Cu). Here a
+    # 2 mm pad and a 0.254 mm trace through it, one island: the outer walk bulges into
+    # the trace's feet, its highest and lowest vertices on the trace's centre line
+    # (within a few um), and lines from there along the trace end on the walk
+    pad = [[3 * MM, 3 * MM], [5 * MM, 3 * MM], [5 * MM, 5 * MM], [3 * MM, 5 * MM]]
+    trace = [[3_373_000, 1 * MM], [3_627_000, 1 * MM], [3_627_000, 7 * MM],
+             [3_373_000, 7 * MM]]
+    copper = clip.union([pad, trace])
+    islands = Islands.of(copper)
+
+    def walks():
+        return fill_region(copper, PEN, TOLERANCE, islands=islands.parts,
+                           edge_margin_nm=inking.DEFAULT_EDGE_MARGIN_NM)
+
+    def feature(*pieces) -> NarrowFeature:
+        return NarrowFeature(op_index=-1, pos=SourcePos("pad", 0, 0), width_nm=254_000,
+                             pen_nm=PEN, row=[0] * len(COLUMNS), start_nm=pieces[0][0],
+                             pieces=[np.array(piece) for piece in pieces], cut=True)
+
+    def into_walks(line, narrow) -> list:
+        fill = walks()
+        beside.into_walks([line], narrow, fill, islands, PEN, TOLERANCE, lambda lines: lines)
+        return np.concatenate(fill.paths).tolist()
+
+    points = np.concatenate(walks().paths)
+    (x, y), (x_low, y_low) = (points[np.argmax(points[:, 1])].tolist(),
+                              points[np.argmin(points[:, 1])].tolist())
+    assert abs(x - 3_500_000) < 20_000 and abs(x_low - 3_500_000) < 20_000
+    top, bottom = [x, 6_800_000], [x_low, 1_200_000]
+    unchanged = points.tolist()
+    # where it meets two more lines, path order runs on through the junction: no spur
+    line = feature([(x, y), top])
+    others = [feature([top, [x, 6_950_000]]), feature([top, [x + 50_000, 6_900_000]])]
+    assert into_walks(line, [line, *others]) == unchanged and not line.spur
+    assert line.pieces[0].tolist() == [[x, y], top]
+    # a line of two pieces, one far from any walk: neither is spliced
+    line = feature([(x, y), top], [[x_low, 1_200_000], [x_low, 1_100_000]])
+    assert into_walks(line, [line]) == unchanged and not line.spur
+    # drawn out and back from the walk, the walk otherwise as it was
+    line = feature([(x, y), top])
+    spliced = into_walks(line, [line])
+    assert line.spur and len(spliced) == len(unchanged) + 2 and top in spliced
+    # each piece of a line from its own place on the walk
+    line = feature([(x, y), top], [bottom, (x_low, y_low)])
+    spliced = into_walks(line, [line])
+    assert line.spur and len(spliced) == len(unchanged) + 4
+    assert top in spliced and bottom in spliced
+    assert [piece[-1].tolist() for piece in line.pieces] == [top, bottom]
