@@ -61,18 +61,6 @@ MAIN_GAP_SHARE = 0.45
 #: 0.012 % of before, and the corpus at 2 um (16 um here) as at 1 um (docs/ink.md,
 #: "Measured on the corpus").
 DEEP_TOLERANCE = 8
-#: A ring inside E0 turns at its convex corners along a circle of at most this radius
-#: (_corners_rounded): v² = A·ρ lets the default feed through at the default
-#: acceleration (5 mm/s at 250 mm/s²), where a sharp right angle passes at 2 mm/s.
-ROUNDED_MOST_NM = 100_000
-#: Smaller circles are left sharp: one of 16 um passes a right angle no faster.
-ROUNDED_LEAST_NM = 25_000
-#: Gentler turns are left sharp: the per-axis bound lets the feed through under 23°.
-ROUNDED_LEAST_TURN = np.radians(30.0)
-#: A rounded corner is drawn as chords turning by at most this much each.
-ROUNDED_CHORD_TURN = np.radians(22.5)
-#: How far outside the ring a corner's cap reaches (_corners_rounded).
-CAP_BEYOND_NM = 1_000
 
 
 @dataclass
@@ -312,21 +300,15 @@ def _fill_batch(region: list, width_nm: int, tolerance_nm: int, overlap: float,
     # 122k -> 58k) and two thirds of the first offset's work
     start = clip.clean(centre_area, deep) or centre_area
     first = clip.offset(start, -spacing, deep, cleaned=True)
-    rounded_first = _corners_rounded(first, start, radius, spacing, deep)
     big = sum(len(ring) for ring in centre_area) >= BACKGROUND_VERTICES
     # the gap tests (a third of a large pour's fill) in second processes: depth 0's
     # (the largest) while the deeper rings are made, then most of the others while the
     # joins between the rings are made here; the deepest ones, their union and their
     # strokes here after the joins. The same result either way
-    outermost = Deferred(_gaps, [start, rounded_first], radius, deep, 0, 1, fork=big)
+    outermost = Deferred(_gaps, [start, first], radius, deep, 0, 1, fork=big)
     deeper = None
     try:
-        # each E(k) is shrunk from the sharp E(k-1): the same as from the rounded one,
-        # as the spacing exceeds the corners' radius
-        sharp = _concentric(first, spacing, deep)
-        coarse = [start] + ([rounded_first] if sharp else []) + [
-            _corners_rounded(area, out, radius, spacing, deep)
-            for out, area in zip(sharp, sharp[1:])]
+        coarse = [start] + _concentric(first, spacing, deep)
         areas = [centre_area] + coarse[1:]
         split = _gap_split(coarse)
         deeper = Deferred(_gaps, coarse, radius, deep, 1, split, fork=big)
@@ -367,93 +349,6 @@ def _concentric(centre_area: list, spacing: int, tolerance_nm: int) -> list[list
         areas.append(area)
         area = clip.offset(area, -spacing, tolerance_nm, cleaned=True)
     return areas
-
-
-def _corners_rounded(area: list, outside: list, radius: int, spacing: int,
-                     tolerance_nm: int) -> list:
-    """E(k) (k >= 1) less a cap at each convex corner: its ring turns there along a
-    circle, not on the spot, so the pen keeps more of its speed (docs/ink.md, "Keeping
-    the pen moving").
-
-    Walking a ring with its area on the left (Clipper's orientation, holes too), a
-    left turn by phi is a convex corner whose sides meet at alpha = 180° - phi; a circle
-    of radius rho touching both sides pulls the path in by rho (1/sin(alpha/2) - 1).
-    The ink the corner loses must lie within the ink of the ring outside, which
-    reaches g = spacing - r short of this ring's sides and, at the corner, g /
-    sin(alpha/2) short of its vertex where E(k-1) has a corner there (`_inherited`;
-    rounding that ring's own corner moves only its outer edge, for rho < r). So,
-    keeping GAP_NM to spare,
-    (g + rho) / sin(alpha/2) - rho <= r - GAP_NM. A right angle at the default pen
-    (0.4 mm, spacing 0.32 mm) gets rho <= 61 um; corners sharper than about 88°
-    none. Each circle also ends within half of either side (a neighbour's may take
-    the other half). The caps are cut out with Clipper, which keeps the set valid
-    where another outline comes near a corner."""
-    rings = clip.rings_as_arrays(area)
-    if not rings:
-        return area
-    points = np.concatenate(rings).astype(np.float64)
-    sizes = np.array([len(ring) for ring in rings])
-    first = np.repeat(np.cumsum(sizes) - sizes, sizes)
-    place = np.arange(len(points)) - first
-    before = first + (place - 1) % np.repeat(sizes, sizes)
-    after = first + (place + 1) % np.repeat(sizes, sizes)
-    u = points - points[before]
-    v = points[after] - points
-    lu, lv = np.hypot(*u.T), np.hypot(*v.T)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        turn = np.arctan2(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0], np.einsum("ij,ij->i", u, v))
-        half_side = np.cos(turn / 2)                   # sin(alpha / 2)
-        room = radius - GAP_NM - (spacing - radius) / half_side
-        rho = np.minimum.reduce([room / (1 / half_side - 1), np.full(len(points),
-                                 min(ROUNDED_MOST_NM, radius / 2)),
-                                 np.minimum(lu, lv) / 2 / np.tan(turn / 2)])
-    chosen = np.flatnonzero((turn >= ROUNDED_LEAST_TURN) & (turn < np.pi)
-                            & (lu > 0) & (lv > 0) & (rho >= ROUNDED_LEAST_NM))
-    outwards = u[chosen] / lu[chosen, None] - v[chosen] / lv[chosen, None]
-    chosen = chosen[_inherited(points[chosen], outwards, spacing / half_side[chosen],
-                               outside, tolerance_nm)]
-    if not len(chosen):
-        return area
-    caps = []
-    for k, phi, r in zip(chosen.tolist(), turn[chosen].tolist(), rho[chosen].tolist()):
-        corner = points[k]
-        ahead, on = u[k] / lu[k], v[k] / lv[k]
-        side = r * np.tan(phi / 2)
-        centre = corner - side * ahead + r * np.array([-ahead[1], ahead[0]])
-        towards = np.arctan2(*(corner - side * ahead - centre)[::-1])
-        chords = max(1, int(np.ceil(phi / ROUNDED_CHORD_TURN)))
-        angles = towards + phi * np.arange(chords + 1) / chords
-        arc = centre + r * np.column_stack([np.cos(angles), np.sin(angles)])
-        arc[-1] = corner + side * on
-        # the cap's sides run a little outside the ring's, so that rounding leaves no
-        # sliver between them (a ring of no area holding the set's lowest vertex would
-        # turn Clipper's next offset of the set round, and it would come back empty)
-        out_in, out_on = np.array([ahead[1], -ahead[0]]), np.array([on[1], -on[0]])
-        beyond = [arc[0] + CAP_BEYOND_NM * out_in, corner + CAP_BEYOND_NM * (out_in + out_on),
-                  arc[-1] + CAP_BEYOND_NM * out_on]
-        caps.append(np.rint(np.vstack([arc[::-1], beyond])).astype(np.int64).tolist())
-    kept = clip.clean(clip.difference(area, caps), tolerance_nm)
-    return [ring for ring in kept if abs(pc.Area(ring)) >= GAP_NM * GAP_NM]
-
-
-def _inherited(corners: np.ndarray, outwards: np.ndarray, reach: np.ndarray,
-               outside: list, tolerance_nm: int) -> np.ndarray:
-    """Which convex corners of E(k) come from a corner of E(k-1) (`outside`): one lies
-    `reach` (spacing / sin(alpha/2)) out along the corner's bisector, to the
-    tolerance. The others are where two parts of E(k-1)'s outline met as it shrank;
-    the ink of the ring outside reaches them differently, and they stay sharp."""
-    if not len(corners):
-        return np.zeros(0, dtype=bool)
-    index = EdgeIndex(clip.rings_as_arrays(outside), cell_nm=4 * tolerance_nm)
-    if not len(index.a):
-        return np.zeros(len(corners), dtype=bool)
-    direction = outwards / np.hypot(*outwards.T)[:, None]
-    expected = np.rint(corners + direction * reach[:, None]).astype(np.int64)
-    k, t, distance = index.nearest_many(expected, 2 * tolerance_nm)
-    found = k >= 0
-    length = np.hypot(*(index.b[k] - index.a[k]).T.astype(np.float64))
-    at_end = np.minimum(t, 1 - t) * length <= 2 * tolerance_nm
-    return found & (distance <= 2 * tolerance_nm) & at_end
 
 
 # ---- joins and the walk ---------------------------------------------------------------
