@@ -180,7 +180,7 @@ def _within_half_moves(a: LineMove | ArcMove, b: LineMove | ArcMove,
     """Klipper's bound for a corner between lines: the circle that stands for the
     corner touches each line no farther from the vertex than its middle, so the speed
     is at most the centripetal one on that circle, v² = A · (L / 2) · tan(θ/2) for each
-    line of length L. A curve drawn as many short lines (a small rounded corner) then
+    line of length L. A curve drawn as many short lines (a small round pad) then
     passes at the speed its radius allows, not at what each small turn alone would."""
     dot = u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
     cos_half = sqrt(max(0.0, 0.5 * (1.0 - dot)))        # cos(θ/2), θ = 180° straight on
