@@ -213,8 +213,9 @@ def into_walks(lines: list[NarrowFeature], narrow: list[NarrowFeature], fill: Pe
     # attached piece counted from its walk on): path order runs on through it (Eagle's
     # pour outlines on eagle/manifold-slave: 250 such spurs, 3 lifts fewer, 18 s more)
     tried_lines = {id(line) for line in lines}
-    meeting_there = _ends_met([f for f in narrow if id(f) not in tried_lines]
-                              + [part for _line, part in parts])
+    others = [f for f in narrow if id(f) not in tried_lines] + [part for _line, part in parts]
+    meeting_there = {end: len(at) for end, at in _line_ends(
+        [(k, piece) for k, feature in enumerate(others) for piece in feature.pieces]).items()}
     refused = {id(line) for line, part in parts if id(part) not in attached or (
         np.array_equal(part.pieces[0][0], part.pieces[0][1])
         and meeting_there.get(tuple(part.pieces[0][-1].tolist()), 0) >= JUNCTION_LINES)}
@@ -233,17 +234,6 @@ def into_walks(lines: list[NarrowFeature], narrow: list[NarrowFeature], fill: Pe
         part.pieces = [planned[id(part)]]
         line.pieces.append(part.pieces[0])
     spliced(fill, [(part, attached[id(part)]) for _line, part in spurs], tolerance_nm)
-
-
-def _ends_met(narrow: list[NarrowFeature]) -> dict[tuple, int]:
-    """Per end point of the centre lines' pieces, how many pieces end there."""
-    ends: dict[tuple, int] = {}
-    for feature in narrow:
-        for piece in feature.pieces:
-            if len(piece) > 1:
-                for end in piece[[0, -1]].tolist():
-                    ends[tuple(end)] = ends.get(tuple(end), 0) + 1
-    return ends
 
 
 def _meeting_boxes(boxes: np.ndarray, others: np.ndarray) -> np.ndarray:
