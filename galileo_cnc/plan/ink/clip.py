@@ -144,18 +144,27 @@ def open_difference(paths: list, polygons: PolygonSet) -> list[np.ndarray]:
         if sum((1 if pc.Area(ring) > 0 else -1) for ring in polygons
                if pc.PointInPolygon((x, y), ring) != 0) <= 0:
             kept.append(np.array([[x, y]], dtype=np.int64))
-    # Clipper 6 loses an open path whose points all share one y when it lies below
-    # every clip polygon (a horizontal trace or walk just under a drill mark): those
-    # are clipped with x and y swapped, where they are vertical, and swapped back
     lines = [np.asarray(p, dtype=np.int64) for p in lines]
-    flat = [p for p in lines if (p[:, 1] == p[0, 1]).all()]
-    steep = [p for p in lines if not (p[:, 1] == p[0, 1]).all()]
+    flat = [p for p in lines if _flat(p)]
+    steep = [p for p in lines if not _flat(p)]
     kept += _faithful(_open_outside(steep, polygons), steep, polygons)
     if flat:
-        swapped = [np.asarray(ring)[::-1, ::-1].tolist() for ring in polygons]
-        kept += _faithful([path[:, ::-1] for path in
-                           _open_outside([p[:, ::-1] for p in flat], swapped)], flat, polygons)
+        kept += _faithful([path[:, ::-1] for path in _open_outside(
+            [p[:, ::-1] for p in flat], _swapped(polygons))], flat, polygons)
     return kept
+
+
+def _flat(path: np.ndarray) -> bool:
+    """Whether all the path's points share one y. Clipper 6 loses such an open path
+    when it lies below every clip polygon (a horizontal trace or walk just under a
+    drill mark): those are clipped with x and y swapped (_swapped), where they are
+    vertical, and swapped back."""
+    return bool((path[:, 1] == path[0, 1]).all())
+
+
+def _swapped(polygons: PolygonSet) -> PolygonSet:
+    """The set with x and y swapped (each ring reversed, so it keeps its winding)."""
+    return [np.asarray(ring)[::-1, ::-1].tolist() for ring in polygons]
 
 
 def open_difference_by_path(paths: list, polygons: PolygonSet) -> list[list[np.ndarray]]:
@@ -172,10 +181,9 @@ def open_difference_by_path(paths: list, polygons: PolygonSet) -> list[list[np.n
     paths = [np.vstack([path, path + [0, 1]]) if k in dots else path
              for k, path in enumerate(paths)]
     lines = [k for k, path in enumerate(paths) if len(path) >= 2]
-    flat = [k for k in lines if (paths[k][:, 1] == paths[k][0, 1]).all()]
-    steep = [k for k in lines if not (paths[k][:, 1] == paths[k][0, 1]).all()]
-    # the flat ones with x and y swapped, as open_difference does (Clipper 6)
-    swapped = [np.asarray(ring)[::-1, ::-1].tolist() for ring in polygons] if flat else []
+    flat = [k for k in lines if _flat(paths[k])]
+    steep = [k for k in lines if not _flat(paths[k])]
+    swapped = _swapped(polygons) if flat else []
     for group, swap in ((steep, False), (flat, True)):
         if not group:
             continue
