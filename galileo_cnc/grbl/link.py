@@ -274,15 +274,15 @@ class GrblLink:
         block just queued, GRBL reports Idle with motion still to come. The `ok` may
         be a long move away: meanwhile `?` is asked (StatusWatch, each report handed
         to `on_status`), and the wait gives up only when GRBL stops answering those
-        or stands Idle without answering."""
+        or stands Idle without answering. A board that still reports Run once the
+        `ok` came (seen once in simavr, GRBL 1.1h under a loaded host) is watched on
+        until it stands Idle: its last steps are still going out, and a job that ends
+        with an error there would be a job lost at its last line."""
         self.write_line("G4 P0")
         watch = StatusWatch(self, on_status=on_status)
         while True:
-            line = watch.read_line()
+            line = _drain_line(watch)
             if line is None:
-                fault = watch.fault()
-                if fault is not None:
-                    raise GrblError(f"{fault} (waiting for the last moves to run)")
                 continue
             reply = watch.classify(line)
             if isinstance(reply, Reply):
@@ -290,6 +290,13 @@ class GrblLink:
                     raise GrblError(f"GRBL refused 'G4 P0': {reply.text}", reply.code)
                 break
         status = self.status()
+        while status.state == "Run":
+            line = _drain_line(watch)
+            if line is None:
+                continue
+            reported = watch.classify(line)
+            if line.startswith("<") and reported is not None:
+                status = watch.last
         if status.state == "Alarm":
             raise GrblError("GRBL is in alarm state", alarm=True)
         if status.state != "Idle":
@@ -330,6 +337,17 @@ def position_mm(status: Status | None) -> str:
         return "no position reported"
     x, y, z = (f"{nm / NM_PER_MM:.3f}" for nm in status.wpos_nm[:3])
     return f"X {x} Y {y} Z {z} mm (work)"
+
+
+def _drain_line(watch: "StatusWatch") -> str | None:
+    """The watch's next line while the host waits for the last moves; a board gone
+    silent or stalled is an error."""
+    line = watch.read_line()
+    if line is None:
+        fault = watch.fault()
+        if fault is not None:
+            raise GrblError(f"{fault} (waiting for the last moves to run)")
+    return line
 
 
 class StatusWatch:

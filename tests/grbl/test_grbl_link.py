@@ -2,7 +2,8 @@
 (a loaded host, a busy board) or not at all (its reset byte lost on the line): the
 link waits for the answer to its own soft reset instead of resetting again at once,
 sends the reset again only after a longer silence, and the ALARM:3 that comes before
-the banner counts."""
+the banner counts. And `wait_idle` with a GRBL that still reports Run after its
+`G4 P0` was answered: watched on until Idle, not an error at a job's last line."""
 
 from __future__ import annotations
 
@@ -69,3 +70,43 @@ def test_a_soft_reset_waits_for_its_answer_and_counts_the_alarm(answer, delay_s,
     assert link.alarms == [3] and link.boot_lines == ["ALARM:3"]
     if resets == 2:                           # not before the silence was long enough
         assert took >= RESET_AGAIN_S
+
+
+def grbl_still_running_after_its_ok(master: int, heard: list[bytes], runs: int,
+                                    stop: threading.Event) -> None:
+    """Answers `G4 P0` with ok, then its first `runs` status queries with Run and
+    the ones after with Idle, a little further on."""
+    queries = 0
+    while not stop.is_set():
+        ready, _, _ = select.select([master], [], [], 0.05)
+        if not ready:
+            continue
+        data = os.read(master, 64)
+        heard.append(data)
+        if b"G4 P0\n" in data:
+            os.write(master, b"ok\r\n")
+        for _ in range(data.count(STATUS_QUERY)):
+            queries += 1
+            state, x = ("Run", "1.000") if queries <= runs else ("Idle", "2.000")
+            os.write(master, f"<{state}|MPos:{x},0.000,0.000|FS:0,0>\r\n".encode())
+
+
+@pytest.mark.parametrize("runs", [0, 1, 4])
+def test_wait_idle_watches_a_board_still_running_after_its_ok_until_it_stands(runs):
+    master, slave = pty.openpty()
+    port = serial.Serial(os.ttyname(slave), 115200, timeout=0.1)
+    heard: list[bytes] = []
+    stop = threading.Event()
+    grbl = threading.Thread(target=grbl_still_running_after_its_ok,
+                            args=(master, heard, runs, stop), daemon=True)
+    grbl.start()
+    try:
+        status = GrblLink(port).wait_idle()
+    finally:
+        stop.set()
+        grbl.join()
+        port.close()
+        os.close(master)
+        os.close(slave)
+    assert status.state == "Idle" and status.mpos_nm == (2_000_000, 0, 0)
+    assert b"".join(heard).count(STATUS_QUERY) > runs
