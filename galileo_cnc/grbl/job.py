@@ -173,6 +173,8 @@ def cut_short(link, entry: JournalEntry) -> str | None:
     or a refusal."""
     if 3 in link.alarms:
         return "GRBL was reset while it still moved (ALARM:3)"
+    if link.state_before_reset in ("Run", "Jog"):       # its ALARM:3 lost (docs/grbl.md)
+        return f"GRBL was reset while it still moved (it reported {link.state_before_reset})"
     if link.state_before_reset in NOT_RUN_OUT:
         return f"GRBL stood in {link.state_before_reset} with lines still queued"
     if entry.state in (ABORTED, FAILED):

@@ -112,6 +112,22 @@ def grbl_machine(settings: dict[int, str] = SETTINGS, **board_kwargs):
             port.close()
 
 
+def reset_while_moving(link: GrblLink, begin, attempts: int = 3) -> int:
+    """link.soft_reset() once `begin()` has GRBL under way, again until a reset ends
+    in ALARM:3; returns how many resets it took. GRBL 1.1h can lose that alarm:
+    protocol_exec_rt_system reads sys_rt_exec_alarm before sys_rt_exec_state, and a
+    reset whose receive interrupt falls between the two reads aborts GRBL without
+    printing ALARM:3 (docs/grbl.md). Such a reset must leave GRBL Idle, not locked."""
+    for attempt in range(1, attempts + 1):
+        begin()
+        link.soft_reset()
+        if link.alarms:
+            return attempt
+        assert link.status().state == "Idle", "a reset without ALARM:3 left GRBL locked"
+    raise AssertionError(f"{attempts} resets while GRBL moved, none ended in ALARM:3 "
+                         f"(lines before the banners: {link.boot_lines})")
+
+
 # ---- the pin trace ------------------------------------------------------------------
 
 def positions(board) -> np.ndarray:
