@@ -306,7 +306,7 @@ class GrblLink:
     def soft_reset(self, timeout_s: float = 10.0) -> str:
         """0x18: GRBL stops at once, forgets its queue, prints its banner again.
         A reset while moving ends in ALARM:3 (position lost; GRBL 1.1h loses that
-        alarm about once in a hundred resets, docs/grbl.md): unlocking with
+        alarm now and then, docs/grbl.md): unlocking with
         `$X` is the caller's choice, after asking the user.
 
         After a hard or soft limit alarm GRBL prints `[MSG:Reset to continue]` and
