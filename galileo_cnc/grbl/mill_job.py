@@ -43,7 +43,7 @@ from galileo_cnc.grbl.job import JobProgress, go_on_in, link_scale, run_journall
 from galileo_cnc.grbl.link import CYCLE_START
 from galileo_cnc.grbl.reports import GrblError
 from galileo_cnc.grbl.resume import PREAMBLE_TEXT, STEPPER_BLOCKS, GrblResumeError
-from galileo_cnc.grbl.session import held, hold_and_reset, stream_piece
+from galileo_cnc.grbl.session import hold_and_reset, stream_piece
 from galileo_cnc.grbl.stream import GrblStreamError
 from galileo_cnc.grbl.travel import applies, check_travel
 from galileo_cnc.plan.mill.drill import SPIN_UP, TOOL_CHANGE
@@ -542,14 +542,9 @@ class GrblMillJob:
         (a changed bit's Z zero) with it."""
         link = self.link
         safe_nm = round(float(self.program.safe_mm) * NM_PER_MM)
-        lift_nm = safe_nm
-        try:
-            status = held(link, HOLD_WAIT_S)
-            if status is not None:
-                lift_nm = max(0, safe_nm - status.wpos_nm[2])
-        except GrblError:
-            pass                        # the reset below; the lift takes the whole height
-        hold_and_reset(link)
+        status = hold_and_reset(link)
+        # no report at rest: the lift takes the whole height
+        lift_nm = safe_nm if status is None else max(0, safe_nm - status.wpos_nm[2])
         try:
             if lift_nm:
                 link.command_checked(f"G91 G0 Z{lift_nm / NM_PER_MM:.3f}")

@@ -149,15 +149,18 @@ def held(link: GrblLink, wait_s: float = HOLD_WAIT_S) -> Status | None:
     return None
 
 
-def hold_and_reset(link: GrblLink) -> None:
+def hold_and_reset(link: GrblLink) -> Status | None:
     """Ctrl-C: a feed hold decelerates on the path (no step lost), then the soft
-    reset drops GRBL's queue; a reset while moving would lose the position."""
+    reset drops GRBL's queue; a reset while moving would lose the position. Returns
+    GRBL's report at rest before the reset (None when none came)."""
+    status = None
     try:
         link.realtime(FEED_HOLD)
-        held(link)
+        status = held(link)
         link.soft_reset()
     except GrblError:
         pass        # the user already asked to stop; the message says what to do
+    return status
 
 
 def lift_pen(link: GrblLink, scale: AxisScale, pen: GrblPen) -> None:
