@@ -24,7 +24,9 @@ if [ -n "$missing" ]; then
 fi
 
 python3 -m pip install --quiet --disable-pip-version-check -e '.[test]'
-# One worker per core (pytest-xdist), a test file per worker at a time: a file's
-# fixtures (a built firmware, a board's session) are made once. `-n 0` runs serially.
+# A worker per core and one more (pytest-xdist): many tests wait on the wall clock
+# (paced simulators, a silent board's timeouts), and the extra worker runs meanwhile
+# (docs/testing.md). A test file per worker at a time: a file's fixtures (a built
+# firmware, a board's session) are made once. `-n 0` runs serially.
 # The 20 slowest tests are listed at the end, to keep an eye on the suite's time.
-exec python3 -m pytest -n auto --dist loadfile --durations=20 "$@"
+exec python3 -m pytest -n "$(( $(nproc) + 1 ))" --dist loadfile --durations=20 "$@"
