@@ -362,7 +362,9 @@ class GrblMachine(Machine):
         if not result.completed:
             try:
                 where = stands_at(self.link.status())
-                self._kept = self._keeping()
+                # reset while it still moved (no report at rest): the position may be
+                # lost even without ALARM:3, which GRBL 1.1h can lose (docs/grbl.md)
+                self._kept = self._keeping() if engine.stopped_at_rest else None
             except GrblError:
                 where = "GRBL's position was not reported"
             lifted = f"; {engine.lift_failed}" if engine.lift_failed else f"; {lifted}"

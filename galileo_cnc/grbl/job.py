@@ -225,6 +225,7 @@ class GrblJob:
         self.port_name = ""                         # for a lost port's message
         self.entry: JournalEntry | None = None      # the interrupted job going on
         self.lift_failed = ""                       # a stop left the pen down: why
+        self.stopped_at_rest = False                # a stop found GRBL standing (held)
         self.estimate_s = self._estimate()
 
     def go_on_from(self, start: int) -> None:
@@ -309,7 +310,7 @@ class GrblJob:
 
     def _stop_and_lift(self) -> None:
         """Decelerate, drop GRBL's queue (its position kept), then lift the pen."""
-        hold_and_reset(self.link)
+        self.stopped_at_rest = hold_and_reset(self.link) is not None
         try:
             lift_pen(self.link, self.scale, self.pen)
         except GrblError as problem:

@@ -274,10 +274,14 @@ class GrblLink:
         block just queued, GRBL reports Idle with motion still to come. The `ok` may
         be a long move away: meanwhile `?` is asked (StatusWatch, each report handed
         to `on_status`), and the wait gives up only when GRBL stops answering those
-        or stands Idle without answering. A board that still reports Run once the
-        `ok` came (seen once in simavr, GRBL 1.1h under a loaded host) is watched on
-        until it stands Idle: its last steps are still going out, and a job that ends
-        with an error there would be a job lost at its last line."""
+        or stands Idle without answering.
+
+        A board that still reports Run once an `ok` came (seen once in CI, GRBL 1.1h in
+        simavr under load) is watched on until it stands Idle. GRBL's source answers
+        `G4 P0` only once its buffer has drained, so that `ok` was likely a line's
+        before it, read late; the `G4 P0`'s own, read on the way, pairs replies with
+        lines again. An `error:N` on the way is the last line's refusal; Run without
+        moving for reply_timeout_s is a stall."""
         self.write_line("G4 P0")
         watch = StatusWatch(self, on_status=on_status)
         while True:
@@ -290,13 +294,21 @@ class GrblLink:
                     raise GrblError(f"GRBL refused 'G4 P0': {reply.text}", reply.code)
                 break
         status = self.status()
+        moved_at, at = time.monotonic(), status.mpos_nm
         while status.state == "Run":
+            if time.monotonic() - moved_at >= self.reply_timeout_s:
+                raise GrblError(f"GRBL reports Run but has not moved for "
+                                f"{time.monotonic() - moved_at:.0f} s, at {position_mm(status)}")
             line = _drain_line(watch)
             if line is None:
                 continue
             reported = watch.classify(line)
+            if isinstance(reported, Reply) and not reported.ok:
+                raise GrblError(f"GRBL refused a line: {reported.text}", reported.code)
             if line.startswith("<") and reported is not None:
                 status = watch.last
+                if status.mpos_nm != at:
+                    moved_at, at = time.monotonic(), status.mpos_nm
         if status.state == "Alarm":
             raise GrblError("GRBL is in alarm state", alarm=True)
         if status.state != "Idle":

@@ -323,6 +323,7 @@ class GrblMillJob:
         self.entry: JournalEntry | None = None
         self.port_name = ""
         self.lift_failed = ""
+        self.stopped_at_rest = False
         self.estimate_s = self._estimate()
 
     def where(self, command: int) -> str:
@@ -543,6 +544,7 @@ class GrblMillJob:
         link = self.link
         safe_nm = round(float(self.program.safe_mm) * NM_PER_MM)
         status = hold_and_reset(link)
+        self.stopped_at_rest = status is not None
         # no report at rest: the lift takes the whole height
         lift_nm = safe_nm if status is None else max(0, safe_nm - status.wpos_nm[2])
         try:

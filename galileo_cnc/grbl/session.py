@@ -157,9 +157,14 @@ def hold_and_reset(link: GrblLink) -> Status | None:
     try:
         link.realtime(FEED_HOLD)
         status = held(link)
+    except GrblError as problem:
+        if not problem.alarm:
+            return None     # the user already asked to stop; the message says what to do
+        # an alarm stopped GRBL on its own: the reset below clears it
+    try:
         link.soft_reset()
     except GrblError:
-        pass        # the user already asked to stop; the message says what to do
+        pass
     return status
 
 

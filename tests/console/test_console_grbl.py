@@ -387,6 +387,34 @@ def test_a_job_stopped_with_q_resumes_in_the_same_session(home):  # noqa: F811
     assert board.summary["overruns"] == "0" and board.summary["dropped"] == "0"
 
 
+def test_a_stop_that_found_grbl_still_moving_trusts_no_position(home, monkeypatch):  # noqa: F811
+    """q, but the feed hold is never seen to settle (held() gave up): GRBL was reset
+    while it may still have moved, and GRBL 1.1h can lose that reset's ALARM:3
+    (docs/grbl.md). So `resume` does not go on from where GRBL stands: it homes."""
+    from galileo_cnc.grbl import job as grbl_job
+
+    real = grbl_job.hold_and_reset
+    monkeypatch.setattr(grbl_job, "hold_and_reset", lambda link: real(link) and None)
+    _job, lines = planned_lines(CONFIG)
+    pieces = pen_pieces(lines, _job.pen_changes)
+    with grbl_machine(QUICK_HOMED, limits=LIMITS, realtime=True) as (board, setup_link):
+        set_work_zero(setup_link)
+        with console_object(home, board.port, CONFIG) as (user, console):
+            getg_through_pens(user, pieces, 2)
+            time.sleep(0.5)                     # the second pen draws
+            user.type("q")
+            user.expect(r"job stopped after \d+ of \d+ G-code lines: stopped by the user")
+            user.line("resume")
+            user.expect(r"continue the job\? \[Y/n\]")
+            user.line("")
+            user.expect(r"homing \(\$H\): the reset lost GRBL's position")
+            user.expect(r"\ainsert pen for aperture D\d+ .*\(q stops\)", JOB_WAIT_S)
+            user.type("q")                      # enough: stopped again at the pen
+            user.expect(r"job stopped after", JOB_WAIT_S)
+        board.stop()
+    assert "GRBL kept its position" not in user.screen.text
+
+
 def getg_through_pens(user, pieces, count: int) -> None:
     """getg the board with the proposed offsets, and insert its first `count` pens."""
     user.line(f"getg --mode centre {BOARD}")

@@ -17,6 +17,7 @@ import pytest
 import serial
 
 from galileo_cnc.grbl.link import RESET_AGAIN_S, SOFT_RESET, STATUS_QUERY, GrblLink
+from galileo_cnc.grbl.reports import GrblError
 
 BANNER = b"Grbl 1.1h ['$' for help]\r\n"
 
@@ -73,9 +74,10 @@ def test_a_soft_reset_waits_for_its_answer_and_counts_the_alarm(answer, delay_s,
 
 
 def grbl_still_running_after_its_ok(master: int, heard: list[bytes], runs: int,
-                                    stop: threading.Event) -> None:
-    """Answers `G4 P0` with ok, then its first `runs` status queries with Run and
-    the ones after with Idle, a little further on."""
+                                    late: bytes, moving: bool, stop: threading.Event) -> None:
+    """Answers `G4 P0` with ok, then its first `runs` status queries with Run (moving
+    on a step each, or standing) and the ones after with Idle; `late` (a reply read
+    late) goes out after the first Run report."""
     queries = 0
     while not stop.is_set():
         ready, _, _ = select.select([master], [], [], 0.05)
@@ -87,26 +89,55 @@ def grbl_still_running_after_its_ok(master: int, heard: list[bytes], runs: int,
             os.write(master, b"ok\r\n")
         for _ in range(data.count(STATUS_QUERY)):
             queries += 1
-            state, x = ("Run", "1.000") if queries <= runs else ("Idle", "2.000")
-            os.write(master, f"<{state}|MPos:{x},0.000,0.000|FS:0,0>\r\n".encode())
+            running = queries <= runs
+            x = f"{1 + queries / 1000 if moving else 1:.3f}" if running else "2.000"
+            os.write(master, f"<{'Run' if running else 'Idle'}|MPos:{x},0.000,0.000|FS:0,0>"
+                     f"\r\n".encode())
+            if queries == 1 and late:
+                os.write(master, late)
 
 
-@pytest.mark.parametrize("runs", [0, 1, 4])
-def test_wait_idle_watches_a_board_still_running_after_its_ok_until_it_stands(runs):
+def wait_idle_on(runs: int, late: bytes = b"", moving: bool = True):
+    """wait_idle against grbl_still_running_after_its_ok: (its status or the error it
+    raised, the bytes the link sent)."""
     master, slave = pty.openpty()
     port = serial.Serial(os.ttyname(slave), 115200, timeout=0.1)
     heard: list[bytes] = []
     stop = threading.Event()
     grbl = threading.Thread(target=grbl_still_running_after_its_ok,
-                            args=(master, heard, runs, stop), daemon=True)
+                            args=(master, heard, runs, late, moving, stop), daemon=True)
     grbl.start()
     try:
-        status = GrblLink(port).wait_idle()
+        try:
+            outcome = GrblLink(port, reply_timeout_s=1.0).wait_idle()
+        except GrblError as problem:
+            outcome = problem
     finally:
         stop.set()
         grbl.join()
         port.close()
         os.close(master)
         os.close(slave)
+    return outcome, b"".join(heard)
+
+
+@pytest.mark.parametrize("runs", [0, 1, 4])
+def test_wait_idle_watches_a_board_still_running_after_its_ok_until_it_stands(runs):
+    status, sent = wait_idle_on(runs)
     assert status.state == "Idle" and status.mpos_nm == (2_000_000, 0, 0)
-    assert b"".join(heard).count(STATUS_QUERY) > runs
+    assert sent.count(STATUS_QUERY) > runs
+
+
+def test_wait_idle_reads_a_late_ok_on_the_way_and_raises_a_late_refusal():
+    status, _sent = wait_idle_on(4, late=b"ok\r\n")
+    assert status.state == "Idle"
+    problem, _sent = wait_idle_on(4, late=b"error:20\r\n")
+    assert isinstance(problem, GrblError) and problem.code == 20
+    assert "GRBL refused a line: error:20" in str(problem)
+
+
+def test_wait_idle_names_a_board_that_reports_run_without_moving():
+    problem, _sent = wait_idle_on(1000, moving=False)
+    assert isinstance(problem, GrblError)
+    assert "GRBL reports Run but has not moved for 1 s, at X 1.000 Y 0.000 Z 0.000 mm" \
+        in str(problem)
