@@ -12,6 +12,7 @@ import pty
 import select
 import threading
 import time
+from contextlib import contextmanager
 
 import pytest
 import serial
@@ -41,30 +42,38 @@ def grbl_on_a_pty(master: int, heard: list[bytes], answer: int, delay_s: float,
             answered = True
 
 
-@pytest.mark.parametrize("answer, delay_s, resets", [
-    (1, 1.6, 1),                    # late: waited for, not reset again
-    (2, 0.1, 2),                    # the first reset lost: sent again after a while
-])
-def test_a_soft_reset_waits_for_its_answer_and_counts_the_alarm(answer, delay_s, resets):
+@contextmanager
+def scripted_grbl(script, *args):
+    """(port, heard): a pyserial port on a pseudo-terminal whose other end
+    `script(master, heard, *args, stop)` plays GRBL in a thread; `heard` gets what the
+    link sends."""
     master, slave = pty.openpty()
     port = serial.Serial(os.ttyname(slave), 115200, timeout=0.1)
     heard: list[bytes] = []
     stop = threading.Event()
-    grbl = threading.Thread(target=grbl_on_a_pty, args=(master, heard, answer, delay_s, stop),
-                            daemon=True)
+    grbl = threading.Thread(target=script, args=(master, heard, *args, stop), daemon=True)
     grbl.start()
     try:
-        link = GrblLink(port)
-        began = time.monotonic()
-        assert link.soft_reset(timeout_s=10.0) == "1.1h"
-        took = time.monotonic() - began
-        time.sleep(0.2)                       # anything more the link would send
+        yield port, heard
     finally:
         stop.set()
         grbl.join()
         port.close()
         os.close(master)
         os.close(slave)
+
+
+@pytest.mark.parametrize("answer, delay_s, resets", [
+    (1, 1.6, 1),                    # late: waited for, not reset again
+    (2, 0.1, 2),                    # the first reset lost: sent again after a while
+])
+def test_a_soft_reset_waits_for_its_answer_and_counts_the_alarm(answer, delay_s, resets):
+    with scripted_grbl(grbl_on_a_pty, answer, delay_s) as (port, heard):
+        link = GrblLink(port)
+        began = time.monotonic()
+        assert link.soft_reset(timeout_s=10.0) == "1.1h"
+        took = time.monotonic() - began
+        time.sleep(0.2)                       # anything more the link would send
     sent = b"".join(heard)
     # no `?` asking a silent board what it stands in: the reset was ours
     assert sent.count(SOFT_RESET) == resets and STATUS_QUERY not in sent
@@ -100,24 +109,11 @@ def grbl_still_running_after_its_ok(master: int, heard: list[bytes], runs: int,
 def wait_idle_on(runs: int, late: bytes = b"", moving: bool = True):
     """wait_idle against grbl_still_running_after_its_ok: (its status or the error it
     raised, the bytes the link sent)."""
-    master, slave = pty.openpty()
-    port = serial.Serial(os.ttyname(slave), 115200, timeout=0.1)
-    heard: list[bytes] = []
-    stop = threading.Event()
-    grbl = threading.Thread(target=grbl_still_running_after_its_ok,
-                            args=(master, heard, runs, late, moving, stop), daemon=True)
-    grbl.start()
-    try:
+    with scripted_grbl(grbl_still_running_after_its_ok, runs, late, moving) as (port, heard):
         try:
             outcome = GrblLink(port, reply_timeout_s=1.0).wait_idle()
         except GrblError as problem:
             outcome = problem
-    finally:
-        stop.set()
-        grbl.join()
-        port.close()
-        os.close(master)
-        os.close(slave)
     return outcome, b"".join(heard)
 
 
