@@ -29,5 +29,7 @@ python3 -m pip install --quiet --disable-pip-version-check -e '.[test]'
 # (docs/testing.md). A test file per worker at a time: a file's fixtures (a built
 # firmware, a board's session) are made once. `-n 0` runs serially.
 # The 20 slowest tests are listed at the end, to keep an eye on the suite's time.
-workers=$(python3 -c 'import os; print((os.cpu_count() or 1) + 1)')
+workers=$(python3 -c 'import os
+cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+print((cores or 1) + 1)')
 exec python3 -m pytest -n "$workers" --dist loadfile --durations=20 "$@"

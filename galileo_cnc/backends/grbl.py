@@ -48,6 +48,9 @@ MOVING_STATES = ("Run", "Jog", "Hold", "Home")
 CRITICAL_ALARMS = (1, 2)
 #: What a stopped job leaves GRBL in.
 HELD = "GRBL held the feed and was reset (its queue dropped, the position kept)"
+#: the hold was never seen to settle: the reset may have come while GRBL still moved
+NOT_HELD = ("GRBL was reset without being seen to stand still (its queue dropped; it "
+            "may still have moved, so resume homes or has you re-zero)")
 
 
 class GrblMachine(Machine):
@@ -369,7 +372,8 @@ class GrblMachine(Machine):
                 where = "GRBL's position was not reported"
             lifted = f"; {engine.lift_failed}" if engine.lift_failed else f"; {lifted}"
             return JobResult(False, result.confirmed, result.total, result.elapsed_s,
-                             result.reason, "G-code lines", where, HELD + lifted)
+                             result.reason, "G-code lines", where,
+                             (HELD if engine.stopped_at_rest else NOT_HELD) + lifted)
         return JobResult(True, result.total, result.total, result.elapsed_s,
                          unit="G-code lines", where=stands_at(self.link.tracker.last))
 

@@ -280,8 +280,9 @@ class GrblLink:
         simavr under load) is watched on until it stands Idle. GRBL's source answers
         `G4 P0` only once its buffer has drained, so that `ok` was likely a line's
         before it, read late; the `G4 P0`'s own, read on the way, pairs replies with
-        lines again. An `error:N` on the way is the last line's refusal; Run without
-        moving for reply_timeout_s is a stall."""
+        lines again. An `error:N` on the way is the last line's refusal, raised once
+        GRBL stands and every reply before is read; Run without moving for
+        reply_timeout_s is a stall."""
         self.write_line("G4 P0")
         watch = StatusWatch(self, on_status=on_status)
         while True:
@@ -293,9 +294,13 @@ class GrblLink:
                 if not reply.ok:
                     raise GrblError(f"GRBL refused 'G4 P0': {reply.text}", reply.code)
                 break
-        status = self.status()
-        moved_at, at = time.monotonic(), status.mpos_nm
-        while status.state == "Run":
+        # the first report after the ok (asked at once), and on while GRBL reports Run;
+        # a refusal read on the way is raised once GRBL stands, every reply read
+        watch.asked_at = None
+        status: Status | None = None
+        refused: Reply | None = None
+        moved_at = time.monotonic()
+        while status is None or status.state == "Run":
             if time.monotonic() - moved_at >= self.reply_timeout_s:
                 raise GrblError(f"GRBL reports Run but has not moved for "
                                 f"{time.monotonic() - moved_at:.0f} s, at {position_mm(status)}")
@@ -303,12 +308,14 @@ class GrblLink:
             if line is None:
                 continue
             reported = watch.classify(line)
-            if isinstance(reported, Reply) and not reported.ok:
-                raise GrblError(f"GRBL refused a line: {reported.text}", reported.code)
-            if line.startswith("<") and reported is not None:
+            if isinstance(reported, Reply):
+                refused = refused or (None if reported.ok else reported)
+            elif line.startswith("<") and reported is not None:
+                if status is None or watch.last.mpos_nm != status.mpos_nm:
+                    moved_at = time.monotonic()
                 status = watch.last
-                if status.mpos_nm != at:
-                    moved_at, at = time.monotonic(), status.mpos_nm
+        if refused is not None:
+            raise GrblError(f"GRBL refused a line: {refused.text}", refused.code)
         if status.state == "Alarm":
             raise GrblError("GRBL is in alarm state", alarm=True)
         if status.state != "Idle":

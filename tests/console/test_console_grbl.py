@@ -403,7 +403,8 @@ def test_a_stop_that_found_grbl_still_moving_trusts_no_position(home, monkeypatc
             getg_through_pens(user, pieces, 2)
             time.sleep(0.5)                     # the second pen draws
             user.type("q")
-            user.expect(r"job stopped after \d+ of \d+ G-code lines: stopped by the user")
+            user.expect(r"job stopped after \d+ of \d+ G-code lines: stopped by the user; "
+                        r"GRBL was reset without being seen to stand still")
             user.line("resume")
             user.expect(r"continue the job\? \[Y/n\]")
             user.line("")
