@@ -6,6 +6,7 @@ speeds, side by side in one run (docs/motion.md §5.7, issue 33).
     python3 bench/bench_motion.py --files 'kicad/*' --modes ink
     python3 bench/bench_motion.py --deviation 0.02 --axis-change 2.5 --json /tmp/m.json
     python3 bench/bench_motion.py --quick --modes ink --breakdown   # where the time goes
+    python3 bench/bench_motion.py --quick --start-factor 2   # moves start at half the feed
 
 Per file and mode the job is planned once (`plan_file`, the default MachineConfig with
 2 m of travel so every board fits) and its moves are timed on the reference machine
@@ -192,11 +193,16 @@ def main() -> None:
     parser.add_argument("--deviation", type=float, default=0.01, help="mm (GRBL's $11)")
     parser.add_argument("--axis-change", type=float, default=None,
                         help="mm/s, the largest per-axis speed change at a vertex")
+    parser.add_argument("--start-factor", type=int, default=None,
+                        help="the ramp's start (ramp_start_factor: a move starts at this "
+                             "x its period; 3 by default)")
     parser.add_argument("--json", type=Path)
     parser.add_argument("--breakdown", action="store_true",
                         help="where the junction-speed time over the ideal goes, per file")
     args = parser.parse_args()
     config = MachineConfig(x_travel_mm=2000.0, y_travel_mm=2000.0)
+    if args.start_factor is not None:
+        config = config.replace(ramp_start_factor=args.start_factor)
     tuned = config.replace(junction_deviation_mm=args.deviation)
     if args.axis_change is not None:
         tuned = tuned.replace(vertex_speed_change_mm_s=args.axis_change)
@@ -214,7 +220,7 @@ def main() -> None:
                      if fnmatch.fnmatch(str(p.relative_to(DXF_CORPUS)), args.files)]
     print(f"junction deviation {args.deviation:g} mm, per-axis change "
           f"{tuned.vertex_speed_change_mm_s:g} mm/s, accel {config.accel_mm_s2:g} mm/s2, "
-          f"feed {config.feed_mm_s:g} mm/s")
+          f"feed {config.feed_mm_s:g} mm/s, ramps from {config.ramp_start_factor}x the period")
     head = (f"{'file':52} {'mode':6} {'moves':>7} {'ideal s':>9} {'stops':>7} {'junct.':>7}"
             f" {'pd stops':>8} {'pd junct':>8} {'j/stops':>7}")
     print(head)

@@ -58,6 +58,21 @@ def build_firmware() -> dict:
     return _built
 
 
+def build_firmware_for(config, where: Path) -> Path:
+    """The firmware built for another profile than the defaults: firmware/ copied to
+    `where` with config.h generated from `config`, as `make -C firmware headers
+    PROFILE_TOML=...` would write it for a user's machine. Returns its ELF."""
+    import shutil
+    from galileo_cnc.firmware_headers import config_header
+    require_packages(simavr.FIRMWARE_PACKAGES)
+    tree = where / "firmware"
+    shutil.copytree(FIRMWARE_DIR, tree, ignore=shutil.ignore_patterns("build-*", "harness"))
+    (tree / "galileo" / "config.h").write_text(config_header(config, "a test's profile"))
+    result = subprocess.run(["make", "-C", str(tree)], capture_output=True, text=True)
+    assert result.returncode == 0, (result.stdout + result.stderr)[-3000:]
+    return tree / "build-uno" / "galileo.elf"
+
+
 _harness_built: list = []
 
 

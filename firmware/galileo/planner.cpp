@@ -15,6 +15,10 @@
     || CFG_Y_TRAVEL_MAX_STEPS - CFG_Y_TRAVEL_MIN_STEPS > 46000L
 #error "travel above 46000 steps per axis: the line setup's 32-bit n*n would overflow"
 #endif
+#if CFG_RAMP_START_FACTOR < 1 || CFG_RAMP_START_FACTOR > 8 || (CFG_RAMP_START_FACTOR - 1) \
+    * (CFG_MAX_FEED_STEPS_PER_S * CFG_MAX_FEED_STEPS_PER_S / CFG_ACCEL_STEPS_PER_S2 + 1) > 0xFFFFFFFF
+#error "RAMP_START_FACTOR outside 1..8, or ACCEL_STEPS_PER_S2 so low that a ramp leaves 32 bits"
+#endif
 
 /* Z without an end-stop (§7): its travel is a length, not a place. The machine
  * keeps Z within one travel's length of every Z it has been planned at since
@@ -53,10 +57,13 @@ static uint32_t axial_interval_sub(uint32_t feed)
     return (2UL * CFG_TICKS_PER_S * 256UL + feed) / (2 * feed);
 }
 
-/* R = ceil(2 F^2 / A) (§5.2); F <= 40000 keeps 2 F^2 in 32 bits. */
+/* R = ceil((k - 1) F^2 / A), k = CFG_RAMP_START_FACTOR (§5.2). F <= 40000 keeps F^2 in
+ * 32 bits; (k - 1) F^2 is split as (k - 1) (q A + r) so no product leaves them. */
 static uint32_t ramp_events(uint32_t feed)
 {
-    return (2 * feed * feed + CFG_ACCEL_STEPS_PER_S2 - 1) / CFG_ACCEL_STEPS_PER_S2;
+    const uint32_t k1 = CFG_RAMP_START_FACTOR - 1, a = CFG_ACCEL_STEPS_PER_S2;
+    uint32_t f2 = feed * feed;
+    return k1 * (f2 / a) + (k1 * (f2 % a) + a - 1) / a;
 }
 
 static void set_ramp(struct block *b, uint32_t ref_sub, uint32_t ramp)

@@ -135,6 +135,10 @@ class MachineConfig:
         if not 0 <= self.servo_dwell_ms <= MAX_SERVO_DWELL_MS:
             raise ConfigError(f"config: servo_dwell_ms must be 0..{MAX_SERVO_DWELL_MS}, "
                               f"got {self.servo_dwell_ms!r}")
+        if not 1 <= self.ramp_start_factor <= MAX_RAMP_START_FACTOR:
+            raise ConfigError(f"config: ramp_start_factor must be 1..{MAX_RAMP_START_FACTOR} "
+                              f"(a move starts at that many times its step period; 1: no "
+                              f"ramp), got {self.ramp_start_factor!r}")
         for name in ("junction_deviation_mm", "vertex_speed_change_mm_s"):
             if getattr(self, name) < 0:
                 raise ConfigError(f"config: {name} must be >= 0, got {getattr(self, name)!r}")
@@ -422,6 +426,9 @@ class MachineConfig:
 
 
 MIN_FEED_STEPS_PER_S = 10
+#: A slower start than 1/8 of the feed gains nothing; the firmware's ramp sums stay
+#: in 32 bits up to it (firmware/galileo/planner.cpp).
+MAX_RAMP_START_FACTOR = 8
 #: The pen on a GRBL board: on the Z axis, or a servo on the spindle output.
 GRBL_PENS = ("z", "servo")
 #: Bounds of the servo's S words and its dwell (GRBL's $30 is 1000 by default).

@@ -200,7 +200,7 @@ class ReferenceMachine:
         self.motors_on = True
         cfg = self.config
         base = weighted_interval_sub(axial_interval_sub(feed), line_rho_q15(*delta, n))
-        ramp = ramp_events(feed, cfg.accel_steps_per_s2) if ramped else 0
+        ramp = ramp_events(feed, cfg.accel_steps_per_s2, cfg.ramp_start_factor) if ramped else 0
         items.append(LineMove(tuple(self.position), delta, n, base, ramp,
                               ramp_step_sub(base, ramp, cfg.ramp_start_factor)))
         self.position = list(target)
@@ -243,7 +243,8 @@ class ReferenceMachine:
         self.motors_on = True
         cfg = self.config
         axial = axial_interval_sub(self.feed_steps_per_s)
-        ramp = ramp_events(self.feed_steps_per_s, cfg.accel_steps_per_s2)
+        ramp = ramp_events(self.feed_steps_per_s, cfg.accel_steps_per_s2,
+                           cfg.ramp_start_factor)
         # The length scale (§5.3) can take a band below 1 step per event: the
         # minimum step period still bounds the major axis (§5.6).
         floor = cfg.min_step_period_ticks << FRAC_BITS

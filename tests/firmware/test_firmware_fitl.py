@@ -23,8 +23,8 @@ from galileo_cnc.job import MachineError
 from galileo_cnc.machine import ReferenceMachine, simulate
 from galileo_cnc.simavr.board import SimulatedBoard, step_trace
 
-from firmware_support import (ELF, FirmwareLink, build_firmware, build_harness,
-                              check_bad_input_replies, status_when)
+from firmware_support import (ELF, FirmwareLink, build_firmware, build_firmware_for,
+                              build_harness, check_bad_input_replies, status_when)
 
 # Every step edge lies within [offset, offset + LATENCY_JITTER_TICKS] of its
 # reference tick: the compare match is exact, the edge follows it by a fixed
@@ -405,6 +405,22 @@ def test_junction_speeds_on_a_star_in_every_octant(firmware):
     job = CENTRE + [SetFeed(1600)] + [LineTo(x, y) for x, y in pts] + [LineTo(0, 0)]
     ref, fw = check_junction_job(firmware, job)
     assert ref.seconds < simulate(job).seconds
+
+
+def test_a_firmware_built_for_another_ramp_start_steps_as_the_reference(firmware,
+                                                                       tmp_path):
+    # A user's profile whose moves start at 2x the period, not 3x (ramp_start_factor),
+    # with a gentler acceleration: the ramp length, ceil((k - 1) F^2 / A), and every
+    # interval on it come out the same in the firmware built for it and the reference
+    config = JUNCTIONS_ON.replace(ramp_start_factor=2, accel_mm_s2=180.0)
+    elf = build_firmware_for(config, tmp_path)
+    pts = [(round(500 * math.cos(a)), round(500 * math.sin(a)))
+           for a in (k * math.pi / 4 + 0.3 for k in range(9))]
+    job = CENTRE + [LineTo(x, y) for x, y in pts] + [LineTo(0, 0)] \
+        + [ArcTo(0, 0, 400, 0, True), Rapid(-700, 200)]
+    ref, (tick, _, _) = check_junction_job(elf, job, config)
+    default = simulate(job, JUNCTIONS_ON)
+    assert abs((tick[-1] - tick[0]) - (default.tick[-1] - default.tick[0])) > 10_000
 
 
 def test_junction_speeds_hold_brakes_across_moves_and_resumes_exactly(firmware):

@@ -33,7 +33,7 @@ def test_line_path_speed_is_the_feed_in_every_direction(theta, dip, length, feed
              round(length * math.sin(theta) * math.cos(dip)),
              round(length * math.sin(dip) * 0.5))
     n = max(abs(d) for d in delta)
-    ramp = ramp_events(feed, ACCEL)
+    ramp = ramp_events(feed, ACCEL, BIG.ramp_start_factor)
     assume(n - 2 * ramp > 400)
     ticks, pos = event_positions(line_trace(delta, feed), HOME)
     speed = line_speed_steps_per_s(ticks, pos, ramp, n - 1 - ramp)  # the cruise part
@@ -51,7 +51,7 @@ def test_arc_path_speed_is_the_feed(radius, a0, cw, feed):
     m = ReferenceMachine(BIG, (HOME[0] + s[0], HOME[1] + s[1], 0))
     trace = m.run([SetFeed(feed), ArcTo(HOME[0] + s[0], HOME[1] + s[1], -s[0], -s[1], cw)])
     ticks, pos = event_positions(trace, (HOME[0] + s[0], HOME[1] + s[1], 0))
-    ramp = ramp_events(feed, ACCEL)
+    ramp = ramp_events(feed, ACCEL, BIG.ramp_start_factor)
     a, b = ramp, len(ticks) - 1 - ramp
     assume(b - a > 400)
     r = math.hypot(*s)
@@ -91,7 +91,7 @@ def whole_arc_speed_error(s, e, cw, feed):
     """
     ticks, pts = arc_run(s, e, cw, feed)
     n = len(ticks)
-    ramp = ramp_events(feed, ACCEL)
+    ramp = ramp_events(feed, ACCEL, BIG.ramp_start_factor)
     step = ramp_step_sub(axial_interval_sub(feed), ramp, BIG.ramp_start_factor)
     k = np.arange(n)
     extra = int(((ramp - np.minimum(np.minimum(k, n - 1 - k), ramp)) * step).sum())
@@ -156,7 +156,7 @@ def test_arc_speed_after_the_ramp_over_windows(radius, a0, cw, feed):
     s = (round(radius * math.cos(a0)), round(radius * math.sin(a0)))
     assume(radius < 4000 or feed >= 800)
     ticks, pts = arc_run(s, s, cw, feed)
-    ramp = ramp_events(feed, ACCEL)
+    ramp = ramp_events(feed, ACCEL, BIG.ramp_start_factor)
     a, b = ramp, len(ticks) - 1 - ramp   # events with the cruise interval only
     length = true_lengths(pts[1:], math.hypot(*s))
     assume(b > a and length[b] - length[a] >= 200)
@@ -182,13 +182,36 @@ def test_ramp_starts_at_3x_reaches_1x_and_is_symmetric():
     trace = line_trace((2000, 0, 0), feed)
     gaps = np.diff(np.concatenate(([0], trace.tick)))
     period = 2_000_000 / feed
-    ramp = ramp_events(feed, ACCEL)
+    ramp = ramp_events(feed, ACCEL, BIG.ramp_start_factor)
     assert ramp == 32
     assert abs(gaps[0] / period - 3) < 0.01
     assert np.all(np.diff(gaps[:ramp + 1]) <= 0)            # speeding up
     assert np.all(np.abs(gaps[ramp:-ramp] - period) <= 1)   # cruise at the step period
     assert np.all(np.abs(gaps[::-1][:ramp] - gaps[:ramp]) <= 1)  # decelerates like it started
     assert abs(gaps[-1] / period - 3) < 0.01
+
+
+@pytest.mark.parametrize("start_factor", [1, 2, 3, 5, 8])
+def test_a_ramp_from_any_start_keeps_the_acceleration_bound(start_factor):
+    # ramp_start_factor k: the first interval is k x the period, and the ramp is long
+    # enough, ceil((k - 1) F^2 / A) events, that no step changes speed faster than A
+    feed = 800
+    config = BIG.replace(ramp_start_factor=start_factor)
+    trace = ReferenceMachine(config, HOME).run(
+        [SetFeed(feed), LineTo(HOME[0] + 2000, HOME[1], 0)])
+    gaps = np.diff(np.concatenate(([0], trace.tick))).astype(np.float64)
+    period = TICKS_PER_S / feed
+    ramp = ramp_events(feed, ACCEL, start_factor)
+    assert ramp == math.ceil((start_factor - 1) * feed * feed / ACCEL)
+    assert abs(gaps[0] / period - start_factor) < 0.01
+    assert np.all(np.abs(gaps[ramp:-ramp] - period) <= 1)
+    speed = TICKS_PER_S / gaps                          # steps/s over each interval
+    accel = np.abs(np.diff(speed)) * TICKS_PER_S / gaps[1:]
+    if start_factor == 1:
+        assert accel.max() < 0.02 * ACCEL               # no ramp: the feed from the start
+    else:
+        assert accel.max() <= 1.02 * ACCEL              # the tick grid's rounding
+        assert accel.max() >= 0.9 * ACCEL               # and the bound is used
 
 
 def test_short_moves_get_a_triangle():
@@ -222,7 +245,7 @@ def test_rapid_uses_the_rapid_feed():
     m.run([Rapid(0, 0)])  # pen up first (300 Z steps)
     trace = m.run([Rapid(8000, 0)])
     ticks, pos = event_positions(trace)
-    ramp = ramp_events(c.rapid_steps_per_s, c.accel_steps_per_s2)
+    ramp = ramp_events(c.rapid_steps_per_s, c.accel_steps_per_s2, c.ramp_start_factor)
     speed = line_speed_steps_per_s(ticks, pos, ramp, len(ticks) - 1 - ramp)
     assert abs(speed / c.rapid_steps_per_s - 1) < 0.01
 
@@ -270,7 +293,7 @@ def arc_speed_table(per_range=24, seed=1):
 def window_speed_error(s, cw, feed, min_length=200):
     """Worst |speed/F - 1| over stretches >= min_length steps of a full circle's cruise."""
     ticks, pts = arc_run(s, s, cw, feed)
-    ramp = ramp_events(feed, ACCEL)
+    ramp = ramp_events(feed, ACCEL, BIG.ramp_start_factor)
     a, b = ramp, len(ticks) - 1 - ramp
     length = true_lengths(pts[1:], math.hypot(*s))
     if b <= a or length[b] - length[a] < min_length:
