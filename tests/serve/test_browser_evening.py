@@ -15,6 +15,7 @@ import re
 import shutil
 import subprocess
 import sys
+import threading
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -65,12 +66,22 @@ def served_in_a_browser(browser, port: str, home: Path):
     process = subprocess.Popen([sys.executable, "-m", "galileo_cnc", "serve", "--port", port,
                                 "--listen", "127.0.0.1:0"], env=env, stdout=subprocess.PIPE,
                                stderr=subprocess.STDOUT, text=True)
+    printed: list[str] = []
     try:
         context = browser.new_context(viewport={"width": 1100, "height": 900})
         try:
             page = context.new_page()
             page.set_default_timeout(WAIT_MS)
-            yield page, _printed_url(process)
+            url = _printed_url(process, printed)
+            # serve's output is read on to its end: a full pipe would stop the server
+            threading.Thread(target=printed.extend, args=(process.stdout,),
+                             daemon=True).start()
+            try:
+                yield page, url
+            except Exception as failure:
+                raise AssertionError(f"{failure}\n--- the page said ---\n"
+                                     f"{_page_text(page)}\n--- serve printed ---\n"
+                                     f"{''.join(printed)}") from failure
         finally:
             context.close()
     finally:
@@ -78,13 +89,19 @@ def served_in_a_browser(browser, port: str, home: Path):
         process.wait(10)
 
 
-def _printed_url(process) -> str:
-    printed = []
+def _printed_url(process, printed: list[str]) -> str:
     for line in process.stdout:
         printed.append(line)
         if (found := re.search(r"http://127\.0\.0\.1:\d+/\?token=\S+", line)):
             return found.group(0)
     raise AssertionError("serve printed no URL:\n" + "".join(printed))
+
+
+def _page_text(page) -> str:
+    try:
+        return page.inner_text("body", timeout=5_000)
+    except Exception as problem:        # the page itself may be what failed
+        return f"(could not be read: {problem})"
 
 
 def tiny_board(folder: Path) -> Path:
