@@ -15,9 +15,9 @@
     || CFG_Y_TRAVEL_MAX_STEPS - CFG_Y_TRAVEL_MIN_STEPS > 46000L
 #error "travel above 46000 steps per axis: the line setup's 32-bit n*n would overflow"
 #endif
-#if CFG_RAMP_START_FACTOR < 1 || CFG_RAMP_START_FACTOR > 8 || (CFG_RAMP_START_FACTOR - 1) \
-    * (CFG_MAX_FEED_STEPS_PER_S * CFG_MAX_FEED_STEPS_PER_S / CFG_ACCEL_STEPS_PER_S2 + 1) > 0xFFFFFFFF
-#error "RAMP_START_FACTOR outside 1..8, or ACCEL_STEPS_PER_S2 so low that a ramp leaves 32 bits"
+#if CFG_RAMP_START_FACTOR < 2 || CFG_RAMP_START_FACTOR > 8 || (CFG_RAMP_START_FACTOR - 1) \
+    * (CFG_MAX_FEED_STEPS_PER_S * CFG_MAX_FEED_STEPS_PER_S / CFG_ACCEL_STEPS_PER_S2 + 1) > 0xFFFFFFL
+#error "RAMP_START_FACTOR outside 2..8, or ACCEL_STEPS_PER_S2 so low that R leaves its 24 bits"
 #endif
 
 /* Z without an end-stop (§7): its travel is a length, not a place. The machine

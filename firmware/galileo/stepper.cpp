@@ -81,7 +81,7 @@ static uint16_t wraps; /* empty wake-ups before the pending event */
 
 /* The run (§5.4): up = k - first, down = last - k, m = min(up, down, R). */
 static struct block *cur;
-/* 24-bit counters (avr-gcc's __uint24): R <= 80 000 and n < 2^24 events. */
+/* 24-bit counters (avr-gcc's __uint24): R < 2^24 (planner.cpp) and n < 2^24 events. */
 typedef __uint24 events_t;
 #define EVENTS_UNKNOWN ((events_t)0xFFFFFF) /* a seek's length until the switch trips */
 /* up_sat, down and m_ramp, also as their low 16 bits: the fast path's runs

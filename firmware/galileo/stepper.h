@@ -29,7 +29,7 @@ struct block {
     uint8_t kind, flags;
     uint32_t n;               /* events (pause: ticks) */
     uint32_t base_sub;        /* cruise subticks per event (line, seek) */
-    __uint24 ramp;            /* R, events (<= 80 000) */
+    __uint24 ramp;            /* R, events (< 2^24: planner.cpp) */
     uint32_t step_sub;        /* interval change per ramp event, subticks */
     uint32_t ramp_total_sub;  /* R * step_sub: the extra interval of a run's first event */
     __uint24 exit;            /* ramp index the block ends at (<= R; 0: at rest, §5.7) */

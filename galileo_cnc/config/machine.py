@@ -58,7 +58,8 @@ class MachineConfig:
     # whose default is 0.01 mm) plans speed through corners over the whole job: the
     # streamer sends each move's exit index and the firmware and sim:// ramp to it. Every
     # axis changes speed at a vertex by at most vertex_speed_change_mm_s, below the speed
-    # an axis already jumps to from rest at the start of a rapid (rapid / 3 = 2.08 mm/s).
+    # an axis already jumps to from rest at the start of a rapid (rapid / 3 = 2.08 mm/s,
+    # with the default ramp_start_factor).
     junction_deviation_mm: float = 0.01
     vertex_speed_change_mm_s: float = 2.0
     # Fastest step rate the firmware supports on one axis: 50 ticks = 25 us = 40 kHz.
@@ -135,10 +136,16 @@ class MachineConfig:
         if not 0 <= self.servo_dwell_ms <= MAX_SERVO_DWELL_MS:
             raise ConfigError(f"config: servo_dwell_ms must be 0..{MAX_SERVO_DWELL_MS}, "
                               f"got {self.servo_dwell_ms!r}")
-        if not 1 <= self.ramp_start_factor <= MAX_RAMP_START_FACTOR:
-            raise ConfigError(f"config: ramp_start_factor must be 1..{MAX_RAMP_START_FACTOR} "
-                              f"(a move starts at that many times its step period; 1: no "
-                              f"ramp), got {self.ramp_start_factor!r}")
+        if not 2 <= self.ramp_start_factor <= MAX_RAMP_START_FACTOR:
+            raise ConfigError(f"config: ramp_start_factor must be 2..{MAX_RAMP_START_FACTOR} "
+                              f"(a move starts at that many times its step period), got "
+                              f"{self.ramp_start_factor!r}")
+        fastest = self.max_feed_steps_per_s
+        if (self.ramp_start_factor - 1) * fastest * fastest >= \
+                MAX_RAMP_EVENTS * self.accel_steps_per_s2:
+            raise ConfigError(f"config: accel_mm_s2 = {self.accel_mm_s2:g} is too low: a ramp "
+                              f"to the fastest feed ({fastest / self.steps_per_mm:g} mm/s) "
+                              f"would take more steps than the firmware counts")
         for name in ("junction_deviation_mm", "vertex_speed_change_mm_s"):
             if getattr(self, name) < 0:
                 raise ConfigError(f"config: {name} must be >= 0, got {getattr(self, name)!r}")
@@ -429,6 +436,8 @@ MIN_FEED_STEPS_PER_S = 10
 #: A slower start than 1/8 of the feed gains nothing; the firmware's ramp sums stay
 #: in 32 bits up to it (firmware/galileo/planner.cpp).
 MAX_RAMP_START_FACTOR = 8
+#: The firmware counts a ramp's events in 24 bits (stepper.h).
+MAX_RAMP_EVENTS = (1 << 24) - 1
 #: The pen on a GRBL board: on the Z axis, or a servo on the spindle output.
 GRBL_PENS = ("z", "servo")
 #: Bounds of the servo's S words and its dwell (GRBL's $30 is 1000 by default).

@@ -18,8 +18,11 @@ SAMPLE = Path(__file__).resolve().parents[2] / "samples" / "led-blinker.gbr"
     (b"[machine]\nfeed_mm_s = inf\n", "feed_mm_s must be a finite number, got inf"),
     (b"[machine]\naccel_mm_s2 = -inf\n", "accel_mm_s2 must be a finite number"),
     (b"[machine]\nsteps_per_rev = 2.5\n", "steps_per_rev must be an integer, got 2.5"),
-    (b"[machine]\nramp_start_factor = 9\n", "ramp_start_factor must be 1..8 (a move starts "
-     "at that many times its step period; 1: no ramp), got 9"),
+    (b"[machine]\nramp_start_factor = 9\n", "ramp_start_factor must be 2..8 (a move starts "
+     "at that many times its step period), got 9"),
+    (b"[machine]\nramp_start_factor = 1\n", "ramp_start_factor must be 2..8"),
+    (b"[machine]\naccel_mm_s2 = 1.0\nramp_start_factor = 8\n", "accel_mm_s2 = 1 is too low: "
+     "a ramp to the fastest feed (250 mm/s) would take more steps than the firmware counts"),
     (b"[machine]\npitch_mm = \"fine\"\n", "pitch_mm must be a number, got 'fine'"),
     (b"[machine]\nx_step_pin = 1\n", "x_step_pin = 1 is not a pin of the board"),
     (b"[machine]\ny_dir_pin = 20\n", "y_dir_pin = 20 is not a pin of the board"),
