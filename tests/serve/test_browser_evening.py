@@ -13,6 +13,7 @@ from __future__ import annotations
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import threading
@@ -62,7 +63,7 @@ def served_in_a_browser(browser, port: str, home: Path):
     """`galileo-cnc serve` as a user starts it, and a page of a fresh browser context;
     yields (the page, the URL serve printed)."""
     env = {**os.environ, "GALILEO_CNC_HOME": str(home), "PYTHONPATH": str(REPO),
-           "GALILEO_CNC_NO_PROBE": "1"}
+           "GALILEO_CNC_NO_PROBE": "1", "PYTHONFAULTHANDLER": "1"}
     process = subprocess.Popen([sys.executable, "-m", "galileo_cnc", "serve", "--port", port,
                                 "--listen", "127.0.0.1:0"], env=env, stdout=subprocess.PIPE,
                                stderr=subprocess.STDOUT, text=True)
@@ -74,13 +75,18 @@ def served_in_a_browser(browser, port: str, home: Path):
             page.set_default_timeout(WAIT_MS)
             url = _printed_url(process, printed)
             # serve's output is read on to its end: a full pipe would stop the server
-            threading.Thread(target=printed.extend, args=(process.stdout,),
-                             daemon=True).start()
+            reader = threading.Thread(target=printed.extend, args=(process.stdout,),
+                                      daemon=True)
+            reader.start()
             try:
                 yield page, url
             except Exception as failure:
-                raise AssertionError(f"{failure}\n--- the page said ---\n"
-                                     f"{_page_text(page)}\n--- serve printed ---\n"
+                seen = _page_text(page)
+                process.send_signal(signal.SIGABRT)     # faulthandler: every thread's stack
+                process.wait(10)
+                reader.join(10)
+                raise AssertionError(f"{failure}\n--- the page said ---\n{seen}\n--- serve "
+                                     f"printed, and its threads when the wait failed ---\n"
                                      f"{''.join(printed)}") from failure
         finally:
             context.close()
