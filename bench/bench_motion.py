@@ -15,7 +15,8 @@ Per file and mode the job is planned once (`plan_file`, the default MachineConfi
 - ideal: every move at its cruise interval, no ramps (pen-down length at the feed,
   travel at the rapid feed, Z moves at the Z feed) plus the dwells: no machine with
   these feeds is faster;
-- stops: today's machine, every move from rest to rest;
+- stops: today's machine, every move from rest to rest (with `--start-factor`, moves
+  start at that factor in this column too);
 - junction: the same moves with the junction speeds planned (`--deviation` mm, GRBL's
   $11, and `--axis-change` mm/s, the largest per-axis speed change at a vertex).
 

@@ -15,6 +15,9 @@
     || CFG_Y_TRAVEL_MAX_STEPS - CFG_Y_TRAVEL_MIN_STEPS > 46000L
 #error "travel above 46000 steps per axis: the line setup's 32-bit n*n would overflow"
 #endif
+#if CFG_MAX_FEED_STEPS_PER_S > 65535L
+#error "MAX_FEED_STEPS_PER_S above 65535: its square leaves the ramp length's 32 bits"
+#endif
 #if CFG_RAMP_START_FACTOR < 2 || CFG_RAMP_START_FACTOR > 8 || (CFG_RAMP_START_FACTOR - 1) \
     * (CFG_MAX_FEED_STEPS_PER_S * CFG_MAX_FEED_STEPS_PER_S / CFG_ACCEL_STEPS_PER_S2 + 1) > 0xFFFFFFL
 #error "RAMP_START_FACTOR outside 2..8, or ACCEL_STEPS_PER_S2 so low that R leaves its 24 bits"
@@ -57,7 +60,7 @@ static uint32_t axial_interval_sub(uint32_t feed)
     return (2UL * CFG_TICKS_PER_S * 256UL + feed) / (2 * feed);
 }
 
-/* R = ceil((k - 1) F^2 / A), k = CFG_RAMP_START_FACTOR (§5.2). F <= 40000 keeps F^2 in
+/* R = ceil((k - 1) F^2 / A), k = CFG_RAMP_START_FACTOR (§5.2). F < 65536 keeps F^2 in
  * 32 bits; (k - 1) F^2 is split as (k - 1) (q A + r) so no product leaves them. */
 static uint32_t ramp_events(uint32_t feed)
 {

@@ -120,8 +120,7 @@ class MachineConfig:
                     raise ConfigError(f"config: {f.name} must be a finite number, got {value!r}")
                 object.__setattr__(self, f.name, float(value))
         positive = ("steps_per_rev", "pitch_mm", "feed_mm_s", "feed_warn_mm_s",
-                    "rapid_feed_mm_s", "z_feed_mm_s", "accel_mm_s2", "ramp_start_factor",
-                    "min_step_period_ticks", "x_travel_mm", "y_travel_mm",
+                    "rapid_feed_mm_s", "z_feed_mm_s", "accel_mm_s2", "min_step_period_ticks", "x_travel_mm", "y_travel_mm",
                     "home_feed_mm_s", "home_debounce_reads")
         for name in positive:
             if getattr(self, name) <= 0:
@@ -140,12 +139,18 @@ class MachineConfig:
             raise ConfigError(f"config: ramp_start_factor must be 2..{MAX_RAMP_START_FACTOR} "
                               f"(a move starts at that many times its step period), got "
                               f"{self.ramp_start_factor!r}")
+        if self.min_step_period_ticks < MIN_STEP_PERIOD_TICKS:
+            raise ConfigError(f"config: min_step_period_ticks must be at least "
+                              f"{MIN_STEP_PERIOD_TICKS} (the firmware squares step rates in "
+                              f"32 bits), got {self.min_step_period_ticks}")
         fastest = self.max_feed_steps_per_s
         if (self.ramp_start_factor - 1) * fastest * fastest >= \
                 MAX_RAMP_EVENTS * self.accel_steps_per_s2:
+            least = (self.ramp_start_factor - 1) * fastest * fastest / MAX_RAMP_EVENTS
             raise ConfigError(f"config: accel_mm_s2 = {self.accel_mm_s2:g} is too low: a ramp "
                               f"to the fastest feed ({fastest / self.steps_per_mm:g} mm/s) "
-                              f"would take more steps than the firmware counts")
+                              f"would take more steps than the firmware counts (at least "
+                              f"{least / self.steps_per_mm:.2f} mm/s2 here)")
         for name in ("junction_deviation_mm", "vertex_speed_change_mm_s"):
             if getattr(self, name) < 0:
                 raise ConfigError(f"config: {name} must be >= 0, got {getattr(self, name)!r}")
@@ -438,6 +443,9 @@ MIN_FEED_STEPS_PER_S = 10
 MAX_RAMP_START_FACTOR = 8
 #: The firmware counts a ramp's events in 24 bits (stepper.h).
 MAX_RAMP_EVENTS = (1 << 24) - 1
+#: Keeps the fastest step rate below 65 536 steps/s, whose square the firmware's ramp
+#: length takes in 32 bits (planner.cpp).
+MIN_STEP_PERIOD_TICKS = 31
 #: The pen on a GRBL board: on the Z axis, or a servo on the spindle output.
 GRBL_PENS = ("z", "servo")
 #: Bounds of the servo's S words and its dwell (GRBL's $30 is 1000 by default).

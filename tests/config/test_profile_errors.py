@@ -22,7 +22,9 @@ SAMPLE = Path(__file__).resolve().parents[2] / "samples" / "led-blinker.gbr"
      "at that many times its step period), got 9"),
     (b"[machine]\nramp_start_factor = 1\n", "ramp_start_factor must be 2..8"),
     (b"[machine]\naccel_mm_s2 = 1.0\nramp_start_factor = 8\n", "accel_mm_s2 = 1 is too low: "
-     "a ramp to the fastest feed (250 mm/s) would take more steps than the firmware counts"),
+     "a ramp to the fastest feed (250 mm/s) would take more steps than the firmware counts "
+     "(at least 4.17 mm/s2 here)"),
+    (b"[machine]\nmin_step_period_ticks = 30\n", "min_step_period_ticks must be at least 31"),
     (b"[machine]\npitch_mm = \"fine\"\n", "pitch_mm must be a number, got 'fine'"),
     (b"[machine]\nx_step_pin = 1\n", "x_step_pin = 1 is not a pin of the board"),
     (b"[machine]\ny_dir_pin = 20\n", "y_dir_pin = 20 is not a pin of the board"),

@@ -83,7 +83,10 @@ def served_in_a_browser(browser, port: str, home: Path):
             except Exception as failure:
                 seen = _page_text(page)
                 process.send_signal(signal.SIGABRT)     # faulthandler: every thread's stack
-                process.wait(10)
+                try:
+                    process.wait(10)
+                except subprocess.TimeoutExpired:
+                    pass                                # the finally below ends it
                 reader.join(10)
                 raise AssertionError(f"{failure}\n--- the page said ---\n{seen}\n--- serve "
                                      f"printed, and its threads when the wait failed ---\n"
