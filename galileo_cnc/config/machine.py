@@ -120,8 +120,8 @@ class MachineConfig:
                     raise ConfigError(f"config: {f.name} must be a finite number, got {value!r}")
                 object.__setattr__(self, f.name, float(value))
         positive = ("steps_per_rev", "pitch_mm", "feed_mm_s", "feed_warn_mm_s",
-                    "rapid_feed_mm_s", "z_feed_mm_s", "accel_mm_s2", "min_step_period_ticks", "x_travel_mm", "y_travel_mm",
-                    "home_feed_mm_s", "home_debounce_reads")
+                    "rapid_feed_mm_s", "z_feed_mm_s", "accel_mm_s2", "min_step_period_ticks",
+                    "x_travel_mm", "y_travel_mm", "home_feed_mm_s", "home_debounce_reads")
         for name in positive:
             if getattr(self, name) <= 0:
                 raise ConfigError(f"config: {name} must be > 0, got {getattr(self, name)!r}")
