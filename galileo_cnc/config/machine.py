@@ -144,9 +144,9 @@ class MachineConfig:
                               f"{MIN_STEP_PERIOD_TICKS} (the firmware squares step rates in "
                               f"32 bits), got {self.min_step_period_ticks}")
         fastest = self.max_feed_steps_per_s
-        if (self.ramp_start_factor - 1) * fastest * fastest >= \
-                MAX_RAMP_EVENTS * self.accel_steps_per_s2:
-            least = (self.ramp_start_factor - 1) * fastest * fastest / MAX_RAMP_EVENTS
+        ramp_at_fastest = (self.ramp_start_factor - 1) * fastest * fastest   # about R x A
+        if ramp_at_fastest >= MAX_RAMP_EVENTS * self.accel_steps_per_s2:
+            least = ramp_at_fastest / MAX_RAMP_EVENTS
             raise ConfigError(f"config: accel_mm_s2 = {self.accel_mm_s2:g} is too low: a ramp "
                               f"to the fastest feed ({fastest / self.steps_per_mm:g} mm/s) "
                               f"would take more steps than the firmware counts (at least "

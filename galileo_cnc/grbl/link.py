@@ -296,7 +296,7 @@ class GrblLink:
                 break
         # the first report after the ok (asked at once), and on while GRBL reports Run;
         # a refusal read on the way is raised once GRBL stands, every reply read
-        watch.asked_at = None
+        watch.ask_now()
         status: Status | None = None
         refused: Reply | None = None
         moved_at = time.monotonic()
@@ -402,6 +402,10 @@ class StatusWatch:
         self.last: Status | None = link.tracker.last
         self.nudged_at = now
         self.nudges = 0
+
+    def ask_now(self) -> None:
+        """The next read_line asks `?` at once, not when the last one is due again."""
+        self.asked_at = None
 
     def read_line(self) -> str | None:
         """Asks `?` when one is due, then one line or None by the next one."""

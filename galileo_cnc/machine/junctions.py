@@ -3,10 +3,10 @@
 The host sees the whole job, so it plans every move's entry and exit speed before
 the machine runs it. A speed is a *ramp index* m (0 … R) of the integer ramp law
 (§5.4): the interval of an event at index m is base + (R − m) · step, m = 0 is the
-speed a move starts at from rest (1/K of the feed, K the ramp_start_factor,
-3 by default), m = R the feed. Two moves that
-blend share the index at their vertex: the first one's last event and the second
-one's first event run at that index; m = 0 on both sides is today's stop.
+speed a move starts at from rest (1/K of the feed, K the ramp_start_factor, 3 by
+default), m = R the feed. Two moves that blend share the index at their vertex: the
+first one's last event and the second one's first event run at that index; m = 0 on
+both sides is today's stop.
 
 Per vertex the index is capped by
 - a stop (0) where the moves cannot blend: a pause (dwell, flash) between them, a

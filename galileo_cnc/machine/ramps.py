@@ -15,10 +15,9 @@ and the interval (in subticks) in front of event k is
 
     interval_k = base_k + (R - m_k) * step_sub
 
-so a run from rest (entry 0) starts at base + R*step_sub (about k x base, k the
-config's ramp_start_factor, 3 by default), reaches
-base after R events, and slows down symmetrically to its exit index; runs shorter
-than 2R+1 events get a triangle. Entry and exit are 0 unless the host planned
+so a run from rest (entry 0) starts at base + R*step_sub (about K x base, K the
+config's ramp_start_factor, 3 by default), reaches base after R events, and slows
+down symmetrically to its exit index; runs shorter than 2R+1 events get a triangle. Entry and exit are 0 unless the host planned
 junction speeds (junctions.py, docs/motion.md §5.7).
 """
 
@@ -56,8 +55,8 @@ def line_rho_q15(dx: int, dy: int, dz: int, n: int) -> int:
 
 
 def ramp_events(feed_steps_per_s: int, accel_steps_per_s2: int, start_factor: int) -> int:
-    """R = ceil((k - 1) F^2 / A) for a ramp from k x the period: the ramp length that
-    keeps every axis below A (§5.2); 2 F^2 / A at the default k = 3."""
+    """R = ceil((K - 1) F^2 / A) for a ramp from K x the period: the ramp length that
+    keeps every axis below A (§5.2); 2 F^2 / A at the default K = 3."""
     return ((start_factor - 1) * feed_steps_per_s * feed_steps_per_s
             + accel_steps_per_s2 - 1) // accel_steps_per_s2
 
